@@ -1,0 +1,3 @@
+//! Cross-crate integration tests for irr: one binary, a module per subject.
+
+mod sampling;

@@ -1,0 +1,47 @@
+//! irr's developer commands, run as `cargo xtask <command>` (the alias in `.cargo/config.toml`
+//! builds this crate in release mode).
+//!
+//! - `cargo xtask tidy`: checks the codebase's own rules (also run by `cargo test` through the
+//!   `#[test]`s in `tidy.rs`).
+//!
+//! The workspace root is found from `CARGO_MANIFEST_DIR`, so every command works from any folder.
+
+use clap::{Parser, Subcommand};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+mod tidy;
+
+/// irr's developer commands.
+#[derive(Parser)]
+#[command(name = "cargo xtask", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Check the codebase's own rules: crate docs, and the one-way dependency table.
+    Tidy,
+}
+
+/// The workspace root: the parent of this crate's folder.
+pub fn workspace_root() -> PathBuf {
+    let manifest_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    manifest_dir.parent().unwrap_or(manifest_dir).to_path_buf()
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Tidy => tidy::run(&workspace_root()),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("error: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}
