@@ -1,0 +1,554 @@
+//! [`Geometry`]: the kept triangles and the BVH over them (built with obvhs), and the two
+//! queries every integrator needs: the closest hit and occlusion.
+
+use glam::Vec3;
+use obvhs::{
+    aabb::Aabb,
+    bvh2::{Bvh2, leaf_collapser::collapse, node::Bvh2Node, reinsertion::ReinsertionOptimizer},
+    ploc::{PlocBuilder, PlocSearchDistance, SortPrecision},
+};
+
+use crate::intersect::{PreparedRay, TriHit, TriSoa, box_entry, intersect_triangle};
+use crate::mesh::cross_f64;
+use crate::{BuildReport, GeometryError, Ray, Triangle, TriangleMesh};
+
+/// A closest hit: the distance along the ray, the triangle, and the barycentrics of its
+/// vertices 1 and 2 (vertex 0 has `1 − b1 − b2`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    /// Distance in units of the ray's direction length: the hit is near `origin + t·direction`
+    /// (use [`Geometry::surface`] for an accurate point, never this product).
+    pub t: f32,
+    /// Triangle id, `0..triangle_count()`.
+    pub triangle: u32,
+    /// Barycentric coordinate of vertex 1.
+    pub b1: f32,
+    /// Barycentric coordinate of vertex 2.
+    pub b2: f32,
+}
+
+/// What an integrator needs at a hit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfacePoint {
+    /// The hit point, from the barycentrics (`p0 + b1·(p1 − p0) + b2·(p2 − p0)`, see
+    /// [`Triangle::point`]): within half an ulp per component of the triangle's plane, which
+    /// is what [`Ray::spawn`] and [`Ray::spawn_to`] rely on.
+    pub position: Vec3,
+    /// Unit normal from the winding, `(p1 − p0) × (p2 − p0)`; *not* flipped toward the ray.
+    pub geometric_normal: Vec3,
+    /// Unit shading normal: the interpolated vertex normals if the mesh has them (and they do
+    /// not interpolate to zero), else the geometric normal; always on the geometric normal's
+    /// side.
+    pub shading_normal: Vec3,
+    /// The triangle's material id.
+    pub material_id: u32,
+    /// The triangle id.
+    pub triangle: u32,
+}
+
+/// Traversal stack size kept on the call stack; a deeper BVH (only pathological inputs build
+/// one) traverses with a heap stack instead.
+const STACK_SIZE: usize = 96;
+
+/// The built BVH over all kept triangles. `Send + Sync`: trace from any number of threads.
+#[derive(Debug, Clone)]
+pub struct Geometry {
+    /// Kept triangles, by id.
+    triangles: Vec<Triangle>,
+    /// Unit geometric normal, by id.
+    geometric_normals: Vec<Vec3>,
+    /// Vertex shading normals, by id, for triangles whose mesh has them.
+    vertex_normals: Vec<Option<[Vec3; 3]>>,
+    /// BVH2 nodes (obvhs layout); leaves index `bvh_triangles`.
+    nodes: Vec<Bvh2Node>,
+    /// The deepest leaf's depth (root = 1): bounds the traversal stack.
+    depth: usize,
+    /// Triangles in leaf order, as the hot path reads them.
+    bvh_triangles: Vec<TriSoa>,
+    /// The id of each entry of `bvh_triangles`.
+    bvh_ids: Vec<u32>,
+    report: BuildReport,
+    bounds: (Vec3, Vec3),
+}
+
+impl Geometry {
+    /// Validates the meshes, drops (and counts) triangles with zero area or a non-finite
+    /// coordinate, and builds the BVH over the rest.
+    ///
+    /// # Errors
+    /// [`GeometryError::IndexOutOfRange`], [`GeometryError::NormalCountMismatch`] and
+    /// [`GeometryError::MaterialCountMismatch`] for malformed meshes (checked before anything is
+    /// dropped), [`GeometryError::EmptyScene`] if no triangle is left, and
+    /// [`GeometryError::TooManyTriangles`] beyond `u32::MAX` triangles.
+    pub fn build(meshes: &[TriangleMesh]) -> Result<Geometry, GeometryError> {
+        for (m, mesh) in meshes.iter().enumerate() {
+            validate_mesh(m, mesh)?;
+        }
+
+        let mut report = BuildReport::default();
+        let mut triangles = Vec::new();
+        let mut geometric_normals = Vec::new();
+        let mut vertex_normals = Vec::new();
+        for mesh in meshes {
+            for (t, idx) in mesh.indices.iter().enumerate() {
+                let p = idx.map(|i| mesh.positions[i as usize]);
+                if !p.iter().all(|v| v.is_finite()) {
+                    report.dropped_non_finite += 1;
+                    continue;
+                }
+                let n = cross_f64(p);
+                if n == glam::DVec3::ZERO {
+                    report.dropped_degenerate += 1;
+                    continue;
+                }
+                triangles.push(Triangle {
+                    p,
+                    material_id: mesh.material_ids[t],
+                });
+                geometric_normals.push(n.normalize().as_vec3());
+                vertex_normals.push(mesh.normals.as_ref().map(|ns| idx.map(|i| ns[i as usize])));
+            }
+        }
+        report.kept = triangles.len();
+        if triangles.is_empty() {
+            return Err(GeometryError::EmptyScene {
+                dropped_degenerate: report.dropped_degenerate,
+                dropped_non_finite: report.dropped_non_finite,
+            });
+        }
+        if u32::try_from(triangles.len()).is_err() {
+            return Err(GeometryError::TooManyTriangles {
+                count: triangles.len(),
+            });
+        }
+
+        let mut min = Vec3::splat(f32::INFINITY);
+        let mut max = Vec3::splat(f32::NEG_INFINITY);
+        let aabbs: Vec<Aabb> = triangles
+            .iter()
+            .map(|tri| {
+                let lo = tri.p[0].min(tri.p[1]).min(tri.p[2]);
+                let hi = tri.p[0].max(tri.p[1]).max(tri.p[2]);
+                min = min.min(lo);
+                max = max.max(hi);
+                Aabb::new(lo.into(), hi.into())
+            })
+            .collect();
+
+        let bvh = build_bvh2(&aabbs);
+        let bvh_ids: Vec<u32> = bvh.primitive_indices.clone();
+        let bvh_triangles = bvh_ids
+            .iter()
+            .map(|&i| TriSoa::new(triangles[i as usize].p))
+            .collect();
+        let depth = tree_depth(&bvh.nodes);
+
+        Ok(Geometry {
+            triangles,
+            geometric_normals,
+            vertex_normals,
+            nodes: bvh.nodes,
+            depth,
+            bvh_triangles,
+            bvh_ids,
+            report,
+            bounds: (min, max),
+        })
+    }
+
+    /// What the build kept and dropped.
+    #[must_use]
+    pub fn report(&self) -> &BuildReport {
+        &self.report
+    }
+
+    /// The number of kept triangles; ids are `0..triangle_count()`, in input order (mesh after
+    /// mesh) with dropped triangles skipped.
+    #[must_use]
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// The kept triangle with this id.
+    ///
+    /// # Panics
+    /// If `id >= triangle_count()` (ids come from hits, so this is a caller bug); see
+    /// [`Geometry::get_triangle`] for a checked lookup.
+    #[must_use]
+    pub fn triangle(&self, id: u32) -> Triangle {
+        self.triangles[id as usize]
+    }
+
+    /// The kept triangle with this id, or `None` if there is none.
+    #[must_use]
+    pub fn get_triangle(&self, id: u32) -> Option<Triangle> {
+        self.triangles.get(id as usize).copied()
+    }
+
+    /// All kept triangles, by id.
+    #[must_use]
+    pub fn triangles(&self) -> &[Triangle] {
+        &self.triangles
+    }
+
+    /// `(min, max)` corners of the box around all kept triangles.
+    #[must_use]
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.bounds
+    }
+
+    /// The closest hit with `t` in `(0, ray.t_max)`, or `None`.
+    ///
+    /// Precisely: a hit is reported only when its `t` exceeds the bound `δt` on its own rounding
+    /// error and `t + δt < t_max` (see [`Ray`] for why that makes offsets robust); `δt` is a
+    /// few ulps of the distances involved. A ray that cannot hit anything (non-finite origin or
+    /// direction, zero direction, NaN `t_max`) returns `None`.
+    #[must_use]
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let r = PreparedRay::new(ray)?;
+        let found = match r.kz {
+            0 => self.with_stack(|s| self.closest::<0>(&r, s)),
+            1 => self.with_stack(|s| self.closest::<1>(&r, s)),
+            _ => self.with_stack(|s| self.closest::<2>(&r, s)),
+        };
+        found.map(|(i, h)| Hit {
+            t: h.t,
+            triangle: self.bvh_ids[i],
+            b1: h.b1,
+            b2: h.b2,
+        })
+    }
+
+    /// Whether anything is hit with `t` in `(0, ray.t_max)` (with the same error margins as
+    /// [`Geometry::intersect`]). For shadow rays built with [`Ray::spawn_to`].
+    #[must_use]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        let Some(r) = PreparedRay::new(ray) else {
+            return false;
+        };
+        match r.kz {
+            0 => self.with_stack(|s| self.any::<0>(&r, s)),
+            1 => self.with_stack(|s| self.any::<1>(&r, s)),
+            _ => self.with_stack(|s| self.any::<2>(&r, s)),
+        }
+    }
+
+    /// The surface point of a hit returned by [`Geometry::intersect`]. The ray is not needed
+    /// for anything (the geometric normal is deliberately not flipped toward it); it is taken so
+    /// that a future differential or error term can use it without an API change.
+    ///
+    /// # Panics
+    /// If `hit.triangle` is not a valid id (hits from this geometry always are).
+    #[must_use]
+    pub fn surface(&self, _ray: &Ray, hit: &Hit) -> SurfacePoint {
+        let id = hit.triangle as usize;
+        let tri = self.triangles[id];
+        let ng = self.geometric_normals[id];
+        let shading_normal = self.vertex_normals[id]
+            .map(|n| {
+                let b0 = 1.0 - hit.b1 - hit.b2;
+                let ns = (b0 * n[0] + hit.b1 * n[1] + hit.b2 * n[2]).normalize_or_zero();
+                if ns == Vec3::ZERO {
+                    ng
+                } else if ns.dot(ng) < 0.0 {
+                    -ns
+                } else {
+                    ns
+                }
+            })
+            .unwrap_or(ng);
+        SurfacePoint {
+            position: tri.point(hit.b1, hit.b2),
+            geometric_normal: ng,
+            shading_normal,
+            material_id: tri.material_id,
+            triangle: hit.triangle,
+        }
+    }
+
+    /// The number of BVH nodes (for statistics and benchmarks).
+    #[must_use]
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Runs `f` with a traversal stack deep enough for this BVH: on the call stack normally,
+    /// on the heap for a pathologically deep tree.
+    #[inline(always)]
+    fn with_stack<R>(&self, f: impl FnOnce(&mut [u32]) -> R) -> R {
+        if self.depth <= STACK_SIZE {
+            f(&mut [0u32; STACK_SIZE])
+        } else {
+            f(&mut vec![0u32; self.depth])
+        }
+    }
+
+    /// Closest hit: returns the index into `bvh_triangles` and the hit.
+    #[inline(always)]
+    fn closest<const KZ: usize>(
+        &self,
+        r: &PreparedRay,
+        stack: &mut [u32],
+    ) -> Option<(usize, TriHit)> {
+        let nodes = &self.nodes;
+        let mut best: Option<(usize, TriHit)> = None;
+        let mut t_best = r.t_max;
+        let mut leaf = |node: &Bvh2Node, t_best: &mut f32| {
+            let first = node.first_index as usize;
+            for i in first..first + node.prim_count as usize {
+                if let Some(h) = intersect_triangle::<KZ>(&self.bvh_triangles[i], r, *t_best) {
+                    *t_best = h.t;
+                    best = Some((i, h));
+                }
+            }
+        };
+
+        let root = &nodes[0];
+        if box_entry(root.aabb().min, root.aabb().max, r, t_best) == f32::INFINITY {
+            return None;
+        }
+        if root.is_leaf() {
+            leaf(root, &mut t_best);
+            return best;
+        }
+        let mut sp = 0;
+        let mut pair = root.first_index as usize;
+        loop {
+            // Test both children; visit the nearer first.
+            let mut a = &nodes[pair];
+            let mut b = &nodes[pair + 1];
+            let mut ta = box_entry(a.aabb().min, a.aabb().max, r, t_best);
+            let mut tb = box_entry(b.aabb().min, b.aabb().max, r, t_best);
+            if ta > tb {
+                std::mem::swap(&mut a, &mut b);
+                std::mem::swap(&mut ta, &mut tb);
+            }
+            let mut next = None;
+            if ta != f32::INFINITY {
+                if a.is_leaf() {
+                    leaf(a, &mut t_best);
+                } else {
+                    next = Some(a.first_index as usize);
+                }
+            }
+            // Re-check the farther child against a closer hit just found in the nearer leaf.
+            if tb <= t_best {
+                if b.is_leaf() {
+                    leaf(b, &mut t_best);
+                } else if next.is_some() {
+                    stack[sp] = b.first_index;
+                    sp += 1;
+                } else {
+                    next = Some(b.first_index as usize);
+                }
+            }
+            match next {
+                Some(n) => pair = n,
+                None => {
+                    if sp == 0 {
+                        return best;
+                    }
+                    sp -= 1;
+                    pair = stack[sp] as usize;
+                }
+            }
+        }
+    }
+
+    /// Any hit.
+    #[inline(always)]
+    fn any<const KZ: usize>(&self, r: &PreparedRay, stack: &mut [u32]) -> bool {
+        let nodes = &self.nodes;
+        let leaf = |node: &Bvh2Node| {
+            let first = node.first_index as usize;
+            (first..first + node.prim_count as usize)
+                .any(|i| intersect_triangle::<KZ>(&self.bvh_triangles[i], r, r.t_max).is_some())
+        };
+        let root = &nodes[0];
+        if box_entry(root.aabb().min, root.aabb().max, r, r.t_max) == f32::INFINITY {
+            return false;
+        }
+        if root.is_leaf() {
+            return leaf(root);
+        }
+        let mut sp = 0;
+        let mut pair = root.first_index as usize;
+        loop {
+            let a = &nodes[pair];
+            let b = &nodes[pair + 1];
+            let mut next = None;
+            if box_entry(a.aabb().min, a.aabb().max, r, r.t_max) != f32::INFINITY {
+                if a.is_leaf() {
+                    if leaf(a) {
+                        return true;
+                    }
+                } else {
+                    next = Some(a.first_index as usize);
+                }
+            }
+            if box_entry(b.aabb().min, b.aabb().max, r, r.t_max) != f32::INFINITY {
+                if b.is_leaf() {
+                    if leaf(b) {
+                        return true;
+                    }
+                } else if next.is_some() {
+                    stack[sp] = b.first_index;
+                    sp += 1;
+                } else {
+                    next = Some(b.first_index as usize);
+                }
+            }
+            match next {
+                Some(n) => pair = n,
+                None => {
+                    if sp == 0 {
+                        return false;
+                    }
+                    sp -= 1;
+                    pair = stack[sp] as usize;
+                }
+            }
+        }
+    }
+}
+
+/// Checks a mesh's indices and array lengths.
+fn validate_mesh(m: usize, mesh: &TriangleMesh) -> Result<(), GeometryError> {
+    if let Some(normals) = &mesh.normals
+        && normals.len() != mesh.positions.len()
+    {
+        return Err(GeometryError::NormalCountMismatch {
+            mesh: m,
+            normals: normals.len(),
+            positions: mesh.positions.len(),
+        });
+    }
+    if mesh.material_ids.len() != mesh.indices.len() {
+        return Err(GeometryError::MaterialCountMismatch {
+            mesh: m,
+            material_ids: mesh.material_ids.len(),
+            triangles: mesh.indices.len(),
+        });
+    }
+    for (t, idx) in mesh.indices.iter().enumerate() {
+        if let Some(&bad) = idx.iter().find(|&&i| i as usize >= mesh.positions.len()) {
+            return Err(GeometryError::IndexOutOfRange {
+                mesh: m,
+                triangle: t,
+                index: bad,
+                vertex_count: mesh.positions.len(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Builds the BVH2 with obvhs: PLOC (Meister & Bittner 2018) with a search radius of 14, then
+/// reinsertion (Meister & Bittner 2017), SAH leaf collapsing to at most 4 triangles, and a
+/// second, short reinsertion pass (obvhs's `medium_build` recipe, with smaller leaves).
+fn build_bvh2(aabbs: &[Aabb]) -> Bvh2 {
+    let n = aabbs.len();
+    let mut bvh = PlocBuilder::with_capacity(n).build(
+        PlocSearchDistance::Medium,
+        aabbs,
+        (0..n as u32).collect(),
+        SortPrecision::U64,
+        3,
+    );
+    let mut reinsertion = ReinsertionOptimizer::default();
+    reinsertion.run(&mut bvh, 0.05, None);
+    collapse(&mut bvh, 4, 3.0);
+    reinsertion.run(&mut bvh, 0.1, None);
+    bvh
+}
+
+/// The depth of the deepest leaf (the root alone has depth 1).
+fn tree_depth(nodes: &[Bvh2Node]) -> usize {
+    let mut deepest = 0;
+    let mut todo = vec![(0usize, 1usize)];
+    while let Some((i, d)) = todo.pop() {
+        deepest = deepest.max(d);
+        let node = &nodes[i];
+        if !node.is_leaf() {
+            let c = node.first_index as usize;
+            todo.push((c, d + 1));
+            todo.push((c + 1, d + 1));
+        }
+    }
+    deepest
+}
+
+/// Compile-time check that `Geometry` can be shared between threads.
+const _: fn() = || {
+    fn shareable<T: Send + Sync>() {}
+    shareable::<Geometry>();
+};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit quad in the plane z = 0 facing +z, as two triangles.
+    fn quad(z: f32, material: u32) -> TriangleMesh {
+        TriangleMesh {
+            positions: vec![
+                Vec3::new(0.0, 0.0, z),
+                Vec3::new(1.0, 0.0, z),
+                Vec3::new(1.0, 1.0, z),
+                Vec3::new(0.0, 1.0, z),
+            ],
+            indices: vec![[0, 1, 2], [0, 2, 3]],
+            normals: None,
+            material_ids: vec![material, material],
+        }
+    }
+
+    #[test]
+    fn closest_of_two_quads_and_its_surface() {
+        let g = Geometry::build(&[quad(0.0, 7), quad(1.0, 9)]).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(g.triangle_count(), 4);
+        assert_eq!(g.bounds(), (Vec3::ZERO, Vec3::ONE));
+        let ray = Ray::new(Vec3::new(0.7, 0.2, 2.0), Vec3::NEG_Z);
+        let hit = g.intersect(&ray).unwrap_or_else(|| panic!("missed"));
+        // t = 1 exactly in exact arithmetic; the Woop test's few roundings of values ≤ 2 give a
+        // relative error ≤ γ₇ ≈ 4.2e-7.
+        assert!((hit.t - 1.0).abs() < 1e-6, "{}", hit.t);
+        assert_eq!(g.triangle(hit.triangle).material_id, 9);
+        let s = g.surface(&ray, &hit);
+        assert_eq!(s.geometric_normal, Vec3::Z);
+        assert_eq!(s.shading_normal, Vec3::Z);
+        // The quad is axis-aligned, so the z of the barycentric point is exact; x and y carry
+        // the barycentrics' few-ulp error: 1e-6 ≥ 8 ulps of 0.7.
+        assert_eq!(s.position.z, 1.0);
+        assert!((s.position.x - 0.7).abs() < 1e-6 && (s.position.y - 0.2).abs() < 1e-6);
+        assert!(g.occluded(&ray));
+        assert!(!g.occluded(&Ray { t_max: 0.5, ..ray }));
+        assert!(
+            g.intersect(&Ray::new(Vec3::new(2.0, 0.2, 2.0), Vec3::NEG_Z))
+                .is_none()
+        );
+    }
+
+    #[test]
+    fn single_triangle_root_leaf() {
+        let mut m = quad(0.0, 1);
+        m.indices.truncate(1);
+        m.material_ids.truncate(1);
+        let g = Geometry::build(&[m]).unwrap_or_else(|e| panic!("{e}"));
+        let ray = Ray::new(Vec3::new(0.7, 0.2, -1.0), Vec3::Z);
+        assert_eq!(g.intersect(&ray).map(|h| h.triangle), Some(0));
+        assert!(g.occluded(&ray));
+    }
+
+    #[test]
+    fn shading_normals_interpolate_and_flip_to_the_geometric_side() {
+        let mut m = quad(0.0, 0);
+        // Vertex normals pointing to −z (the wrong side) and tilted: must be flipped.
+        m.normals = Some(vec![Vec3::new(0.0, 0.0, -1.0); 4]);
+        let g = Geometry::build(&[m]).unwrap_or_else(|e| panic!("{e}"));
+        let ray = Ray::new(Vec3::new(0.3, 0.6, 1.0), Vec3::NEG_Z);
+        let hit = g.intersect(&ray).unwrap_or_else(|| panic!("missed"));
+        let s = g.surface(&ray, &hit);
+        assert_eq!(s.shading_normal, Vec3::Z);
+    }
+}

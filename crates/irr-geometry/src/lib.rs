@@ -1,0 +1,72 @@
+//! Scene geometry for irr: triangle meshes, a BVH over them built with obvhs, closest-hit and
+//! occlusion queries, and ray offsets that stay robust at every scene scale.
+//!
+//! # What it owns
+//! - [`TriangleMesh`] (input) and [`Geometry::build`]: validation (typed [`GeometryError`]s
+//!   naming the mesh and triangle), dropping and counting of zero-area and non-finite triangles
+//!   ([`BuildReport`]), and the BVH (obvhs PLOC + reinsertion + leaf collapsing).
+//! - [`Geometry::intersect`] (closest hit: distance, triangle id, barycentrics) and
+//!   [`Geometry::occluded`] (any hit), with a watertight triangle test (Woop et al. 2013) that
+//!   reports a hit only when its distance is provably inside `(0, t_max)`.
+//! - [`Geometry::surface`]: the hit point computed from the barycentrics, the geometric normal
+//!   (from the winding, never flipped) and the shading normal.
+//! - [`Ray::spawn`], [`Ray::spawn_to`] and [`offset_ray_origin`]: origins offset by a few ulps of
+//!   the point's magnitude (Wächter & Binder, Ray Tracing Gems ch. 6), so secondary rays neither
+//!   re-hit their own surface nor tunnel through thin geometry, in tiny, huge or far-translated
+//!   scenes alike.
+//!
+//! # What it must not know
+//! Materials, lights, cameras, sampling and radiance. A material id is an opaque `u32` carried
+//! through; the glTF loader lives elsewhere and hands this crate plain world-space meshes.
+//!
+//! # Example
+//! ```
+//! use glam::Vec3;
+//! use irr_geometry::{Geometry, Ray, TriangleMesh};
+//!
+//! // A unit floor quad (facing +y) and a ceiling quad above it.
+//! let quad = |y: f32, material: u32| TriangleMesh {
+//!     positions: vec![
+//!         Vec3::new(0.0, y, 0.0),
+//!         Vec3::new(0.0, y, 1.0),
+//!         Vec3::new(1.0, y, 1.0),
+//!         Vec3::new(1.0, y, 0.0),
+//!     ],
+//!     indices: vec![[0, 1, 2], [0, 2, 3]],
+//!     normals: None,
+//!     material_ids: vec![material; 2],
+//! };
+//! let geometry = Geometry::build(&[quad(0.0, 0), quad(1.0, 1)])?;
+//! assert_eq!(geometry.report().kept, 4);
+//!
+//! // A camera ray hits the floor...
+//! let ray = Ray::new(Vec3::new(0.5, 0.5, 0.5), Vec3::new(0.1, -1.0, 0.2));
+//! let hit = geometry.intersect(&ray).ok_or("the floor is below")?;
+//! let floor = geometry.surface(&ray, &hit);
+//! assert_eq!(floor.material_id, 0);
+//! assert_eq!(floor.geometric_normal, Vec3::Y);
+//!
+//! // ...a bounce leaves it without re-hitting it and finds the ceiling...
+//! let bounce = Ray::spawn(floor.position, floor.geometric_normal, Vec3::new(-0.1, 1.0, 0.05));
+//! let up = geometry.intersect(&bounce).ok_or("the ceiling is above")?;
+//! assert_eq!(geometry.triangle(up.triangle).material_id, 1);
+//!
+//! // ...and a shadow ray to a point on the ceiling is not blocked by either end's surface.
+//! let light = Vec3::new(0.25, 1.0, 0.75);
+//! let shadow = Ray::spawn_to(floor.position, floor.geometric_normal, light, -Vec3::Y);
+//! assert!(!geometry.occluded(&shadow));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod error;
+mod geometry;
+mod intersect;
+mod mesh;
+mod ray;
+
+pub use error::GeometryError;
+pub use geometry::{Geometry, Hit, SurfacePoint};
+pub use mesh::{BuildReport, Triangle, TriangleMesh};
+pub use ray::{
+    POSITION_RELATIVE_ERROR, Ray, offset_ray_origin, offset_ray_origin_with_error, position_error,
+};

@@ -1,0 +1,203 @@
+//! Rays, and the robust offsets that let a ray leave a surface without hitting it again and
+//! without tunnelling through thin geometry, at every scale.
+//!
+//! # The method
+//! Wächter & Binder ("A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing Gems,
+//! ch. 6, 2019) offset the origin by an amount that scales with the magnitude of the hit point,
+//! never a fixed epsilon. We keep that principle in the form of pbrt-v4's `OffsetRayOrigin`
+//! (Pharr, Jakob & Humphreys, *Physically Based Rendering*, 4th ed., §6.8.6): with a
+//! per-component bound `err` on how far a point may be from the true surface, move it along the
+//! normal by `d = |n|·err` (the largest distance that error can put it from the plane), then
+//! round every moved component one more float away so rounding cannot pull it back.
+//!
+//! The bound `err` is [`position_error`]: `2⁻²²·|p_i|` per component. The points this crate
+//! produces ([`SurfacePoint::position`](crate::SurfacePoint), [`Triangle::point`](crate::Triangle))
+//! are within `2⁻²⁴·|p_i|` (half an ulp) of the true plane, so the offset has a factor-4 margin,
+//! which also covers points a caller computes with a couple of `f32` roundings of their own.
+//! Scale invariance follows: the offset is a fixed number of ulps of `p`, whether the scene is
+//! 1e-4 or 1e3 across or translated to 1e5.
+//!
+//! The other half of the robustness lives in the triangle test: a hit is only reported when its
+//! distance is provably positive and provably below `t_max` (see `intersect.rs`), so an origin
+//! that is merely on the right side of its own plane — by however little — cannot re-hit it.
+
+use glam::Vec3;
+
+/// A ray `origin + t·direction` for `t` in `(0, t_max)`.
+///
+/// `direction` need not be unit length: `t` is measured in units of `direction`'s length (so a
+/// shadow ray from [`Ray::spawn_to`] has `t_max = 1` and reaches its target at `t = 1`). A ray
+/// with a non-finite origin or direction, a zero direction, or a NaN `t_max` hits nothing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ray {
+    /// Where the ray starts.
+    pub origin: Vec3,
+    /// Where it goes: any non-zero finite vector.
+    pub direction: Vec3,
+    /// Hits are reported only for `t < t_max` (exclusive).
+    pub t_max: f32,
+}
+
+/// The relative bound on the error of a surface point that [`offset_ray_origin`] assumes:
+/// `2⁻²²`, four times the half-ulp (`2⁻²⁴`) accuracy of the points this crate computes.
+pub const POSITION_RELATIVE_ERROR: f32 = 1.0 / 4_194_304.0; // 2^-22
+
+impl Ray {
+    /// A ray with an unbounded `t_max`.
+    #[must_use]
+    pub fn new(origin: Vec3, direction: Vec3) -> Ray {
+        Ray {
+            origin,
+            direction,
+            t_max: f32::INFINITY,
+        }
+    }
+
+    /// The point `origin + t·direction`.
+    #[must_use]
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + t * self.direction
+    }
+
+    /// A ray leaving the surface point `p` (geometric normal `ng`, either orientation) along
+    /// `direction`: the origin is offset robustly to the side of the surface that `direction`
+    /// goes to, so the ray cannot hit the surface it leaves. `t_max` is unbounded.
+    ///
+    /// `p` should come from [`SurfacePoint::position`](crate::SurfacePoint) or
+    /// [`Triangle::point`](crate::Triangle::point) (or be as accurate, see
+    /// [`POSITION_RELATIVE_ERROR`]).
+    #[must_use]
+    pub fn spawn(p: Vec3, ng: Vec3, direction: Vec3) -> Ray {
+        let n = if ng.dot(direction) >= 0.0 { ng } else { -ng };
+        Ray::new(offset_ray_origin(p, n), direction)
+    }
+
+    /// A shadow ray from the surface point `p` (geometric normal `ng`) to the point `target` on
+    /// another surface (geometric normal `target_ng`); normals of either orientation.
+    ///
+    /// Both ends are offset off their surfaces, each to the side facing the other end, and the
+    /// ray is `origin + t·(end − origin)` with `t_max = 1`: the target is visible from `p`
+    /// exactly when `!geometry.occluded(&ray)`. Neither end's own surface can occlude the ray.
+    ///
+    /// The target's offset also covers the rounding of `end − origin` (at most half an ulp of
+    /// each component of the difference), so the segment's end stays on the near side of the
+    /// target's plane.
+    #[must_use]
+    pub fn spawn_to(p: Vec3, ng: Vec3, target: Vec3, target_ng: Vec3) -> Ray {
+        let n_from = if ng.dot(target - p) >= 0.0 { ng } else { -ng };
+        let origin = offset_ray_origin(p, n_from);
+        let n_to = if target_ng.dot(origin - target) >= 0.0 {
+            target_ng
+        } else {
+            -target_ng
+        };
+        // |end_i − origin_i| ≤ |target_i| + |origin_i| (plus the offset, far below this), and its
+        // rounding is at most half an ulp, 2⁻²⁴ of that: 2⁻²³ leaves a factor 2.
+        let direction_rounding = (target.abs() + origin.abs()) * (1.0 / 8_388_608.0);
+        let end =
+            offset_ray_origin_with_error(target, n_to, position_error(target) + direction_rounding);
+        Ray {
+            origin,
+            direction: end - origin,
+            t_max: 1.0,
+        }
+    }
+}
+
+/// The per-component error bound that [`offset_ray_origin`] assumes for a surface point `p`:
+/// `2⁻²²·|p_i|`, plus the smallest normal float so that an exact zero still moves off its plane.
+#[must_use]
+pub fn position_error(p: Vec3) -> Vec3 {
+    p.abs() * POSITION_RELATIVE_ERROR + Vec3::splat(f32::MIN_POSITIVE)
+}
+
+/// Offsets the surface point `p` along the normal `n` (toward the side `n` points to; need not
+/// be unit length), by an amount that scales with the magnitude of `p`, so that a ray starting
+/// there cannot hit the surface `p` lies on.
+///
+/// This is Wächter & Binder's idea (Ray Tracing Gems ch. 6: the offset scales with `|p|`, not a
+/// fixed epsilon) in pbrt-v4's formulation, with the error bound [`position_error`]`(p)`: see
+/// [`offset_ray_origin_with_error`].
+#[must_use]
+pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
+    offset_ray_origin_with_error(p, n, position_error(p))
+}
+
+/// Offsets `p` along `n` past a per-component error bound `err` (all components ≥ 0): moves it
+/// by `d = Σ|n̂_i|·err_i`, the furthest that error can put `p` from its plane along the unit
+/// normal `n̂`, then rounds each moved component one float further in the direction it moved,
+/// so the final rounding of `p + d·n̂` cannot bring the point back (pbrt-v4 §6.8.6,
+/// `OffsetRayOrigin`). The result lies strictly on `n`'s side of the plane through the true
+/// point. A zero or non-finite `n` returns `p` unchanged.
+#[must_use]
+pub fn offset_ray_origin_with_error(p: Vec3, n: Vec3, err: Vec3) -> Vec3 {
+    let n = n.normalize_or_zero();
+    let d = n.abs().dot(err);
+    let offset = n * d;
+    let mut po = p + offset;
+    for i in 0..3 {
+        if offset[i] > 0.0 {
+            po[i] = po[i].next_up();
+        } else if offset[i] < 0.0 {
+            po[i] = po[i].next_down();
+        }
+    }
+    po
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn offset_moves_strictly_to_the_normal_side_at_every_scale() {
+        for scale in [1e-30f32, 1e-4, 1.0, 1e3, 1e5, 1e30] {
+            let p = Vec3::new(0.3, -0.7, 0.2) * scale;
+            let n = Vec3::new(1.0, 2.0, -0.5).normalize();
+            let po = offset_ray_origin(p, n);
+            // In f64 (exact for these differences), the move along n must exceed the assumed
+            // error d = |n|·err, which is ≥ 2⁻²²·|n|·|p| > 0.
+            let moved = (po.as_dvec3() - p.as_dvec3()).dot(n.as_dvec3());
+            let d = f64::from(n.abs().dot(position_error(p)));
+            assert!(
+                moved >= d * (1.0 - 1e-6),
+                "scale {scale}: moved {moved}, need {d}"
+            );
+            // And it is a few ulps, not a fixed epsilon: at most 2·d + one ulp per component.
+            assert!(moved <= 2.0 * d + 3.0 * f64::from(p.abs().max_element()) * 2f64.powi(-23));
+        }
+    }
+
+    #[test]
+    fn offset_of_exact_zero_still_moves() {
+        let po = offset_ray_origin(Vec3::ZERO, Vec3::Y);
+        assert!(po.y > 0.0 && po.x == 0.0 && po.z == 0.0, "{po}");
+    }
+
+    #[test]
+    fn degenerate_normal_leaves_point_unchanged() {
+        let p = Vec3::new(1.0, 2.0, 3.0);
+        assert_eq!(offset_ray_origin(p, Vec3::ZERO), p);
+        assert_eq!(offset_ray_origin(p, Vec3::NAN), p);
+    }
+
+    #[test]
+    fn spawn_picks_the_side_of_the_direction() {
+        let p = Vec3::new(0.5, 0.0, 0.5);
+        let up = Ray::spawn(p, Vec3::Y, Vec3::new(0.1, 1.0, 0.0));
+        let down = Ray::spawn(p, Vec3::Y, Vec3::new(0.1, -1.0, 0.0));
+        assert!(up.origin.y > 0.0 && down.origin.y < 0.0);
+        assert_eq!(up.t_max, f32::INFINITY);
+    }
+
+    #[test]
+    fn spawn_to_ends_on_the_near_side_of_both_surfaces() {
+        let p = Vec3::new(0.5, 0.0, 0.5);
+        let target = Vec3::new(0.25, 1.0, 0.75);
+        let ray = Ray::spawn_to(p, Vec3::Y, target, Vec3::Y);
+        assert!(ray.origin.y > 0.0);
+        let end = ray.at(1.0);
+        assert!(end.y < 1.0, "{end}");
+        assert_eq!(ray.t_max, 1.0);
+    }
+}
