@@ -1,0 +1,60 @@
+//! irr's integrators: given a scene and a ray, estimate the radiance arriving along it.
+//!
+//! # What it owns
+//! - [`Scene`]: geometry plus Lambertian [`Material`]s (albedo, emission, sidedness) and the
+//!   [`LightSampler`] over emitting triangles (by power, then uniformly by area).
+//! - The [`Integrator`] interface (pbrt-v4's `RayIntegrator::Li`): radiance along one ray, with
+//!   random numbers from an `irr_sampling::rng::Dimensions` cursor.
+//! - [`PathTracer`]: the unbiased reference (NEE + BSDF sampling with MIS, Russian roulette). Its
+//!   estimate splits into emitted, direct and indirect parts ([`Radiance`]); the module `path`
+//!   documents exactly which light paths each carries, so the irradiance cache can replace the
+//!   indirect part without counting anything twice.
+//! - [`AmbientOcclusion`].
+//!
+//! # What it must not know
+//! Images, tiles, threads, progress, file formats: those are irr-render's. Integrators see one ray
+//! at a time.
+//!
+//! # Example
+//! ```
+//! use glam::Vec3;
+//! use irr_geometry::{Geometry, Ray, TriangleMesh};
+//! use irr_integrator::{AmbientOcclusion, AoSettings, Integrator, Material, RayCounter, Scene};
+//! use irr_sampling::{rng::Dimensions, SampleKey};
+//!
+//! // A 2 m square floor at y = 0, facing up.
+//! let floor = TriangleMesh {
+//!     positions: vec![
+//!         Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, -1.0),
+//!         Vec3::new(1.0, 0.0, 1.0), Vec3::new(-1.0, 0.0, 1.0),
+//!     ],
+//!     indices: vec![[0, 2, 1], [0, 3, 2]],
+//!     normals: None,
+//!     material_ids: vec![0, 0],
+//! };
+//! let geometry = Geometry::build(&[floor]).unwrap();
+//! let scene = Scene::new(geometry, vec![Material::diffuse(Vec3::splat(0.5))]).unwrap();
+//!
+//! // Nothing above the floor occludes it: AO is exactly 1.
+//! let ao = AmbientOcclusion::new(AoSettings { max_distance: f32::INFINITY, samples: 8 });
+//! let ray = Ray::new(Vec3::new(0.1, 1.0, 0.2), Vec3::new(0.0, -1.0, 0.0));
+//! let mut dims = Dimensions::new(SampleKey::new(1, 0, 0));
+//! let mut rays = RayCounter::default();
+//! assert_eq!(ao.li(&scene, &ray, &mut dims, &mut rays), Vec3::ONE);
+//! assert_eq!(rays.shadow, 8);
+//! ```
+
+mod ao;
+mod integrator;
+mod light;
+pub mod path;
+mod scene;
+
+pub use ao::{AmbientOcclusion, AoSettings};
+pub use integrator::{Integrator, RayCounter};
+pub use light::{LightSample, LightSampler};
+pub use path::{PathSettings, PathTracer, Radiance};
+pub use scene::{Material, Scene, SceneError};
+
+#[cfg(test)]
+mod tests;

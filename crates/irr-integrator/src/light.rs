@@ -1,0 +1,132 @@
+//! Sampling points on the emitting triangles.
+//!
+//! A light sample picks one emitting triangle with probability proportional to its emitted power,
+//! then a point uniformly by area on it (pbrt-v4's `PowerLightSampler` followed by
+//! `Triangle::Sample`). The power of a triangle of area A emitting radiance Le from s sides
+//! (1 or 2) is Φ = π·A·s·Le; the channels are averaged into one scalar for the choice.
+
+use crate::scene::Material;
+use glam::{Vec2, Vec3};
+use irr_geometry::Geometry;
+use irr_sampling::{sample_uniform_triangle, uniform_triangle_pdf};
+
+/// A point on an emitter, chosen by [`LightSampler::sample`].
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// The point.
+    pub position: Vec3,
+    /// The triangle's winding normal (unit), not flipped.
+    pub normal: Vec3,
+    /// The emitting triangle's id.
+    pub triangle: u32,
+    /// Probability density of choosing this point, per unit area (choice of triangle × 1/area).
+    pub pdf_area: f32,
+}
+
+/// The emitting triangles with a cumulative distribution by power.
+#[derive(Clone, Debug, Default)]
+pub struct LightSampler {
+    /// Emitting triangle ids.
+    triangles: Vec<u32>,
+    /// Their areas.
+    areas: Vec<f32>,
+    /// Probability of choosing each.
+    probabilities: Vec<f32>,
+    /// cdf[i] = probability of choosing one of triangles 0..=i; the last entry is exactly 1.
+    cdf: Vec<f32>,
+    /// For every triangle of the geometry, its index in `triangles`, or `u32::MAX`.
+    light_of_triangle: Vec<u32>,
+}
+
+impl LightSampler {
+    /// Collects the emitting triangles of `geometry`.
+    pub fn new(geometry: &Geometry, materials: &[Material]) -> Self {
+        let mut s = Self {
+            light_of_triangle: vec![u32::MAX; geometry.triangle_count()],
+            ..Self::default()
+        };
+        let mut powers = Vec::new();
+        for id in 0..geometry.triangle_count() as u32 {
+            let tri = geometry.triangle(id);
+            let Some(m) = materials.get(tri.material_id as usize) else {
+                continue;
+            };
+            if !m.is_emissive() {
+                continue;
+            }
+            let area = 0.5 * (tri.p[1] - tri.p[0]).cross(tri.p[2] - tri.p[0]).length();
+            if area <= 0.0 || !area.is_finite() {
+                continue;
+            }
+            let sides = if m.two_sided { 2.0 } else { 1.0 };
+            let power = std::f64::consts::PI
+                * f64::from(area)
+                * sides
+                * f64::from(m.emission.element_sum())
+                / 3.0;
+            s.light_of_triangle[id as usize] = s.triangles.len() as u32;
+            s.triangles.push(id);
+            s.areas.push(area);
+            powers.push(power);
+        }
+        // Accumulate in f64 so that thousands of small emitters do not lose their share.
+        let total: f64 = powers.iter().sum();
+        let mut running = 0.0f64;
+        for p in &powers {
+            running += p;
+            s.probabilities.push((p / total) as f32);
+            s.cdf.push((running / total) as f32);
+        }
+        if let Some(last) = s.cdf.last_mut() {
+            *last = 1.0;
+        }
+        s
+    }
+
+    /// Number of emitting triangles.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// Whether the scene has no emitter.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// Chooses an emitter with `u_choice` ∈ [0, 1) and a point on it with `u_point` ∈ [0, 1)².
+    pub fn sample(&self, geometry: &Geometry, u_choice: f32, u_point: Vec2) -> Option<LightSample> {
+        if self.triangles.is_empty() {
+            return None;
+        }
+        // The first entry whose cumulative probability exceeds u_choice.
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= u_choice)
+            .min(self.triangles.len() - 1);
+        let id = self.triangles[i];
+        let tri = geometry.triangle(id);
+        let b = sample_uniform_triangle(u_point);
+        let position = tri.p[0] * b[0] + tri.p[1] * b[1] + tri.p[2] * b[2];
+        let normal = (tri.p[1] - tri.p[0]).cross(tri.p[2] - tri.p[0]).normalize();
+        Some(LightSample {
+            position,
+            normal,
+            triangle: id,
+            pdf_area: self.probabilities[i] * uniform_triangle_pdf(self.areas[i]),
+        })
+    }
+
+    /// The density per unit area with which [`Self::sample`] picks a point on `triangle`: zero
+    /// for a triangle that does not emit.
+    #[inline]
+    pub fn pdf_area(&self, triangle: u32) -> f32 {
+        match self.light_of_triangle.get(triangle as usize) {
+            Some(&i) if i != u32::MAX => {
+                self.probabilities[i as usize] * uniform_triangle_pdf(self.areas[i as usize])
+            }
+            _ => 0.0,
+        }
+    }
+}
