@@ -1,0 +1,310 @@
+//! Rotation and translation gradients of the irradiance from one stratified gather.
+//!
+//! # The model
+//! Every estimator here treats the incoming radiance as constant over each cell of the M×N
+//! stratification (Ward & Heckbert 1992, §2; Křivánek & Gautron 2009, §2.2): E = Σⱼₖ Aⱼₖ Lⱼₖ
+//! with Aⱼₖ = ∫_cell cos θ dω = π/(MN). In the local frame (normal n = +z), with
+//! eθ = (cos θ cos φ, cos θ sin φ, −sin θ) and eφ = (−sin φ, cos φ, 0):
+//!
+//! **Rotation.** Turning the normal about the axis a by a small angle δ changes the cosine of
+//! every direction by δ·a·(n × ω), and adds no boundary term (cos θ = 0 on the horizon), so
+//! ∇ᵣE = ∫ L(ω) (n × ω) dω, and n × ω = sin θ eφ (Ward & Heckbert 1992, eq. 4). Ward & Heckbert
+//! estimate it as (π/(MN)) Σₖ vₖ Σⱼ tan θⱼ Lⱼₖ: the cosine-weighted estimate of the integral with
+//! vₖ = eφ(φₖ). We keep their model (L constant over a cell) but give each cell its exact weight
+//! ∫_cell sin θ eφ dω = ∫ sin² θ dθ · ∫ eφ dφ = [(θ − sin θ cos θ)/2]_{θⱼ}^{θⱼ₊₁} · 2 sin(π/N) eφ(φ꜀)
+//! (φ꜀ the column's middle azimuth). It equals (π/(MN)) tan θ꜀ vₖ to first order in the cell
+//! size, but stays right in the row at the horizon, where tan θ꜀ at the cell centre falls short of
+//! the cell's integral by a factor tending to 1/√2 as M grows, and tan θ at the sample itself is
+//! unbounded (its variance over the last row is infinite).
+//!
+//! **Translation.** Moving the point by dx moves every cell *wall* that is an edge of something
+//! seen (an occluder's silhouette, or where the radiance jumps) by the motion of a fixed point at
+//! the wall's distance R: dθ = −(eθ·dx)/R, sin θ dφ = −(eφ·dx)/R. The projected solid angle swept
+//! changes from the radiance of one neighbour to that of the other, so
+//!
+//! - a wall at θⱼ between cells (j−1, k) and (j, k), over φ ∈ [φₖ, φₖ₊₁), adds
+//!   (Lⱼₖ − Lⱼ₋₁,ₖ) · sin θⱼ cos θⱼ / R · ∫ eθ dφ, whose tangent part is
+//!   (Lⱼₖ − Lⱼ₋₁,ₖ) · (2π/N) sin θⱼ cos² θⱼ / R · uₖ with uₖ = (cos φ, sin φ, 0) at the cell's
+//!   middle azimuth (Ward & Heckbert 1992, eq. 5, first sum);
+//! - a wall at φₖ between cells (j, k−1) and (j, k), over θ ∈ [θⱼ, θⱼ₊₁), adds
+//!   (Lⱼₖ − Lⱼ,ₖ₋₁) / R · eφ(φₖ) · ∫ cos θ dθ = (Lⱼₖ − Lⱼ,ₖ₋₁)(sin θⱼ₊₁ − sin θⱼ)/R · eφ(φₖ)
+//!   (Ward & Heckbert 1992, eq. 5, second sum).
+//!
+//! R is unknown on the wall itself; both papers take the nearer of the two cells' hits,
+//! R = min(rⱼₖ, r_neighbour): at an occlusion edge the nearer object is the occluder, whose edge is
+//! the wall. A wall between two misses (r = ∞) never moves: a distant sky does not change with
+//! position. The wall at the horizon (j = M) has cos θ = 0 and adds nothing.
+//!
+//! **The normal component.** The papers give the gradient in the tangent plane, where cached
+//! points lie. The same walls move along the normal too: the θ-walls' eθ has the normal part
+//! −sin θ, adding (Lⱼₖ − Lⱼ₋₁,ₖ)·(−(2π/N) sin² θⱼ cos θⱼ / R) to the z component; eφ has none.
+//! We return it (it is tested against finite differences like the rest), so the translation
+//! gradient is a full 3D vector and transforms as one.
+
+use crate::samples::GatherSamples;
+use crate::value::GatherValue;
+use glam::Vec3;
+use irr_sampling::{Frame, HemisphereStrata};
+use std::f64::consts::TAU;
+
+/// Which translation-gradient estimator to use. Both share the cell-wall model above and the
+/// nearer-hit distance per wall; they differ in the weight of the walls between azimuthal
+/// neighbours (the φ-walls). The θ-walls and the normal component are the same in both.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum TranslationGradient {
+    /// Ward & Heckbert 1992, eq. 5: the φ-wall of row j weighs (sin θⱼ₊₁ − sin θⱼ)/R, the exact
+    /// integral of cos θ along the wall (exact for the piecewise-constant model when R is
+    /// constant along the wall). The default.
+    #[default]
+    WardHeckbert,
+    /// Křivánek et al. 2005 ("Improved radiance gradient computation") in the form of Křivánek &
+    /// Gautron 2009, eq. 2.13: the φ-wall weighs cos θ꜀ (cos θⱼ − cos θⱼ₊₁) / (sin θ꜀ R), the change
+    /// of the cell's *solid angle* times the cosine at the cell's centre θ꜀ (sin² θ꜀ = (j + ½)/M).
+    /// Written for any per-cell weight (radiance caching's spherical harmonics, not only the
+    /// cosine), it agrees with Ward & Heckbert to first order in the cell size and is smaller by
+    /// up to 1 − 1/√2 in the row at the pole, where the cosine is not constant over the cell.
+    KrivanekGautron,
+}
+
+/// The irradiance of one gather and its gradients, all in the gather's local frame (normal = +z)
+/// until [`Gradients::in_world`] turns them.
+///
+/// `rotation[a]` and `translation[a]` are the a-th (x, y, z) components, one value each: for RGB
+/// the gradient of each channel. The first-order extrapolation to a nearby point p with normal n
+/// from this record at (pᵢ, nᵢ) is E + (p − pᵢ)·∇ₜE + (nᵢ × n)·∇ᵣE ([`Gradients::extrapolate`];
+/// Ward & Heckbert 1992, eq. 3; Křivánek & Gautron 2009, eq. 2.18).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Gradients<V> {
+    /// The irradiance estimate E.
+    pub irradiance: V,
+    /// ∇ᵣE: dE/dδ = a·∇ᵣE when the normal turns by a small angle δ about the unit axis a.
+    /// Perpendicular to the normal.
+    pub rotation: [V; 3],
+    /// ∇ₜE: dE = dx·∇ₜE when the point moves by dx.
+    pub translation: [V; 3],
+}
+
+/// The gradient-based bound on a record's radius (Ward & Heckbert 1992, §3; Křivánek et al.
+/// 2006, §3.2): R ≤ E/‖∇ₜE‖ per channel, so that the first-order extrapolation never changes the
+/// value by more than the value itself. Only the part of ∇ₜE in the tangent plane of `normal`
+/// counts (cached neighbours lie on the surface). `f32::INFINITY` when the gradient is zero.
+fn radius_limit_of<V: GatherValue>(e: V, t: &[V; 3], normal: Vec3) -> f32 {
+    let nrm = normal.as_dvec3().normalize_or_zero();
+    let mut limit = f64::INFINITY;
+    for c in 0..V::CHANNELS {
+        let g = glam::DVec3::new(
+            f64::from(t[0].channel(c)),
+            f64::from(t[1].channel(c)),
+            f64::from(t[2].channel(c)),
+        );
+        let tangent = g - nrm * g.dot(nrm);
+        let len = tangent.length();
+        if len > 0.0 {
+            limit = limit.min(f64::from(e.channel(c)).max(0.0) / len);
+        }
+    }
+    limit as f32
+}
+
+/// `Σₐ w[a]·g[a]`: the change of a value along `w` given its gradient `g`.
+#[inline]
+pub fn directional<V: GatherValue>(g: &[V; 3], w: Vec3) -> V {
+    g[0] * w.x + g[1] * w.y + g[2] * w.z
+}
+
+/// Turns a local-frame gradient (x, y, z along `frame.s`, `frame.t`, `frame.n`) into world
+/// coordinates, as [`Frame::to_world`] does for a direction.
+#[inline]
+pub fn rotate_to_world<V: GatherValue>(g: &[V; 3], frame: &Frame) -> [V; 3] {
+    let axis = |i: usize| g[0] * frame.s[i] + g[1] * frame.t[i] + g[2] * frame.n[i];
+    [axis(0), axis(1), axis(2)]
+}
+
+impl<V: GatherValue> Gradients<V> {
+    /// The same gradients with their vectors in world coordinates (the irradiance is unchanged).
+    pub fn in_world(&self, frame: &Frame) -> Self {
+        Self {
+            irradiance: self.irradiance,
+            rotation: rotate_to_world(&self.rotation, frame),
+            translation: rotate_to_world(&self.translation, frame),
+        }
+    }
+
+    /// The first-order extrapolation E + offset·∇ₜE + normal_rotation·∇ᵣE, where `offset` is
+    /// p − pᵢ and `normal_rotation` is nᵢ × n, both in the frame the gradients are in.
+    #[inline]
+    pub fn extrapolate(&self, offset: Vec3, normal_rotation: Vec3) -> V {
+        self.irradiance
+            + directional(&self.translation, offset)
+            + directional(&self.rotation, normal_rotation)
+    }
+
+    /// The gradient-based radius limit min over channels of E/‖∇ₜE‖, with ∇ₜE taken in the
+    /// tangent plane of `normal` (`Vec3::Z` for local-frame gradients, the record's normal for
+    /// world-frame ones). See Křivánek et al. 2006, §3.2. `f32::INFINITY` for a zero gradient.
+    pub fn radius_limit(&self, normal: Vec3) -> f32 {
+        radius_limit_of(self.irradiance, &self.translation, normal)
+    }
+}
+
+/// Per-strata constants of the estimators (O(M + N) trigonometry, computed in f64).
+#[derive(Clone, Debug)]
+struct Tables {
+    /// Rotation weight of row j: ∫_{θⱼ}^{θⱼ₊₁} sin² θ dθ = [(θ − sin θ cos θ)/2].
+    rotation_row: Vec<f32>,
+    /// Rotation weight of column k: ∫_{φₖ}^{φₖ₊₁} eφ dφ = 2 sin(Δφ/2)·eφ(φ꜀), (x, y).
+    rotation_col: Vec<[f32; 2]>,
+    /// Tangent weight of the θ-wall j (index j, 1 ≤ j < M): (2π/N) sin θⱼ cos² θⱼ.
+    theta_wall_tangent: Vec<f32>,
+    /// Normal weight of the θ-wall j: −(2π/N) sin² θⱼ cos θⱼ.
+    theta_wall_normal: Vec<f32>,
+    /// uₖ = (cos φ꜀, sin φ꜀) at the middle azimuth of column k.
+    u_mid: Vec<[f32; 2]>,
+    /// Weight of the φ-walls of row j (depends on the variant).
+    phi_wall: Vec<f32>,
+    /// eφ(φₖ) = (−sin φₖ, cos φₖ) on the wall at the start of column k.
+    v_wall: Vec<[f32; 2]>,
+}
+
+impl Tables {
+    fn new(strata: &HemisphereStrata, variant: TranslationGradient) -> Self {
+        let (m, n) = (strata.m() as usize, strata.n() as usize);
+        let (mf, nf) = (m as f64, n as f64);
+        // sin² θⱼ = j/M exactly (the warp's first coordinate); θ from atan2 keeps precision at
+        // both ends.
+        let sin_b: Vec<f64> = (0..=m).map(|j| (j as f64 / mf).sqrt()).collect();
+        let cos_b: Vec<f64> = (0..=m).map(|j| (1.0 - j as f64 / mf).sqrt()).collect();
+        let theta_b: Vec<f64> = (0..=m).map(|j| sin_b[j].atan2(cos_b[j])).collect();
+        // (θ − sin θ cos θ)/2 = (θ − sin 2θ / 2)/2: in f64 its cancellation near the pole costs
+        // at most ~1e-16/θ³ relative, below f32 precision for every θ₁ = asin √(1/M) ≥ 1e-3.
+        let g = |j: usize| 0.5 * (theta_b[j] - sin_b[j] * cos_b[j]);
+        let rotation_row = (0..m).map(|j| (g(j + 1) - g(j)) as f32).collect();
+
+        let dphi = TAU / nf;
+        let chord = 2.0 * (0.5 * dphi).sin();
+        let mut rotation_col = Vec::with_capacity(n);
+        let mut u_mid = Vec::with_capacity(n);
+        let mut v_wall = Vec::with_capacity(n);
+        for k in 0..n {
+            let (s_mid, c_mid) = ((k as f64 + 0.5) * dphi).sin_cos();
+            let (s_wall, c_wall) = (k as f64 * dphi).sin_cos();
+            rotation_col.push([(-chord * s_mid) as f32, (chord * c_mid) as f32]);
+            u_mid.push([c_mid as f32, s_mid as f32]);
+            v_wall.push([-s_wall as f32, c_wall as f32]);
+        }
+
+        let mut theta_wall_tangent = vec![0.0; m];
+        let mut theta_wall_normal = vec![0.0; m];
+        for j in 1..m {
+            let (s, c) = (sin_b[j], cos_b[j]);
+            theta_wall_tangent[j] = (dphi * s * c * c) as f32;
+            theta_wall_normal[j] = (-dphi * s * s * c) as f32;
+        }
+
+        let phi_wall = (0..m)
+            .map(|j| match variant {
+                TranslationGradient::WardHeckbert => (sin_b[j + 1] - sin_b[j]) as f32,
+                TranslationGradient::KrivanekGautron => {
+                    let s2 = (j as f64 + 0.5) / mf;
+                    let (s_c, c_c) = (s2.sqrt(), (1.0 - s2).sqrt());
+                    (c_c * (cos_b[j] - cos_b[j + 1]) / s_c) as f32
+                }
+            })
+            .collect();
+
+        Self {
+            rotation_row,
+            rotation_col,
+            theta_wall_tangent,
+            theta_wall_normal,
+            u_mid,
+            phi_wall,
+            v_wall,
+        }
+    }
+}
+
+impl<V: GatherValue> GatherSamples<V> {
+    /// ∇ᵣE in the local frame (z = 0): Σⱼₖ Lⱼₖ ∫_cell sin θ eφ dω (Ward & Heckbert 1992, eq. 4,
+    /// with each cell's exact weight; see the module docs).
+    pub fn rotation_gradient(&self) -> [V; 3] {
+        // The variant does not enter the rotation tables.
+        let t = Tables::new(self.strata(), TranslationGradient::WardHeckbert);
+        self.rotation_with(&t)
+    }
+
+    fn rotation_with(&self, t: &Tables) -> [V; 3] {
+        let n = self.strata().n() as usize;
+        let (mut x, mut y) = (V::default(), V::default());
+        for (j, row) in self.radiance().chunks_exact(n).enumerate() {
+            // Sum the row first (each column's weight is a fixed vector), then weigh the row by
+            // its θ integral: one multiplication per cell and channel, and M + N rounding steps.
+            let (mut rx, mut ry) = (V::default(), V::default());
+            for (&l, w) in row.iter().zip(&t.rotation_col) {
+                rx = rx + l * w[0];
+                ry = ry + l * w[1];
+            }
+            x = x + rx * t.rotation_row[j];
+            y = y + ry * t.rotation_row[j];
+        }
+        [x, y, V::default()]
+    }
+
+    /// ∇ₜE in the local frame, by the chosen estimator (see the module docs and
+    /// [`TranslationGradient`]); x, y in the tangent plane, z along the normal.
+    pub fn translation_gradient(&self, variant: TranslationGradient) -> [V; 3] {
+        let t = Tables::new(self.strata(), variant);
+        self.translation_with(&t)
+    }
+
+    fn translation_with(&self, t: &Tables) -> [V; 3] {
+        let n = self.strata().n() as usize;
+        let l = self.radiance();
+        // 1/R per cell; a miss gives 0, so a wall between two misses adds nothing. Distances are
+        // ≥ f32::MIN_POSITIVE (checked on construction), so 1/r is finite.
+        let inv_r: Vec<f32> = self.distance().iter().map(|&r| 1.0 / r).collect();
+        let (mut x, mut y, mut z) = (V::default(), V::default(), V::default());
+        for j in 0..self.strata().m() as usize {
+            let (mut rx, mut ry, mut rz) = (V::default(), V::default(), V::default());
+            let row = j * n;
+            for k in 0..n {
+                let i = row + k;
+                // The φ-wall at φₖ between (j, k−1) and (j, k); column k − 1 wraps to N − 1.
+                let prev = row + if k == 0 { n - 1 } else { k - 1 };
+                let w = inv_r[i].max(inv_r[prev]);
+                if w > 0.0 {
+                    // Weigh the difference before dividing by R: a zero difference stays zero.
+                    let d = (l[i] - l[prev]) * t.phi_wall[j] * w;
+                    rx = rx + d * t.v_wall[k][0];
+                    ry = ry + d * t.v_wall[k][1];
+                }
+                // The θ-wall at θⱼ between (j−1, k) and (j, k); none at the pole (j = 0).
+                if j > 0 {
+                    let below = i - n;
+                    let w = inv_r[i].max(inv_r[below]);
+                    if w > 0.0 {
+                        let d = (l[i] - l[below]) * w;
+                        let tangent = d * t.theta_wall_tangent[j];
+                        rx = rx + tangent * t.u_mid[k][0];
+                        ry = ry + tangent * t.u_mid[k][1];
+                        rz = rz + d * t.theta_wall_normal[j];
+                    }
+                }
+            }
+            x = x + rx;
+            y = y + ry;
+            z = z + rz;
+        }
+        [x, y, z]
+    }
+
+    /// The irradiance and both gradients, in the local frame.
+    pub fn gradients(&self, variant: TranslationGradient) -> Gradients<V> {
+        let t = Tables::new(self.strata(), variant);
+        Gradients {
+            irradiance: self.irradiance(),
+            rotation: self.rotation_with(&t),
+            translation: self.translation_with(&t),
+        }
+    }
+}
