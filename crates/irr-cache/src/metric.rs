@@ -1,0 +1,480 @@
+//! Error metrics: where a record may be reused, and with which weight.
+//!
+//! A metric answers three questions about a record of radius Rᵢ at (pᵢ, nᵢ) seen from a query
+//! point (p, n):
+//! - [`ErrorMetric::influence_radius`]: the distance from pᵢ beyond which the weight is zero. The
+//!   octree files each record by this radius, so the metric alone decides which records a query
+//!   can see.
+//! - [`ErrorMetric::weight`]: the weight, positive where the record may be used, zero elsewhere;
+//!   never NaN or infinite.
+//! - [`ErrorMetric::radius_limits`]: the range a new record's radius should be clamped to, given
+//!   the world-space size of a pixel at its position (Tabellion & Lamorlette 2004, §3.3;
+//!   pbrt-v2's `minpixelspacing`/`maxpixelspacing`). The clamping itself is the caller's: the
+//!   cache stores the radius it is given.
+//!
+//! Two metrics are provided, [`Ward`] and [`TabellionLamorlette`]; both apply the same [`Cuts`]
+//! (the "in front" test and the normal-divergence cut) before their formula.
+//!
+//! # Normal term
+//! Both formulas use √(1 − n·nᵢ). For unit vectors ‖n − nᵢ‖² = 2 − 2 n·nᵢ, so
+//! √(1 − n·nᵢ) = ‖n − nᵢ‖/√2 exactly; the chord form has no cancellation at small angles (1 − n·nᵢ
+//! loses every significant digit below about 0.03°, the chord keeps them), and the angle cut
+//! θ < θmax is the chord cut ‖n − nᵢ‖ < 2 sin(θmax/2), with θmax given as an [`Angle`] so no unit
+//! can be mistaken (pbrt-v2 passes a limit in degrees through `Degrees()` instead of `Radians()`,
+//! which turns 10° into cos⁻¹(cos 572.96) ≈ 68°).
+
+use glam::{DVec3, Vec3};
+use thiserror::Error;
+
+/// An angle. Built from degrees or radians explicitly, so a limit cannot be read in the wrong unit.
+#[derive(Clone, Copy, Debug, PartialEq, PartialOrd)]
+pub struct Angle {
+    radians: f64,
+}
+
+impl Angle {
+    /// The angle of `degrees` degrees.
+    #[inline]
+    pub fn from_degrees(degrees: f32) -> Self {
+        Self {
+            radians: f64::from(degrees).to_radians(),
+        }
+    }
+    /// The angle of `radians` radians.
+    #[inline]
+    pub fn from_radians(radians: f32) -> Self {
+        Self {
+            radians: f64::from(radians),
+        }
+    }
+    /// The angle in radians.
+    #[inline]
+    pub fn radians(self) -> f64 {
+        self.radians
+    }
+    /// The angle in degrees.
+    #[inline]
+    pub fn degrees(self) -> f64 {
+        self.radians.to_degrees()
+    }
+    /// The distance between two unit vectors that make this angle: 2 sin(θ/2).
+    #[inline]
+    pub fn chord(self) -> f64 {
+        2.0 * (0.5 * self.radians).sin()
+    }
+}
+
+/// A metric's parameters that cannot be used.
+#[derive(Clone, Copy, Debug, PartialEq, Error)]
+pub enum MetricError {
+    /// Ward's accuracy a must be positive and finite.
+    #[error("the accuracy a must be positive and finite, got {0}")]
+    Accuracy(f32),
+    /// Tabellion & Lamorlette's κ must be positive and finite.
+    #[error("the quality factor kappa must be positive and finite, got {0}")]
+    Kappa(f32),
+    /// The normal-divergence limit must lie in (0°, 180°].
+    #[error("the maximum normal angle must lie in (0°, 180°], got {0}°")]
+    NormalAngle(f64),
+    /// The in-front tolerance (a fraction of the record's radius) must be finite and ≥ 0.
+    #[error("the in-front tolerance must be finite and non-negative, got {0}")]
+    InFrontTolerance(f32),
+    /// The influence limits in pixels must satisfy 0 < min ≤ max < ∞.
+    #[error("the influence limits in pixels must satisfy 0 < min <= max < inf, got [{0}, {1}]")]
+    PixelRange(f32, f32),
+}
+
+/// Where a candidate record lies relative to a query point: the numbers every metric needs,
+/// computed once by the cache in `f64` from the stored `f32` values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Candidate {
+    /// p − pᵢ (exact: the difference of two `f32` values is exact in `f64` unless their exponents
+    /// differ by more than 29).
+    pub offset: DVec3,
+    /// ‖p − pᵢ‖.
+    pub distance: f64,
+    /// The query normal n (unit).
+    pub query_normal: DVec3,
+    /// The record's normal nᵢ (unit).
+    pub record_normal: DVec3,
+    /// The record's radius Rᵢ (> 0).
+    pub record_radius: f64,
+}
+
+impl Candidate {
+    /// The candidate for a query at (`p`, `n`) and a record at (`position`, `normal`) of `radius`.
+    #[inline]
+    pub fn new(p: DVec3, n: DVec3, position: Vec3, normal: Vec3, radius: f32) -> Self {
+        let offset = p - position.as_dvec3();
+        Self {
+            offset,
+            distance: offset.length(),
+            query_normal: n,
+            record_normal: normal.as_dvec3(),
+            record_radius: f64::from(radius),
+        }
+    }
+
+    /// ‖n − nᵢ‖ = √(2(1 − n·nᵢ)) = 2 sin(θ/2), θ the angle between the normals.
+    #[inline]
+    pub fn normal_chord(&self) -> f64 {
+        (self.query_normal - self.record_normal).length()
+    }
+}
+
+/// The two tests applied before any weight formula.
+///
+/// - **In front** (Ward & Heckbert 1992, §3, the dᵢ test): with
+///   dᵢ = (p − pᵢ)·(n + nᵢ)/2, a record with dᵢ < −τ·Rᵢ lies in front of the query point's
+///   tangent plane (it sits on a bump or a fold that may shadow p) and is skipped. On a smooth
+///   sphere dᵢ = 0 exactly (the averaged normal cancels the curvature), so τ only has to absorb
+///   tessellation and rounding. τ is a **fraction of the record's radius**, not a length in world
+///   units (Mitsuba 0.6 compares with −0.05 world units; Radiance adds .001): a fixed length
+///   accepts everything in a scene scaled down and rejects too much in one scaled up.
+/// - **Normal divergence**: a record whose normal makes an angle ≥ θmax with n is skipped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cuts {
+    max_normal_angle: Angle,
+    max_chord: f64,
+    in_front_tolerance: f32,
+}
+
+impl Cuts {
+    /// Normals must differ by less than `max_normal_angle` (in (0°, 180°]); records more than
+    /// `in_front_tolerance`·Rᵢ in front of the tangent plane are skipped.
+    pub fn new(max_normal_angle: Angle, in_front_tolerance: f32) -> Result<Self, MetricError> {
+        let radians = max_normal_angle.radians();
+        if !(radians > 0.0 && radians <= std::f64::consts::PI) {
+            return Err(MetricError::NormalAngle(max_normal_angle.degrees()));
+        }
+        if !(in_front_tolerance.is_finite() && in_front_tolerance >= 0.0) {
+            return Err(MetricError::InFrontTolerance(in_front_tolerance));
+        }
+        Ok(Self {
+            max_normal_angle,
+            max_chord: max_normal_angle.chord(),
+            in_front_tolerance,
+        })
+    }
+
+    /// The normal-divergence limit θmax.
+    #[inline]
+    pub fn max_normal_angle(&self) -> Angle {
+        self.max_normal_angle
+    }
+
+    /// τ, the in-front tolerance as a fraction of the record's radius.
+    #[inline]
+    pub fn in_front_tolerance(&self) -> f32 {
+        self.in_front_tolerance
+    }
+
+    /// Whether the normals differ by less than θmax (chord form, see the module docs).
+    #[inline]
+    pub fn normals_agree(&self, c: &Candidate) -> bool {
+        c.normal_chord() < self.max_chord
+    }
+
+    /// Whether the record lies in front of the query point's tangent plane: dᵢ < −τ·Rᵢ.
+    #[inline]
+    pub fn is_in_front(&self, c: &Candidate) -> bool {
+        let d = 0.5 * c.offset.dot(c.query_normal + c.record_normal);
+        d < -f64::from(self.in_front_tolerance) * c.record_radius
+    }
+
+    /// Whether the record passes both tests.
+    #[inline]
+    pub fn accept(&self, c: &Candidate) -> bool {
+        self.normals_agree(c) && !self.is_in_front(c)
+    }
+}
+
+impl Default for Cuts {
+    /// θmax = 90° (only records on surfaces at a right angle or facing away, which the weights
+    /// alone can accept for a loose accuracy, are cut: a tighter cut inside a weight's smooth
+    /// support would make seams), τ = 0.05.
+    fn default() -> Self {
+        Self {
+            max_normal_angle: Angle::from_degrees(90.0),
+            max_chord: Angle::from_degrees(90.0).chord(),
+            in_front_tolerance: 0.05,
+        }
+    }
+}
+
+/// The range a record's radius is clamped to (by the caller, before insertion).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RadiusLimits {
+    /// Smallest radius.
+    pub min: f32,
+    /// Largest radius.
+    pub max: f32,
+}
+
+impl RadiusLimits {
+    /// No clamping: [0, ∞].
+    pub const UNBOUNDED: Self = Self {
+        min: 0.0,
+        max: f32::INFINITY,
+    };
+
+    /// `r` clamped to [min, max] (a NaN `r` gives `min`).
+    #[inline]
+    pub fn clamp(&self, r: f32) -> f32 {
+        r.max(self.min).min(self.max)
+    }
+}
+
+/// Influence limits in pixels: a record's influence radius should span between `min` and `max`
+/// pixels on screen (Tabellion & Lamorlette 2004, §3.3: R⁻ = 1.5 and R⁺ = 10 pixels).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelRange {
+    min: f32,
+    max: f32,
+}
+
+impl PixelRange {
+    /// The range [`min`, `max`] in pixels, 0 < min ≤ max < ∞.
+    pub fn new(min: f32, max: f32) -> Result<Self, MetricError> {
+        if min > 0.0 && min <= max && max.is_finite() {
+            Ok(Self { min, max })
+        } else {
+            Err(MetricError::PixelRange(min, max))
+        }
+    }
+    /// Smallest influence, in pixels.
+    pub fn min(&self) -> f32 {
+        self.min
+    }
+    /// Largest influence, in pixels.
+    pub fn max(&self) -> f32 {
+        self.max
+    }
+    /// The radius limits for a metric whose influence radius is `factor`·R, at a pixel of
+    /// world-space size `pixel_spacing`; unbounded when the spacing is unknown (zero, negative or
+    /// not finite, e.g. a ray without differentials).
+    fn radius_limits(&self, pixel_spacing: f32, factor: f64) -> RadiusLimits {
+        if !(pixel_spacing.is_finite() && pixel_spacing > 0.0) {
+            return RadiusLimits::UNBOUNDED;
+        }
+        let s = f64::from(pixel_spacing) / factor;
+        RadiusLimits {
+            min: (f64::from(self.min) * s) as f32,
+            max: (f64::from(self.max) * s) as f32,
+        }
+    }
+}
+
+impl Default for PixelRange {
+    /// [1.5, 10] pixels (Tabellion & Lamorlette 2004).
+    fn default() -> Self {
+        Self {
+            min: 1.5,
+            max: 10.0,
+        }
+    }
+}
+
+/// A weighting of cache records. Implementations must be cheap to clone and thread-safe.
+///
+/// The cache calls [`ErrorMetric::weight`] only for records with ‖p − pᵢ‖ <
+/// [`ErrorMetric::influence_radius`]`(Rᵢ)` and uses a record only when the weight is positive and
+/// finite; so a metric's weight must be zero wherever ‖p − pᵢ‖ ≥ its influence radius.
+pub trait ErrorMetric: Clone + std::fmt::Debug + Send + Sync + 'static {
+    /// The distance from a record of radius `record_radius` beyond which its weight is zero
+    /// (≥ 0; the cache refuses a record for which it is not finite).
+    fn influence_radius(&self, record_radius: f32) -> f32;
+    /// The weight of a record for a query, ≥ 0 and finite; zero where the record must not be used.
+    fn weight(&self, candidate: &Candidate) -> f64;
+    /// The radius range for a new record at a point where a pixel spans `pixel_spacing` in world
+    /// units (unbounded when the spacing is not positive and finite).
+    fn radius_limits(&self, pixel_spacing: f32) -> RadiusLimits;
+}
+
+/// `x` (computed in `f64`) as the smallest `f32` ≥ x: an influence radius rounded up, so that
+/// every point the formula weighs positively lies inside the radius the octree files.
+#[inline]
+fn f32_up(x: f64) -> f32 {
+    let r = x as f32;
+    if f64::from(r) < x { r.next_up() } else { r }
+}
+
+/// Ward, Rubinstein & Clear 1988 (eq. 4 and §"Ambient Value Calculation"):
+///
+/// wᵢ = 1 / ε, ε = ‖p − pᵢ‖/Rᵢ + √(1 − n·nᵢ), and a record is used where wᵢ > 1/a, i.e. ε < a,
+/// with a the user's accuracy. The weight is then Ward's wᵢ itself (not shifted by 1/a), as in the
+/// original paper.
+///
+/// Ward's weight is infinite when p = pᵢ and n = nᵢ. The cache needs finite weights, so ε is
+/// floored at 2⁻²³ (`f32::EPSILON`): positions and normals are stored as `f32`, whose relative
+/// precision is 2⁻²⁴, so ε below 2⁻²³ is below what the inputs can resolve; a coincident record
+/// weighs 2²³, which still dominates any record that the inputs can tell apart from it.
+///
+/// Influence radius: ε < a needs ‖p − pᵢ‖ < a·Rᵢ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ward {
+    accuracy: f32,
+    cuts: Cuts,
+    pixels: PixelRange,
+}
+
+impl Ward {
+    /// ε floor, see the type's docs.
+    pub const MIN_ERROR: f64 = f32::EPSILON as f64;
+
+    /// Ward's metric with accuracy `a` (Radiance's `-aa`, typically 0.1–0.3), default [`Cuts`] and
+    /// [`PixelRange`].
+    pub fn new(accuracy: f32) -> Result<Self, MetricError> {
+        if !(accuracy.is_finite() && accuracy > 0.0) {
+            return Err(MetricError::Accuracy(accuracy));
+        }
+        Ok(Self {
+            accuracy,
+            cuts: Cuts::default(),
+            pixels: PixelRange::default(),
+        })
+    }
+    /// The same metric with other cuts.
+    pub fn with_cuts(self, cuts: Cuts) -> Self {
+        Self { cuts, ..self }
+    }
+    /// The same metric with other influence limits in pixels.
+    pub fn with_pixel_range(self, pixels: PixelRange) -> Self {
+        Self { pixels, ..self }
+    }
+    /// The accuracy a.
+    pub fn accuracy(&self) -> f32 {
+        self.accuracy
+    }
+    /// The cuts applied before the formula.
+    pub fn cuts(&self) -> &Cuts {
+        &self.cuts
+    }
+    /// Ward's ε for a candidate (no cuts, no floor).
+    #[inline]
+    pub fn error(c: &Candidate) -> f64 {
+        c.distance / c.record_radius + c.normal_chord() * std::f64::consts::FRAC_1_SQRT_2
+    }
+}
+
+impl ErrorMetric for Ward {
+    #[inline]
+    fn influence_radius(&self, record_radius: f32) -> f32 {
+        f32_up(f64::from(self.accuracy) * f64::from(record_radius))
+    }
+
+    #[inline]
+    fn weight(&self, c: &Candidate) -> f64 {
+        if !self.cuts.accept(c) {
+            return 0.0;
+        }
+        let e = Self::error(c);
+        if e < f64::from(self.accuracy) {
+            1.0 / e.max(Self::MIN_ERROR)
+        } else {
+            0.0
+        }
+    }
+
+    fn radius_limits(&self, pixel_spacing: f32) -> RadiusLimits {
+        self.pixels
+            .radius_limits(pixel_spacing, f64::from(self.accuracy))
+    }
+}
+
+/// Tabellion & Lamorlette 2004 (§3.3, "An Approximate Global Illumination System for Computer
+/// Generated Films"), in the form of Křivánek & Gautron 2009 ("Practical Global Illumination with
+/// Irradiance Caching", §2.x, the "Tabellion and Lamorlette" weight), which this type follows:
+///
+/// εᵢ = κ · max( ‖p − pᵢ‖ / (Rᵢ/2),  √(1 − n·nᵢ) / √(1 − cos 10°) ),  wᵢ = 1 − εᵢ, used where
+/// wᵢ > 0.
+///
+/// A **maximum** of the two terms, not Ward's sum. The 10° is a normalisation: at κ = 1 the
+/// normal term alone reaches 1 at 10°. Tabellion & Lamorlette write the position term's
+/// denominator as max(min(Rᵢ/2, R⁺), R⁻), clamping inside the weight; Křivánek & Gautron clamp
+/// Rᵢ when the record is made, which is the same for limits [2R⁻, 2R⁺] on Rᵢ: here the caller
+/// clamps with [`ErrorMetric::radius_limits`]. With the chord identity (module docs) the normal
+/// term is ‖n − nᵢ‖ / (2 sin 5°).
+///
+/// Influence radius: κ·‖p − pᵢ‖/(Rᵢ/2) < 1 needs ‖p − pᵢ‖ < Rᵢ/(2κ).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TabellionLamorlette {
+    kappa: f32,
+    /// 1 / (2 sin 5°), the normal term's normalisation, computed once.
+    inv_chord_10: f64,
+    cuts: Cuts,
+    pixels: PixelRange,
+}
+
+impl TabellionLamorlette {
+    /// The metric with quality factor κ (larger is stricter; Mitsuba's default is 1), default
+    /// [`Cuts`] and [`PixelRange`].
+    pub fn new(kappa: f32) -> Result<Self, MetricError> {
+        if !(kappa.is_finite() && kappa > 0.0) {
+            return Err(MetricError::Kappa(kappa));
+        }
+        Ok(Self {
+            kappa,
+            inv_chord_10: 1.0 / Angle::from_degrees(10.0).chord(),
+            cuts: Cuts::default(),
+            pixels: PixelRange::default(),
+        })
+    }
+    /// The same metric with other cuts.
+    pub fn with_cuts(self, cuts: Cuts) -> Self {
+        Self { cuts, ..self }
+    }
+    /// The same metric with other influence limits in pixels.
+    pub fn with_pixel_range(self, pixels: PixelRange) -> Self {
+        Self { pixels, ..self }
+    }
+    /// κ.
+    pub fn kappa(&self) -> f32 {
+        self.kappa
+    }
+    /// The cuts applied before the formula.
+    pub fn cuts(&self) -> &Cuts {
+        &self.cuts
+    }
+    /// εᵢ for a candidate (no cuts).
+    #[inline]
+    pub fn error(&self, c: &Candidate) -> f64 {
+        let position = c.distance / (0.5 * c.record_radius);
+        let normal = c.normal_chord() * self.inv_chord_10;
+        f64::from(self.kappa) * position.max(normal)
+    }
+}
+
+impl Default for TabellionLamorlette {
+    /// κ = 1, default [`Cuts`] and [`PixelRange`].
+    fn default() -> Self {
+        Self {
+            kappa: 1.0,
+            inv_chord_10: 1.0 / Angle::from_degrees(10.0).chord(),
+            cuts: Cuts::default(),
+            pixels: PixelRange::default(),
+        }
+    }
+}
+
+impl ErrorMetric for TabellionLamorlette {
+    #[inline]
+    fn influence_radius(&self, record_radius: f32) -> f32 {
+        f32_up(f64::from(record_radius) / (2.0 * f64::from(self.kappa)))
+    }
+
+    #[inline]
+    fn weight(&self, c: &Candidate) -> f64 {
+        if !self.cuts.accept(c) {
+            return 0.0;
+        }
+        let w = 1.0 - self.error(c);
+        if w > 0.0 { w } else { 0.0 }
+    }
+
+    fn radius_limits(&self, pixel_spacing: f32) -> RadiusLimits {
+        // Influence = R/(2κ): R = 2κ·influence.
+        self.pixels
+            .radius_limits(pixel_spacing, 1.0 / (2.0 * f64::from(self.kappa)))
+    }
+}

@@ -1,0 +1,960 @@
+//! Property tests of the cache as a whole: the invariants issue 5 names, each with the rounding
+//! bound it is checked against and that bound's derivation.
+//!
+//! Notation: u₃₂ = 2⁻²⁴ and u₆₄ = 2⁻⁵³ are the unit roundoffs of `f32` and `f64`.
+
+use crate::record::unit_query_normal;
+use crate::*;
+use glam::Vec3;
+use proptest::prelude::*;
+
+const U32: f64 = 1.0 / (1u64 << 24) as f64;
+const U64: f64 = 1.0 / (1u64 << 53) as f64;
+
+fn config(cases: u32) -> ProptestConfig {
+    ProptestConfig {
+        cases,
+        ..ProptestConfig::default()
+    }
+}
+
+fn v3(r: std::ops::Range<f32>) -> impl Strategy<Value = Vec3> {
+    (r.clone(), r.clone(), r).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+}
+
+/// A unit vector.
+fn unit() -> impl Strategy<Value = Vec3> {
+    v3(-1.0..1.0)
+        .prop_filter("non-degenerate", |v| v.length() > 1e-2)
+        .prop_map(Vec3::normalize)
+}
+
+/// A unit vector within about `max_degrees` of `axis`.
+fn near(axis: Vec3, max_degrees: f32) -> impl Strategy<Value = Vec3> {
+    let t = max_degrees.to_radians().tan();
+    v3(-1.0..1.0).prop_map(move |d| (axis + (d - axis * d.dot(axis)) * t).normalize())
+}
+
+/// A value with channels in [0, 10).
+fn rgb() -> impl Strategy<Value = Rgb> {
+    (0.0f32..10.0, 0.0f32..10.0, 0.0f32..10.0).prop_map(|(r, g, b)| Rgb::new(r, g, b))
+}
+
+fn rgb_signed(m: f32) -> impl Strategy<Value = Rgb> {
+    (-m..m, -m..m, -m..m).prop_map(|(r, g, b)| Rgb::new(r, g, b))
+}
+
+fn tl() -> TabellionLamorlette {
+    TabellionLamorlette::new(1.0).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn ward(a: f32) -> Ward {
+    Ward::new(a).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn cache_of<M: ErrorMetric>(metric: M, records: &[Record<Rgb>]) -> IrradianceCache<Rgb, M> {
+    let mut c = IrradianceCache::new(metric);
+    c.extend(records.iter().copied())
+        .unwrap_or_else(|(i, e)| panic!("record {i}: {e}"));
+    c
+}
+
+/// The records with a positive weight at (p, n), found by scanning every record with the same
+/// tests the cache applies (no octree).
+fn brute_weighted<V: CacheValue, M: ErrorMetric>(
+    cache: &IrradianceCache<V, M>,
+    p: Vec3,
+    n: Vec3,
+) -> Vec<(u32, f64)> {
+    let nd = unit_query_normal(n).unwrap_or_else(|| panic!("bad normal {n}"));
+    let m = cache.metric();
+    let mut out = Vec::new();
+    for (i, r) in cache.records().iter().enumerate() {
+        if !within_influence(r.position, m.influence_radius(r.radius), p) {
+            continue;
+        }
+        let w = m.weight(&Candidate::new(
+            p.as_dvec3(),
+            nd,
+            r.position,
+            r.normal,
+            r.radius,
+        ));
+        if w > 0.0 {
+            out.push((i as u32, w));
+        }
+    }
+    out
+}
+
+fn brute_in_range<V: CacheValue, M: ErrorMetric>(
+    cache: &IrradianceCache<V, M>,
+    p: Vec3,
+) -> Vec<u32> {
+    let m = cache.metric();
+    (0..cache.len() as u32)
+        .filter(|&i| {
+            let r = &cache.records()[i as usize];
+            within_influence(r.position, m.influence_radius(r.radius), p)
+        })
+        .collect()
+}
+
+fn tree_in_range<V: CacheValue, M: ErrorMetric>(
+    cache: &IrradianceCache<V, M>,
+    p: Vec3,
+) -> Vec<u32> {
+    let mut v = Vec::new();
+    cache.for_each_in_range(p, |i, _| v.push(i));
+    v.sort_unstable();
+    v
+}
+
+fn tree_weighted<V: CacheValue, M: ErrorMetric>(
+    cache: &IrradianceCache<V, M>,
+    p: Vec3,
+    n: Vec3,
+) -> Vec<(u32, f64)> {
+    let mut v = Vec::new();
+    cache.for_each_weighted(p, n, |i, _, w| v.push((i, w)));
+    v.sort_by_key(|&(i, _)| i);
+    v
+}
+
+/// A bound on |Ẽᵢ| per channel for every record weighted at (p, n): |Eᵢ| + Σₖ |(nᵢ×n)ₖ|·|∇ᵣEᵢ|ₖ +
+/// |(p − pᵢ)ₖ|·|∇ₜEᵢ|ₖ, computed in f64 and widened by 1 % so that its own rounding cannot make
+/// it too small.
+fn extrapolation_scale(cache: &IrradianceCache<Rgb, impl ErrorMetric>, p: Vec3, n: Vec3) -> f64 {
+    let nd = unit_query_normal(n).unwrap_or_else(|| panic!("bad normal {n}"));
+    let mut s: f64 = 0.0;
+    cache.for_each_weighted(p, n, |_, r, _| {
+        let turn = r.normal.as_dvec3().cross(nd);
+        let step = p.as_dvec3() - r.position.as_dvec3();
+        for c in 0..3 {
+            let mut v = f64::from(r.value.0[c]).abs();
+            for k in 0..3 {
+                v += turn[k].abs() * f64::from(r.rotation_gradient[k].0[c]).abs()
+                    + step[k].abs() * f64::from(r.translation_gradient[k].0[c]).abs();
+            }
+            s = s.max(v);
+        }
+    });
+    s * 1.01
+}
+
+// ---------------------------------------------------------------------------------------------
+// A record's own value.
+
+proptest! {
+    #![proptest_config(config(128))]
+
+    /// At its own position and normal, a lone record gives exactly its value, whatever its
+    /// gradients: p − pᵢ = 0 and nᵢ × n = 0 exactly (the query keeps a unit normal's bits), so
+    /// Ẽ = E in f64; the mean is (w·E)/w with two f64 roundings, E·(1 + δ), |δ| ≤ 2u₆₄, which
+    /// rounds back to the f32 E exactly (E's neighbours are ≥ u₃₂·|E| away, and 2u₆₄ ≪ u₃₂).
+    #[test]
+    fn own_position_returns_own_value(
+        p in v3(-1e4..1e4),
+        scale in -4.0f32..4.0,
+        n in unit(),
+        radius_exp in -4.0f32..4.0,
+        e in rgb(),
+        tg in prop::array::uniform3(rgb_signed(100.0)),
+        rg in prop::array::uniform3(rgb_signed(100.0)),
+    ) {
+        let p = p * 10f32.powf(scale);
+        let radius = 10f32.powf(radius_exp);
+        let record = Record::new(p, n, radius, e).with_gradients(tg, rg);
+        let stored = record.validated().unwrap_or_else(|e| panic!("{e}"));
+        for hit in [
+            cache_of(tl(), &[record]).interpolate(stored.position, stored.normal),
+            cache_of(ward(0.2), &[record]).interpolate(stored.position, stored.normal),
+        ] {
+            let hit = hit.unwrap_or_else(|| panic!("own record not found"));
+            prop_assert_eq!(hit.value, e);
+            prop_assert_eq!(hit.count, 1);
+        }
+    }
+
+    /// With zero gradients the result is a weighted mean, so it lies in each channel's
+    /// [min, max] over the records used, exactly: the f64 mean is m·(1 + δ) with m in [lo, hi]
+    /// and |δ| ≤ (k + 2)u₆₄ (k additions, a division, exact products of f32 × f64 … each one
+    /// rounding), far below the half-ulp u₃₂ that would be needed to round past lo or hi.
+    #[test]
+    fn zero_gradient_result_is_a_weighted_mean(
+        records in prop::collection::vec((v3(-1.0..1.0), near(Vec3::Z, 12.0), 0.5f32..4.0, rgb()), 1..40),
+        q in v3(-0.5..0.5),
+        qn in near(Vec3::Z, 5.0),
+        use_ward in any::<bool>(),
+    ) {
+        // The first record sits at the query, so every case interpolates.
+        let records: Vec<_> = records.into_iter()
+            .enumerate()
+            .map(|(i, (p, n, r, e))| {
+                let (p, n) = if i == 0 { (q, qn) } else { (p * Vec3::new(1.0, 1.0, 0.05), n) };
+                Record::new(p, n, r, e)
+            })
+            .collect();
+        let check = |hit: Option<Interpolation<Rgb>>, used: Vec<(u32, f64)>| -> Result<(), TestCaseError> {
+            let Some(hit) = hit else {
+                return Err(TestCaseError::fail("the record at the query was not used"));
+            };
+            prop_assert_eq!(hit.count as usize, used.len());
+            for c in 0..3 {
+                let vals = used.iter().map(|&(i, _)| records[i as usize].value.0[c]);
+                let lo = vals.clone().fold(f32::INFINITY, f32::min);
+                let hi = vals.fold(f32::NEG_INFINITY, f32::max);
+                prop_assert!(lo <= hit.value.0[c] && hit.value.0[c] <= hi,
+                    "channel {c}: {} not in [{lo}, {hi}]", hit.value.0[c]);
+            }
+            Ok(())
+        };
+        if use_ward {
+            let cache = cache_of(ward(0.3), &records);
+            check(cache.interpolate(q, qn), brute_weighted(&cache, q, qn))?;
+        } else {
+            let cache = cache_of(tl(), &records);
+            check(cache.interpolate(q, qn), brute_weighted(&cache, q, qn))?;
+        }
+    }
+
+    /// A constant field is reproduced exactly, whatever the placement, radii and normals: every
+    /// Ẽᵢ = c, so the f64 mean is c·(1 + δ), |δ| ≤ (k + 2)u₆₄, and rounds to the f32 c exactly
+    /// (as above: (k + 2)u₆₄ < u₃₂ for k < 2²⁸). The bound is zero.
+    #[test]
+    fn constant_field_is_exact(
+        records in prop::collection::vec((v3(-1.0..1.0), near(Vec3::Z, 30.0), -3.0f32..1.0), 1..60),
+        q in v3(-1.0..1.0),
+        qn in near(Vec3::Z, 20.0),
+        c in rgb(),
+        kappa in 0.25f32..2.0,
+    ) {
+        // Records anywhere around the query (most of them in use: radii up to 10 over a span
+        // of 2), and one within a thousandth of its radius of it so that every case
+        // interpolates.
+        let mut records: Vec<_> = records.into_iter()
+            .map(|(p, n, r, )| Record::new(p, n, 10f32.powf(r), c))
+            .collect();
+        records.push(Record::new(q + Vec3::new(1e-3, 0.0, 0.0), qn, 1.0, c));
+        let metric = TabellionLamorlette::new(kappa).unwrap_or_else(|e| panic!("{e}"));
+        let hit = cache_of(metric, &records).interpolate(q, qn);
+        prop_assert_eq!(hit.map(|h| h.value), Some(c));
+        let hit = cache_of(ward(0.5), &records).interpolate(q, qn);
+        prop_assert_eq!(hit.map(|h| h.value), Some(c));
+    }
+
+    /// A field linear in p, E(p) = a + G·p per channel, is reproduced by records that carry its
+    /// translation gradient G, with any normals (the rotation gradient is zero).
+    ///
+    /// Bound: record i stores Eᵢ = fl₃₂(E(pᵢ)), off by ≤ u₃₂|E(pᵢ)|; Ẽᵢ = Eᵢ + Σₖ(p − pᵢ)ₖGₖ in f64
+    /// has the exact differences (p − pᵢ) and 6 roundings of ≤ u₆₄ each relative to at most S (the
+    /// largest |Eᵢ| + Σ|(p − pᵢ)ₖ||Gₖ|); the mean adds (k + 2)u₆₄·S, the final rounding u₃₂|E(p)|.
+    /// Since a weighted mean of errors is bounded by their maximum:
+    /// |E − E(p)| ≤ u₃₂·(maxᵢ|E(pᵢ)| + |E(p)|) + (k + 8)u₆₄·S.
+    #[test]
+    fn linear_field_is_reproduced_by_its_gradient(
+        records in prop::collection::vec((v3(-1.0..1.0), near(Vec3::Z, 40.0), 0.2f32..3.0), 1..40),
+        q in v3(-1.0..1.0),
+        qn in near(Vec3::Z, 30.0),
+        g in prop::array::uniform3(rgb_signed(5.0)),
+        scale_exp in -3i32..4,
+    ) {
+        // Scale the scene by a power of two so the test covers small and large scenes exactly.
+        let s = 2f32.powi(scale_exp * 4);
+        let inv = 1.0 / s;
+        // a ≥ 1 + Σ|G|·|p|max keeps the field positive (no clamping) over the scaled region.
+        let a: [f64; 3] = std::array::from_fn(|c| {
+            1.0 + 2.0 * g.iter().map(|gk| f64::from(gk.0[c].abs())).sum::<f64>()
+        });
+        // The gradient of E(p) = a + G·(p/s) is G/s, exact for a power-of-two s.
+        let grad = g.map(|gk| Rgb::from_fn(|c| gk.0[c] * inv));
+        let field = |p: Vec3| -> [f64; 3] {
+            std::array::from_fn(|c| a[c] + (0..3).map(|k| f64::from(grad[k].0[c]) * f64::from(p[k])).sum::<f64>())
+        };
+        let records: Vec<_> = records.into_iter()
+            .map(|(p, n, r)| {
+                let p = p * s;
+                let e = field(p);
+                Record::new(p, n, r * s, Rgb::from_fn(|c| e[c] as f32))
+                    .with_gradients(grad, [Rgb::zero(); 3])
+            })
+            .collect();
+        let q = q * s;
+        // One more record near the query so that every case interpolates.
+        let mut records = records;
+        let near_q = q + Vec3::new(0.01, -0.02, 0.0) * s;
+        let e = field(near_q);
+        records.push(Record::new(near_q, qn, s, Rgb::from_fn(|c| e[c] as f32))
+            .with_gradients(grad, [Rgb::zero(); 3]));
+        let cache = cache_of(tl(), &records);
+        let hit = cache.interpolate(q, qn);
+        prop_assert!(hit.is_some());
+        if let Some(hit) = hit {
+            let exact = field(q);
+            let scale = extrapolation_scale(&cache, q, qn);
+            let k = f64::from(hit.count);
+            for (c, &ex) in exact.iter().enumerate() {
+                let max_ei = records.iter().map(|r| f64::from(r.value.0[c])).fold(0.0, f64::max)
+                    * (1.0 + 2.0 * U32);
+                let bound = U32 * (max_ei + ex.abs()) + (k + 8.0) * U64 * scale;
+                let err = (f64::from(hit.value.0[c]) - ex).abs();
+                prop_assert!(err <= bound, "channel {c}: error {err:e} > bound {bound:e}");
+            }
+        }
+    }
+
+    /// The result does not depend on insertion order. The two caches weigh the same records with
+    /// the same weights (each weight is a function of one record and the query), so only the order
+    /// of the f64 sums differs: each mean is the exact one up to (k + 2)u₆₄·S (S bounds |Ẽᵢ|), then
+    /// rounded to f32 (half an ulp each). So |v₁ − v₂| ≤ 2(k + 2)u₆₄·S + ulp₃₂(max|vᵢ|); and the
+    /// total weights differ by at most 2k·u₆₄·Σw.
+    #[test]
+    fn insertion_order_does_not_matter(
+        records in prop::collection::vec(
+            (v3(-1.0..1.0), near(Vec3::Z, 15.0), 0.5f32..3.0, rgb(),
+             prop::array::uniform3(rgb_signed(3.0)), prop::array::uniform3(rgb_signed(3.0))),
+            2..50),
+        perm_seed in any::<u64>(),
+        queries in prop::collection::vec((v3(-1.0..1.0), near(Vec3::Z, 10.0)), 1..8),
+    ) {
+        let records: Vec<_> = records.into_iter()
+            .map(|(p, n, r, e, tg, rg)| Record::new(p, n, r, e).with_gradients(tg, rg))
+            .collect();
+        // Random queries, and one at each of the first records (hits for sure).
+        let mut queries = queries;
+        queries.extend(records.iter().take(4).map(|r| (r.position, r.normal)));
+        // A deterministic permutation (Fisher–Yates driven by a SplitMix64 stream).
+        let mut shuffled = records.clone();
+        let mut state = perm_seed;
+        for i in (1..shuffled.len()).rev() {
+            state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            z ^= z >> 31;
+            shuffled.swap(i, (z % (i as u64 + 1)) as usize);
+        }
+        let a = cache_of(tl(), &records);
+        let b = cache_of(tl(), &shuffled);
+        for (q, qn) in queries {
+            match (a.interpolate(q, qn), b.interpolate(q, qn)) {
+                (None, None) => {}
+                (Some(x), Some(y)) => {
+                    prop_assert_eq!(x.count, y.count);
+                    let k = f64::from(x.count);
+                    let s = extrapolation_scale(&a, q, qn);
+                    prop_assert!((x.total_weight - y.total_weight).abs() <= 2.0 * k * U64 * x.total_weight);
+                    for c in 0..3 {
+                        let (u, v) = (x.value.0[c], y.value.0[c]);
+                        let ulp = f64::from(u.abs().max(v.abs())) * 2.0 * U32;
+                        let bound = 2.0 * (k + 2.0) * U64 * s + ulp;
+                        prop_assert!(f64::from((u - v).abs()) <= bound,
+                            "channel {c}: {u} vs {v}, bound {bound:e}");
+                    }
+                }
+                (x, y) => prop_assert!(false, "one order hits, the other misses: {x:?} {y:?}"),
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The octree against a brute-force scan.
+
+/// In range by the octree, in range by brute force, weighted by the octree, weighted by brute
+/// force.
+type Sets = (Vec<u32>, Vec<u32>, Vec<(u32, f64)>, Vec<(u32, f64)>);
+
+proptest! {
+    #![proptest_config(config(64))]
+
+    /// For random records with radii over six orders of magnitude (10⁻³ to 10³) and positions
+    /// clustered at several scales, and queries near records and anywhere, the octree visits
+    /// exactly the records whose sphere of influence contains the query (each once), and the
+    /// weighted visit returns exactly the records of positive weight, with the same weights. No
+    /// tolerance: both sides apply the same f64 tests to the same f32 data.
+    #[test]
+    fn octree_matches_brute_force(
+        records in prop::collection::vec(
+            (v3(-1.0..1.0), -3.0f32..3.0, unit(), -3.0f32..3.0), 1..300),
+        near_queries in prop::collection::vec((0usize..300, v3(-1.0..1.0), unit()), 1..40),
+        far_queries in prop::collection::vec((v3(-1.0..1.0), -3.0f32..4.0, unit()), 1..20),
+        use_ward in any::<bool>(),
+    ) {
+        let records: Vec<_> = records.into_iter()
+            .map(|(p, pos_exp, n, r_exp)| Record::new(p * 10f32.powf(pos_exp), n, 10f32.powf(r_exp), Rgb::splat(1.0)))
+            .collect();
+        // Queries within about one radius of a record, and anywhere over the span of positions.
+        let mut queries: Vec<(Vec3, Vec3)> = near_queries.into_iter()
+            .map(|(i, d, n)| {
+                let r = &records[i % records.len()];
+                (r.position + d * r.radius * 0.7, n)
+            })
+            .collect();
+        queries.extend(far_queries.into_iter().map(|(p, e, n)| (p * 10f32.powf(e), n)));
+        let check = |cache: &dyn Fn(Vec3, Vec3) -> Sets| -> Result<(), TestCaseError> {
+            for &(q, n) in &queries {
+                let (tree, brute, tw, bw) = cache(q, n);
+                prop_assert_eq!(&tree, &brute, "in range at {}", q);
+                prop_assert_eq!(&tw, &bw, "weighted at {}", q);
+                prop_assert!(tw.iter().all(|&(_, w)| w > 0.0 && w.is_finite()));
+            }
+            Ok(())
+        };
+        if use_ward {
+            let c = cache_of(ward(0.4), &records);
+            let mut raw = Vec::new();
+            check(&|q, n| {
+                (tree_in_range(&c, q), brute_in_range(&c, q), tree_weighted(&c, q, n), brute_weighted(&c, q, n))
+            })?;
+            // Each record at most once per query.
+            for &(q, _) in &queries {
+                raw.clear();
+                c.for_each_in_range(q, |i, _| raw.push(i));
+                let mut dedup = raw.clone();
+                dedup.sort_unstable();
+                dedup.dedup();
+                prop_assert_eq!(raw.len(), dedup.len());
+            }
+        } else {
+            let c = cache_of(tl(), &records);
+            check(&|q, n| {
+                (tree_in_range(&c, q), brute_in_range(&c, q), tree_weighted(&c, q, n), brute_weighted(&c, q, n))
+            })?;
+        }
+    }
+
+    /// Neighbour clamping keeps the octree exact: after radii are lowered and records refiled,
+    /// the range query still equals the brute-force scan. And each insertion obeys both halves
+    /// of the clamp: the new radius r ≤ Rⱼ + dⱼ for every record j, and every record within r of
+    /// the new one ends with Rⱼ ≤ r + dⱼ.
+    #[test]
+    fn neighbour_clamping_keeps_the_octree_exact(
+        records in prop::collection::vec((v3(-1.0..1.0), unit(), -2.0f32..0.5), 1..120),
+        queries in prop::collection::vec(v3(-1.2..1.2), 1..30),
+    ) {
+        let mut cache = IrradianceCache::<Rgb, _>::new(tl());
+        for (p, n, r) in records {
+            let r = cache.neighbour_clamped_radius(p, 10f32.powf(r));
+            // Each clamp Rⱼ + d is computed in f64 and rounded to f32 once: u₃₂ relative.
+            let slack = 1.0 + 2.0 * U32;
+            for other in cache.records() {
+                let d = (p.as_dvec3() - other.position.as_dvec3()).length();
+                prop_assert!(f64::from(r) <= (f64::from(other.radius) + d) * slack);
+            }
+            cache.clamp_neighbours(p, r);
+            for other in cache.records() {
+                let d = (p.as_dvec3() - other.position.as_dvec3()).length();
+                if d < f64::from(r) {
+                    prop_assert!(f64::from(other.radius) <= (f64::from(r) + d) * slack);
+                }
+            }
+            cache.insert(Record::new(p, n, r, Rgb::splat(1.0))).unwrap_or_else(|e| panic!("{e}"));
+        }
+        for q in queries {
+            prop_assert_eq!(tree_in_range(&cache, q), brute_in_range(&cache, q));
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Finite weights.
+
+proptest! {
+    #![proptest_config(config(256))]
+
+    /// Weights are finite and ≥ 0 for coincident points, opposite normals, the smallest radius a
+    /// record may have, and subnormal distances.
+    #[test]
+    fn weights_are_finite(
+        p in v3(-1.0..1.0),
+        exp in -160i32..30,
+        tiny in v3(-1.0..1.0),
+        n in unit(),
+        m in unit(),
+        flip in any::<bool>(),
+        r_exp in -37.0f32..37.0,
+        coincide in any::<bool>(),
+    ) {
+        // From zero (2⁻¹⁶⁰ underflows) through subnormal coordinates to 2³⁰.
+        let p = p * 2f32.powi(exp);
+        // A subnormal offset (|x| < 2⁻¹²⁶) or none at all.
+        let q = if coincide { p } else { p + tiny * 1e-39 };
+        let rn = if flip { -n } else { m };
+        for radius in [f32::MIN_POSITIVE, 10f32.powf(r_exp), f32::MAX] {
+            let c = Candidate::new(q.as_dvec3(), n.as_dvec3(), p, rn, radius);
+            for w in [tl().weight(&c), ward(0.3).weight(&c), ward(1e30).weight(&c),
+                      TabellionLamorlette::new(1e-30).unwrap_or_else(|e| panic!("{e}")).weight(&c)] {
+                prop_assert!(w.is_finite() && w >= 0.0, "weight {w} for {c:?}");
+            }
+        }
+    }
+
+    /// The metrics' weights are positive only inside their influence radius, so the octree,
+    /// filing records by that radius, cannot miss a usable record.
+    #[test]
+    fn positive_weight_implies_within_influence(
+        d in v3(-1.0..1.0),
+        scale in -3.0f32..1.0,
+        n in near(Vec3::Z, 15.0),
+        radius in 0.1f32..10.0,
+        kappa in 0.1f32..3.0,
+        a in 0.05f32..1.5,
+    ) {
+        let q = d * 10f32.powf(scale);
+        let c = Candidate::new(q.as_dvec3(), n.as_dvec3(), Vec3::ZERO, Vec3::Z, radius);
+        let t = TabellionLamorlette::new(kappa).unwrap_or_else(|e| panic!("{e}"));
+        if t.weight(&c) > 0.0 {
+            prop_assert!(within_influence(Vec3::ZERO, t.influence_radius(radius), q));
+        }
+        let w = ward(a);
+        if w.weight(&c) > 0.0 {
+            prop_assert!(within_influence(Vec3::ZERO, w.influence_radius(radius), q));
+        }
+    }
+}
+
+#[test]
+fn zero_and_bad_radii_are_rejected_at_insertion() {
+    let mut cache = IrradianceCache::<Rgb, _>::new(tl());
+    for r in [0.0, -0.0, -1.0, f32::NAN, f32::INFINITY, 1e-45] {
+        let e = cache.insert(Record::new(Vec3::ZERO, Vec3::Z, r, Rgb::splat(1.0)));
+        assert!(
+            matches!(e, Err(InsertError::Radius(_))),
+            "radius {r}: {e:?}"
+        );
+    }
+    assert!(cache.is_empty());
+    // A finite radius whose influence is not finite (R/(2κ) overflows f32) is refused too.
+    let loose = TabellionLamorlette::new(1e-3).unwrap_or_else(|e| panic!("{e}"));
+    let mut cache = IrradianceCache::<Rgb, _>::new(loose);
+    let e = cache.insert(Record::new(Vec3::ZERO, Vec3::Z, f32::MAX, Rgb::splat(1.0)));
+    assert!(matches!(e, Err(InsertError::Influence(_))), "{e:?}");
+}
+
+#[test]
+fn extend_is_all_or_nothing() {
+    let mut cache = IrradianceCache::<Rgb, _>::new(tl());
+    let good = Record::new(Vec3::ZERO, Vec3::Z, 1.0, Rgb::splat(1.0));
+    let bad = Record::new(Vec3::ZERO, Vec3::Z, 1.0, Rgb::new(1.0, f32::NAN, 0.0));
+    assert_eq!(
+        cache.extend([good, good, bad, good]),
+        Err((2, InsertError::Value))
+    );
+    assert!(cache.is_empty());
+    assert!(cache.interpolate(Vec3::ZERO, Vec3::Z).is_none());
+    assert_eq!(cache.extend([good, good]), Ok(0..2));
+    assert_eq!(cache.extend([good]), Ok(2..3));
+    assert_eq!(
+        cache.interpolate(Vec3::ZERO, Vec3::Z).map(|h| h.count),
+        Some(3)
+    );
+}
+
+#[test]
+fn bad_queries_miss_without_panicking() {
+    let cache = cache_of(
+        tl(),
+        &[Record::new(Vec3::ZERO, Vec3::Z, 1.0, Rgb::splat(1.0))],
+    );
+    for (p, n) in [
+        (Vec3::NAN, Vec3::Z),
+        (Vec3::ZERO, Vec3::NAN),
+        (Vec3::ZERO, Vec3::ZERO),
+        (Vec3::INFINITY, Vec3::Z),
+    ] {
+        assert!(cache.interpolate(p, n).is_none(), "{p} {n}");
+    }
+    // A query normal that is not unit is normalised.
+    assert!(
+        cache
+            .interpolate(Vec3::ZERO, Vec3::new(0.0, 0.0, 7.0))
+            .is_some()
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// The two known bugs of public implementations, and scale.
+
+/// A record whose normal is `degrees` away from +z, at the query point.
+fn tilted(degrees: f32) -> Record<Rgb> {
+    let t = degrees.to_radians();
+    Record::new(
+        Vec3::ZERO,
+        Vec3::new(t.sin(), 0.0, t.cos()),
+        1.0,
+        Rgb::splat(1.0),
+    )
+}
+
+/// A 10° normal limit must act at 10°, not at 68° (pbrt-v2 computes `cosf(Degrees(maxang))`:
+/// cos(572.96 rad) = cos 68.1°). 9.9° and 10.1° are 0.2° apart: the chord between them differs by
+/// 2(sin 5.05° − sin 4.95°) ≈ 3.5·10⁻³, far above the ~10⁻⁷ rounding of the chord from f32
+/// normals.
+#[test]
+fn ten_degree_limit_is_ten_degrees() {
+    let cuts = Cuts::new(Angle::from_degrees(10.0), 0.05).unwrap_or_else(|e| panic!("{e}"));
+    let ward_cut = ward(0.5).with_cuts(cuts);
+    let tl_cut = TabellionLamorlette::new(0.5)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .with_cuts(cuts);
+    let used = |rec: Record<Rgb>| {
+        [
+            cache_of(ward_cut, &[rec])
+                .interpolate(Vec3::ZERO, Vec3::Z)
+                .is_some(),
+            cache_of(tl_cut, &[rec])
+                .interpolate(Vec3::ZERO, Vec3::Z)
+                .is_some(),
+            // κ = 1 and no separate cut: Tabellion & Lamorlette's normal term alone ends at 10°.
+            cache_of(tl(), &[rec])
+                .interpolate(Vec3::ZERO, Vec3::Z)
+                .is_some(),
+        ]
+    };
+    assert_eq!(used(tilted(9.9)), [true; 3]);
+    assert_eq!(used(tilted(10.1)), [false; 3]);
+    assert_eq!(used(tilted(30.0)), [false; 3]);
+    assert!((Angle::from_degrees(10.0).radians() - 0.174_532_925).abs() < 1e-8);
+}
+
+/// The in-front test scales with the scene: a record at height h·R in front of the query's
+/// tangent plane is skipped when h > τ and used when h < τ, for scenes scaled by 2⁻²⁰ … 2²⁰ (a
+/// tolerance in world units, like Mitsuba's 0.05, would accept both at small scales and reject
+/// both at large ones). Powers of two scale every coordinate exactly, so the decisions must be the
+/// same at every scale.
+#[test]
+fn in_front_test_is_relative_to_the_radius() {
+    let tau = Cuts::default().in_front_tolerance();
+    for e in -20..=20 {
+        let s = 2f32.powi(e);
+        let (radius, q) = (s, Vec3::new(0.25 * s, 0.0, 0.0));
+        let cache = |h: f32| {
+            let rec = Record::new(Vec3::new(0.0, 0.0, h * s), Vec3::Z, radius, Rgb::splat(1.0));
+            (
+                cache_of(tl(), &[rec]).interpolate(q, Vec3::Z).is_some(),
+                cache_of(ward(0.5), &[rec])
+                    .interpolate(q, Vec3::Z)
+                    .is_some(),
+            )
+        };
+        // Heights of 0.03 R and 0.07 R around τ = 0.05; behind the plane (negative heights) the
+        // record is always in use.
+        assert_eq!(
+            cache(0.03),
+            (true, true),
+            "scale 2^{e}, h = 0.03 (τ = {tau})"
+        );
+        assert_eq!(cache(0.07), (false, false), "scale 2^{e}, h = 0.07");
+        assert_eq!(cache(-0.2), (true, true), "scale 2^{e}, h = −0.2");
+    }
+}
+
+/// Records at 10⁻⁴ m and at 10⁴ m in one cache; the scene translated by 10⁵ gives the same
+/// answers bit for bit. Positions are multiples of 2⁻⁷, so adding 10⁵ (where the f32 spacing is
+/// 2⁻⁷) is exact, and so is every offset p − pᵢ: the weights, the values and the sets are equal.
+#[test]
+fn any_scale_and_translation() {
+    let mut records = Vec::new();
+    for i in 0..50u8 {
+        let f = f32::from(i);
+        // Small records on a 2⁻⁷ grid near the origin (R = 10⁻⁴ … 10⁻³ m would be below the
+        // translated scene's resolution, so those are kept untranslated below), large ones
+        // spread over 10⁴ m.
+        records.push(Record::new(
+            Vec3::new(f * 0.5, (f * 0.25).floor(), 0.0),
+            Vec3::Z,
+            1.0 + f * 0.125,
+            Rgb::splat(f),
+        ));
+        records.push(Record::new(
+            Vec3::new(f * 256.0 - 6000.0, 3000.0, 128.0 * f),
+            Vec3::Y,
+            1e4,
+            Rgb::splat(100.0 + f),
+        ));
+    }
+    let base = cache_of(tl(), &records);
+    let shift = Vec3::splat(1e5);
+    let moved: Vec<_> = records
+        .iter()
+        .map(|r| Record {
+            position: r.position + shift,
+            ..*r
+        })
+        .collect();
+    let moved = cache_of(tl(), &moved);
+    let mut hits = 0;
+    for i in 0..200u16 {
+        let f = f32::from(i);
+        for (q, n) in [
+            (
+                Vec3::new(f * 0.125 - 3.0, (f * 0.0625).floor(), 0.0),
+                Vec3::Z,
+            ),
+            (Vec3::new(f * 64.0 - 6000.0, 3000.0 + f, 128.0 * f), Vec3::Y),
+        ] {
+            // The same records with the same weights, bit for bit.
+            let wa = tree_weighted(&base, q, n);
+            assert_eq!(wa, tree_weighted(&moved, q + shift, n), "query {q}");
+            // The two octrees have different roots, so they may visit the records in another
+            // order: the values agree within the insertion-order bound (see
+            // `insertion_order_does_not_matter`; the gradients are zero, so S = max Eᵢ).
+            match (base.interpolate(q, n), moved.interpolate(q + shift, n)) {
+                (None, None) => {}
+                (Some(a), Some(b)) => {
+                    hits += 1;
+                    assert_eq!((a.count, a.total_weight), (b.count, b.total_weight));
+                    let k = f64::from(a.count);
+                    for c in 0..3 {
+                        let (u, v) = (a.value.0[c], b.value.0[c]);
+                        let s = f64::from(u.max(v)) * 1.01;
+                        let bound = 2.0 * (k + 2.0) * U64 * s + 2.0 * U32 * s;
+                        assert!(f64::from((u - v).abs()) <= bound, "{u} vs {v} at {q}");
+                    }
+                }
+                (a, b) => panic!("query {q}: {a:?} vs {b:?}"),
+            }
+        }
+    }
+    assert!(hits > 100, "{hits} hits");
+    assert!(
+        base.interpolate(Vec3::new(1.0, 0.0, 0.0), Vec3::Z)
+            .is_some()
+    );
+
+    // Tiny records (R = 10⁻⁴ m) next to huge ones (R = 10⁴ m) in one cache: each finds itself.
+    let mut mixed = IrradianceCache::<Rgb, _>::new(tl());
+    let small: Vec<_> = (0..100u8)
+        .map(|i| {
+            let f = f32::from(i);
+            Record::new(Vec3::new(f * 3e-4, 0.0, 5.0), Vec3::Z, 1e-4, Rgb::splat(f))
+        })
+        .collect();
+    mixed
+        .extend(small.iter().copied())
+        .unwrap_or_else(|(i, e)| panic!("{i}: {e}"));
+    mixed
+        .insert(Record::new(
+            Vec3::new(-3e4, 2e4, 0.0),
+            Vec3::Z,
+            1e4,
+            Rgb::splat(7.0),
+        ))
+        .unwrap_or_else(|e| panic!("{e}"));
+    for r in &small {
+        let hit = mixed
+            .interpolate(r.position, Vec3::Z)
+            .unwrap_or_else(|| panic!("miss at {}", r.position));
+        // Small records are 3·10⁻⁴ apart with influence R/2 = 5·10⁻⁵: each is alone.
+        assert_eq!((hit.value, hit.count), (r.value, 1));
+    }
+    let far = mixed.interpolate(Vec3::new(-3e4, 2e4, 1.0), Vec3::Z);
+    assert_eq!(far.map(|h| h.value), Some(Rgb::splat(7.0)));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Threads.
+
+#[test]
+fn queries_from_many_threads_match_one_thread() {
+    fn is_sync<T: Sync + Send>() {}
+    is_sync::<IrradianceCache<Rgb, TabellionLamorlette>>();
+    is_sync::<IrradianceCache<f32, Ward>>();
+
+    let records: Vec<_> = (0..2000u32)
+        .map(|i| {
+            let f = i as f32;
+            Record::new(
+                Vec3::new((f * 0.618).fract() * 10.0, (f * 0.414).fract() * 10.0, 0.0),
+                Vec3::Z,
+                0.3,
+                Rgb::splat(f),
+            )
+        })
+        .collect();
+    let cache = cache_of(tl(), &records);
+    let queries: Vec<Vec3> = (0..4000u32)
+        .map(|i| {
+            let f = i as f32;
+            Vec3::new(
+                (f * 0.1234).fract() * 10.0,
+                (f * 0.5678).fract() * 10.0,
+                0.0,
+            )
+        })
+        .collect();
+    let serial: Vec<_> = queries
+        .iter()
+        .map(|&q| cache.interpolate(q, Vec3::Z))
+        .collect();
+    let parallel: Vec<_> = std::thread::scope(|s| {
+        let handles: Vec<_> = queries
+            .chunks(1000)
+            .map(|chunk| {
+                let cache = &cache;
+                s.spawn(move || {
+                    chunk
+                        .iter()
+                        .map(|&q| cache.interpolate(q, Vec3::Z))
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().unwrap_or_else(|_| panic!("query thread panicked")))
+            .collect()
+    });
+    assert_eq!(serial, parallel);
+    assert!(serial.iter().filter(|h| h.is_some()).count() > 1000);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Files.
+
+fn record_strategy() -> impl Strategy<Value = Record<Rgb>> {
+    (
+        v3(-1e3..1e3),
+        unit(),
+        -3.0f32..3.0,
+        rgb(),
+        prop::array::uniform3(rgb_signed(50.0)),
+        prop::array::uniform3(rgb_signed(50.0)),
+    )
+        .prop_map(|(p, n, r, e, tg, rg)| Record::new(p, n, 10f32.powf(r), e).with_gradients(tg, rg))
+}
+
+fn bytes_of<V: CacheValue, M: ErrorMetric>(cache: &IrradianceCache<V, M>) -> Vec<u8> {
+    let mut out = Vec::new();
+    cache.write_to(&mut out).unwrap_or_else(|e| panic!("{e}"));
+    out
+}
+
+proptest! {
+    #![proptest_config(config(64))]
+
+    /// Write, read, write: the records and the bytes are identical, bit for bit, and the cache
+    /// read back answers queries identically.
+    #[test]
+    fn files_round_trip_bit_for_bit(records in prop::collection::vec(record_strategy(), 0..80)) {
+        let cache = cache_of(tl(), &records);
+        let bytes = bytes_of(&cache);
+        prop_assert_eq!(bytes.len(), 28 + 112 * records.len() + 8);
+        let back = IrradianceCache::<Rgb, _>::read_from(bytes.as_slice(), tl())
+            .unwrap_or_else(|e| panic!("{e}"));
+        prop_assert_eq!(bytes_of(&back), bytes);
+        prop_assert_eq!(back.records(), cache.records());
+        for r in &records {
+            prop_assert_eq!(back.interpolate(r.position, r.normal), cache.interpolate(r.position, r.normal));
+        }
+    }
+
+    /// Any single corrupted byte, anywhere in the file, is refused (the FNV-1a argument in the
+    /// io module's docs), and so is every truncation.
+    #[test]
+    fn corrupt_files_are_rejected(
+        records in prop::collection::vec(record_strategy(), 1..20),
+        at in any::<prop::sample::Index>(),
+        flip in 1u8..=255,
+        cut in any::<prop::sample::Index>(),
+    ) {
+        let bytes = bytes_of(&cache_of(tl(), &records));
+        let mut bad = bytes.clone();
+        let i = at.index(bad.len());
+        bad[i] ^= flip;
+        prop_assert!(IrradianceCache::<Rgb, _>::read_from(bad.as_slice(), tl()).is_err(), "byte {} flipped", i);
+        let n = cut.index(bytes.len());
+        let short = IrradianceCache::<Rgb, _>::read_from(&bytes[..n], tl());
+        prop_assert!(matches!(short, Err(CacheFileError::Truncated)), "cut at {}: {:?}", n, short.err());
+    }
+}
+
+#[test]
+fn foreign_and_wrong_version_files_are_rejected_with_the_reason() {
+    let cache = cache_of(
+        tl(),
+        &[Record::new(Vec3::ZERO, Vec3::Z, 1.0, Rgb::splat(2.0))],
+    );
+    let bytes = bytes_of(&cache);
+    let read = |b: &[u8]| IrradianceCache::<Rgb, _>::read_from(b, tl()).err();
+
+    let png = b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR\0\0\0\x01\0\0\0\x01\x08\x02\0\0\0";
+    assert!(matches!(read(png), Some(CacheFileError::NotACacheFile)));
+    assert!(matches!(read(b""), Some(CacheFileError::Truncated)));
+
+    let mut v2 = bytes.clone();
+    v2[8..12].copy_from_slice(&2u32.to_le_bytes());
+    assert!(matches!(
+        read(&v2),
+        Some(CacheFileError::Version {
+            found: 2,
+            supported: 1
+        })
+    ));
+
+    // An RGB file read as ambient occlusion, and as 3 signed coefficients.
+    let as_ao = IrradianceCache::<f32, _>::read_from(bytes.as_slice(), tl()).err();
+    assert!(matches!(
+        as_ao,
+        Some(CacheFileError::ValueType { found_tag: 1, .. })
+    ));
+    let as_sh = IrradianceCache::<[f32; 3], _>::read_from(bytes.as_slice(), tl()).err();
+    assert!(matches!(
+        as_sh,
+        Some(CacheFileError::ValueType {
+            expected_tag: 3,
+            ..
+        })
+    ));
+
+    // A payload change with a matching checksum still cannot smuggle in an invalid record.
+    let mut zero_radius = bytes.clone();
+    zero_radius[28 + 24..28 + 28].copy_from_slice(&0f32.to_le_bytes());
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in &zero_radius[..zero_radius.len() - 8] {
+        h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    let end = zero_radius.len() - 8;
+    zero_radius[end..].copy_from_slice(&h.to_le_bytes());
+    assert!(matches!(
+        read(&zero_radius),
+        Some(CacheFileError::Record {
+            index: 0,
+            source: InsertError::Radius(_)
+        })
+    ));
+
+    // Trailing bytes after the checksum are left unread.
+    let mut longer = bytes.clone();
+    longer.extend_from_slice(b"more");
+    assert!(read(&longer).is_none());
+}
+
+#[test]
+fn scalar_and_coefficient_caches_round_trip() {
+    let mut ao = IrradianceCache::<f32, _>::new(ward(0.2));
+    ao.insert(Record::new(Vec3::ONE, Vec3::X, 0.5, 0.75))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let bytes = bytes_of(&ao);
+    assert_eq!(bytes.len(), 28 + 56 + 8);
+    let back = IrradianceCache::<f32, _>::read_from(bytes.as_slice(), ward(0.2))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(back.records(), ao.records());
+    assert_eq!(
+        back.interpolate(Vec3::ONE, Vec3::X).map(|h| h.value),
+        Some(0.75)
+    );
+
+    let mut sh = IrradianceCache::<[f32; 9], _>::new(tl());
+    let coeffs = std::array::from_fn(|i| i as f32 - 4.0);
+    sh.insert(Record::new(Vec3::ZERO, Vec3::Y, 1.0, coeffs))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let back = IrradianceCache::<[f32; 9], _>::read_from(bytes_of(&sh).as_slice(), tl())
+        .unwrap_or_else(|e| panic!("{e}"));
+    // Signed coefficients are not clamped.
+    assert_eq!(
+        back.interpolate(Vec3::ZERO, Vec3::Y).map(|h| h.value),
+        Some(coeffs)
+    );
+}
