@@ -1,3 +1,4 @@
 //! Cross-crate integration tests for irr: one binary, a module per subject.
 
+mod geometry;
 mod sampling;

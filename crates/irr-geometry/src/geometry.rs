@@ -266,6 +266,50 @@ impl Geometry {
         }
     }
 
+    /// [`Geometry::intersect`] without the BVH: the same triangle test on every triangle, in
+    /// id order. O(n); the reference that the BVH is tested against.
+    #[must_use]
+    pub fn intersect_brute_force(&self, ray: &Ray) -> Option<Hit> {
+        let r = PreparedRay::new(ray)?;
+        let mut t_best = r.t_max;
+        let mut best = None;
+        for (id, tri) in self.triangles.iter().enumerate() {
+            let soa = TriSoa::new(tri.p);
+            let h = match r.kz {
+                0 => intersect_triangle::<0>(&soa, &r, t_best),
+                1 => intersect_triangle::<1>(&soa, &r, t_best),
+                _ => intersect_triangle::<2>(&soa, &r, t_best),
+            };
+            if let Some(h) = h {
+                t_best = h.t;
+                best = Some(Hit {
+                    t: h.t,
+                    triangle: id as u32,
+                    b1: h.b1,
+                    b2: h.b2,
+                });
+            }
+        }
+        best
+    }
+
+    /// [`Geometry::occluded`] without the BVH (O(n) reference).
+    #[must_use]
+    pub fn occluded_brute_force(&self, ray: &Ray) -> bool {
+        let Some(r) = PreparedRay::new(ray) else {
+            return false;
+        };
+        self.triangles.iter().any(|tri| {
+            let soa = TriSoa::new(tri.p);
+            match r.kz {
+                0 => intersect_triangle::<0>(&soa, &r, r.t_max),
+                1 => intersect_triangle::<1>(&soa, &r, r.t_max),
+                _ => intersect_triangle::<2>(&soa, &r, r.t_max),
+            }
+            .is_some()
+        })
+    }
+
     /// The number of BVH nodes (for statistics and benchmarks).
     #[must_use]
     pub fn node_count(&self) -> usize {
@@ -538,6 +582,164 @@ mod tests {
         let ray = Ray::new(Vec3::new(0.7, 0.2, -1.0), Vec3::Z);
         assert_eq!(g.intersect(&ray).map(|h| h.triangle), Some(0));
         assert!(g.occluded(&ray));
+    }
+
+    /// A closed box of 1e-4 × 1e-7 × 1e-4 rotated about a tilted axis, faces numbered as
+    /// material ids 0..6 (−x, +x, −y, +y, −z, +z).
+    fn thin_slab() -> Geometry {
+        let q = glam::Quat::from_axis_angle(Vec3::new(0.3, 0.2, 1.0).normalize(), 0.4);
+        let h = Vec3::new(0.5e-4, 0.5e-7, 0.5e-4);
+        let corner = |i: usize| {
+            let s = |bit: usize| if i & bit == 0 { -1.0 } else { 1.0 };
+            q * (Vec3::new(s(1), s(2), s(4)) * h)
+        };
+        let faces: [[u32; 4]; 6] = [
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+        ];
+        let mut mesh = TriangleMesh {
+            positions: (0..8).map(corner).collect(),
+            ..TriangleMesh::default()
+        };
+        for (f, [a, b, c, d]) in faces.into_iter().enumerate() {
+            mesh.indices.extend([[a, b, c], [a, c, d]]);
+            mesh.material_ids.extend([f as u32; 2]);
+        }
+        Geometry::build(&[mesh]).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// Regression: a ray leaving the inside of a thin slab's bottom face at cos θ ≈ 7e-9 passes
+    /// 3e-12 above the bottom edge of a side face, closer than the f32 edge functions can
+    /// resolve (their error is ~u·R² with R ~ 1e-4). Without the f64 filter the side face was
+    /// judged missed and the ray escaped.
+    #[test]
+    fn grazing_ray_along_a_thin_face_enters_the_adjacent_face() {
+        let g = thin_slab();
+        let p = Vec3::new(-5.537_509_4e-6, -4.625_895_3e-7, -1.314_264_8e-5);
+        let d = Vec3::new(0.201_186_82, 0.207_230_27, -0.957_381_67);
+        let ng = g.triangle(4).normal();
+        let ray = Ray::spawn(p, ng, d);
+        let hit = g
+            .intersect(&ray)
+            .unwrap_or_else(|| panic!("escaped: {ray:?}"));
+        assert_eq!(g.triangle(hit.triangle).material_id, 4, "{hit:?}");
+    }
+
+    #[test]
+    fn empty_input_is_an_error_not_a_panic() {
+        let err = Geometry::build(&[]).err();
+        assert_eq!(
+            err,
+            Some(GeometryError::EmptyScene {
+                dropped_degenerate: 0,
+                dropped_non_finite: 0
+            })
+        );
+        let err = Geometry::build(&[TriangleMesh::default()]).err();
+        assert!(matches!(err, Some(GeometryError::EmptyScene { .. })));
+    }
+
+    #[test]
+    fn degenerate_and_non_finite_triangles_are_dropped_and_counted() {
+        let mut m = quad(0.0, 3);
+        m.positions.extend([
+            Vec3::new(f32::NAN, 0.0, 0.0),
+            Vec3::new(0.0, f32::INFINITY, 0.0),
+            Vec3::new(2.0, 2.0, 0.0), // collinear with vertices 0 and 2
+        ]);
+        m.indices.extend([
+            [0, 1, 4], // NaN
+            [5, 1, 2], // infinite
+            [0, 2, 6], // collinear: zero area
+            [1, 1, 2], // repeated vertex: zero area
+            [4, 5, 4], // non-finite and degenerate: counted once, as non-finite
+        ]);
+        m.material_ids.extend([3; 5]);
+        let g = Geometry::build(&[m]).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            *g.report(),
+            BuildReport {
+                kept: 2,
+                dropped_degenerate: 2,
+                dropped_non_finite: 3
+            }
+        );
+        assert_eq!(g.bounds(), (Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0)));
+        // Ids number the kept triangles in input order.
+        assert_eq!(
+            g.triangle(1).p,
+            [Vec3::ZERO, Vec3::ONE.with_z(0.0), Vec3::Y]
+        );
+        assert!(g.get_triangle(2).is_none());
+    }
+
+    #[test]
+    fn all_dropped_is_an_error_with_the_counts() {
+        let m = TriangleMesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::new(2.0, 0.0, 0.0), Vec3::NAN],
+            indices: vec![[0, 1, 2], [0, 1, 3]],
+            normals: None,
+            material_ids: vec![0, 0],
+        };
+        let err = Geometry::build(&[m]).err();
+        assert_eq!(
+            err,
+            Some(GeometryError::EmptyScene {
+                dropped_degenerate: 1,
+                dropped_non_finite: 1
+            })
+        );
+        assert_eq!(
+            err.map(|e| e.to_string()).unwrap_or_default(),
+            "no triangles left after dropping 1 degenerate and 1 non-finite"
+        );
+    }
+
+    #[test]
+    fn malformed_meshes_are_typed_errors_naming_mesh_and_triangle() {
+        let mut bad_index = quad(0.0, 0);
+        bad_index.indices[1] = [0, 2, 4];
+        let err = Geometry::build(&[quad(1.0, 0), bad_index]).err();
+        assert_eq!(
+            err,
+            Some(GeometryError::IndexOutOfRange {
+                mesh: 1,
+                triangle: 1,
+                index: 4,
+                vertex_count: 4
+            })
+        );
+        assert!(
+            err.map(|e| e.to_string())
+                .unwrap_or_default()
+                .starts_with("mesh 1, triangle 1: vertex index 4 is out of range")
+        );
+
+        let mut bad_normals = quad(0.0, 0);
+        bad_normals.normals = Some(vec![Vec3::Z; 3]);
+        assert_eq!(
+            Geometry::build(&[bad_normals]).err(),
+            Some(GeometryError::NormalCountMismatch {
+                mesh: 0,
+                normals: 3,
+                positions: 4
+            })
+        );
+
+        let mut bad_materials = quad(0.0, 0);
+        bad_materials.material_ids.push(1);
+        assert_eq!(
+            Geometry::build(&[bad_materials]).err(),
+            Some(GeometryError::MaterialCountMismatch {
+                mesh: 0,
+                material_ids: 3,
+                triangles: 2
+            })
+        );
     }
 
     #[test]

@@ -6,8 +6,13 @@
 //! of pbrt-v4 (§6.5.3, `IntersectTriangle`): translate the vertices to the ray origin, permute
 //! so the ray's largest direction component is z, shear so the ray becomes the +z axis, and
 //! evaluate the three 2D edge functions. An edge shared by two triangles gives the same edge
-//! function value (up to sign) in both, bit for bit, so a ray cannot slip between them; an edge
-//! function that rounds to exactly zero is recomputed in `f64` (pbrt-v4 does the same).
+//! function value (up to sign) in both, bit for bit, so a ray cannot slip between them.
+//! Where an edge function is within its rounding-error bound of zero (the ray passes within
+//! rounding distance of an edge, so the `f32` sign is uncertain), the test is redone in `f64`
+//! from the original data — a filtered predicate, in the manner of Shewchuk's adaptive
+//! predicates. pbrt-v4 only redoes edge functions that are exactly zero; the wider filter keeps
+//! the inside/outside decision correct where it matters for robustness: a grazing ray leaving
+//! a face just above its edge must be found to enter the adjacent face, not the face it leaves.
 //!
 //! The triangle is stored as three `Vec3A` of x, y and z coordinates (one lane per vertex), so
 //! translation, shear and the three edge functions are a handful of 4-wide operations. The
@@ -16,21 +21,31 @@
 //! (glam's `cross` fuses with FMA when the target has it, which would break the bitwise
 //! antisymmetry that watertightness needs).
 //!
-//! # Error bound on t
-//! pbrt-v4's bound `δt` on the rounding error of the computed `t` (derived in pbrt-v3 §3.9.6
-//! and kept in pbrt-v4 §6.8.4): a hit is reported only when `t > δt` (it is certainly in front
-//! of the origin) and `t + δt < t_max` (it is certainly before the end). The first makes a ray
-//! whose origin lies on the right side of its own surface, by however little, unable to re-hit
-//! it; the second does the same for the far end of a shadow ray.
+//! # Distance and its error bound
+//! The edge functions decide *whether* the ray passes the triangle (watertight); the distance
+//! comes from the plane instead: `t = ((p0 − o)·n) / (d·n)` with the unit normal `n` computed in
+//! `f64` at build time. Its rounding error is bounded by
+//! `δt = (γ₅·Σ|a_i n_i| + γ₄·|t|·Σ|d_i n_i|) / |d·n| + γ₁·|t|` with `a = p0 − o` (the dot
+//! products carry γ₃, the rounding of `a` and of `n` one `u` each; see `intersect_triangle`).
+//! pbrt-v4's bound for the Woop distance (§6.8.4) goes through the barycentric weights, whose
+//! error grows with the triangle's length over its area: for a 1e-4 × 1e-7 sliver (the side of
+//! a thin slab) it is ~600× the distance to the side, and a ray starting next to the side would
+//! pass through it. The plane distance's bound depends only on how far `p0` is from the origin.
+//!
+//! A hit is reported only when `t > δt` (it is certainly in front of the origin) and
+//! `t + δt < t_max` (it is certainly before the end). The first makes a ray whose origin lies on
+//! the right side of its own surface, by however little, unable to re-hit it; the second does the
+//! same for the far end of a shadow ray.
 //!
 //! # Box test
 //! The slab test with Ize's correction ("Robust BVH Ray Traversal", JCGT 2(2), 2013): each slab
 //! distance `(b − o)·(1/d)` carries at most three roundings, so the far distance is scaled by
 //! `1 + 2γ₃` and a box that the exact ray touches is never rejected.
 
-use glam::{Vec3, Vec3A, Vec3Swizzles};
+use glam::{DVec3, Vec3, Vec3A, Vec3Swizzles};
 
 use crate::Ray;
+use crate::mesh::cross_f64;
 
 /// `γ_n = n·u / (1 − n·u)` with `u = 2⁻²⁴` (pbrt's bound on `n` successive roundings).
 pub(crate) const fn gamma(n: i32) -> f32 {
@@ -41,12 +56,15 @@ pub(crate) const fn gamma(n: i32) -> f32 {
 /// Ize's factor on the far slab distance: `1 + 2γ₃`.
 const BOX_FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
 
-/// A triangle as the hot path reads it: the x, y and z coordinates of its three vertices.
+/// A triangle as the hot path reads it: the x, y and z coordinates of its three vertices, and
+/// its unit normal. 64 bytes, aligned to a cache line.
 #[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
 pub(crate) struct TriSoa {
-    pub(crate) xs: Vec3A,
-    pub(crate) ys: Vec3A,
-    pub(crate) zs: Vec3A,
+    xs: Vec3A,
+    ys: Vec3A,
+    zs: Vec3A,
+    n: Vec3A,
 }
 
 impl TriSoa {
@@ -55,6 +73,7 @@ impl TriSoa {
             xs: Vec3A::new(p[0].x, p[1].x, p[2].x),
             ys: Vec3A::new(p[0].y, p[1].y, p[2].y),
             zs: Vec3A::new(p[0].z, p[1].z, p[2].z),
+            n: cross_f64(p).normalize_or_zero().as_vec3a(),
         }
     }
 }
@@ -64,13 +83,13 @@ impl TriSoa {
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct PreparedRay {
     pub(crate) origin: Vec3A,
+    dir: Vec3A,
     pub(crate) inv_dir: Vec3A,
     ox: Vec3A,
     oy: Vec3A,
     oz: Vec3A,
     sx: f32,
     sy: f32,
-    sz: f32,
     /// The axis of the largest direction component, which the triangle test maps to z.
     pub(crate) kz: usize,
     /// The caller's `t_max`.
@@ -98,23 +117,23 @@ impl PreparedRay {
         };
         let kx = (kz + 1) % 3;
         let ky = (kx + 1) % 3;
-        // pbrt-v4: Sx = −d_x/d_z, Sy = −d_y/d_z, Sz = 1/d_z in the permuted frame.
+        // pbrt-v4: Sx = −d_x/d_z, Sy = −d_y/d_z in the permuted frame (Sz is not needed: the
+        // distance comes from the plane, see the module docs).
         let sx = -d[kx] / d[kz];
         let sy = -d[ky] / d[kz];
-        let sz = 1.0 / d[kz];
         // 1/d, clamped so that a zero component gives ±f32::MAX instead of ±∞ (∞·0 would be NaN
         // when the origin lies on a slab plane). This only matters for |d_i| < 2.9e-39.
         let inv_dir = (Vec3A::ONE / Vec3A::from(d)).clamp(Vec3A::splat(-f32::MAX), Vec3A::MAX);
         let o = Vec3A::from(ray.origin);
         Some(PreparedRay {
             origin: o,
+            dir: Vec3A::from(d),
             inv_dir,
             ox: Vec3A::splat(o.x),
             oy: Vec3A::splat(o.y),
             oz: Vec3A::splat(o.z),
             sx,
             sy,
-            sz,
             kz,
             t_max: ray.t_max,
         })
@@ -147,6 +166,9 @@ pub(crate) struct TriHit {
 
 /// The watertight test (see the module docs). Reports a hit only with `δt < t`, `t ≤ t_best`
 /// and `t + δt < ray.t_max`, where `δt` bounds the rounding error of `t`.
+///
+/// `t_best` (the closest hit so far) is checked with the exact `t ≤ t_best`: a tie between two
+/// triangles at the same computed distance goes to the later one, which is harmless.
 #[inline(always)]
 pub(crate) fn intersect_triangle<const KZ: usize>(
     tri: &TriSoa,
@@ -168,68 +190,89 @@ pub(crate) fn intersect_triangle<const KZ: usize>(
     let xt = px + Vec3A::splat(ray.sx) * pz;
     let yt = py + Vec3A::splat(ray.sy) * pz;
     // Edge functions e_i = x_j·y_k − x_k·y_j for (i, j, k) cyclic: e0 weighs vertex 0.
-    let mut e = xt.yzx() * yt.zxy() - xt.zxy() * yt.yzx();
-    // An edge function of exactly zero is ambiguous in f32: redo all three in f64, where the
-    // products are exact (Woop et al. 2013, §4; pbrt-v4 does the same).
-    if e.cmpeq(Vec3A::ZERO).any() {
-        e = edge_functions_f64(xt, yt);
+    let e = xt.yzx() * yt.zxy() - xt.zxy() * yt.yzx();
+    // Filter (as in exact geometric predicates): with R the largest |v − o| component, every
+    // |e_i| above EDGE_ERROR·R² has the sign of the exact edge function; otherwise redo the test
+    // in f64, whose error is 2⁻²⁹ times smaller (see `EDGE_ERROR`).
+    let r = x.abs().max(y.abs()).max(z.abs()).max_element();
+    let delta_e = EDGE_ERROR * r * r + f32::MIN_POSITIVE;
+    let (b1, b2) = if e.abs().cmple(Vec3A::splat(delta_e)).any() {
+        edge_test_f64::<KZ>(tri, ray)?
+    } else {
+        // The ray passes the triangle only if all three edge functions have the same sign.
+        if e.cmplt(Vec3A::ZERO).any() && e.cmpgt(Vec3A::ZERO).any() {
+            return None;
+        }
+        let inv_det = 1.0 / (e.x + e.y + e.z);
+        (e.y * inv_det, e.z * inv_det)
+    };
+    // Distance to the plane through p0 (see the module docs): a = p0 − o was computed above.
+    let a = Vec3A::new(x.x, y.x, z.x);
+    let den = ray.dir.dot(tri.n);
+    let t = a.dot(tri.n) / den;
+    // A zero `den` (the ray parallel to the plane) gives ±∞ or NaN, rejected here or below.
+    if t.is_nan() || t > t_best {
+        return None;
     }
-    // The ray passes the triangle only if all three edge functions have the same sign.
-    if e.cmplt(Vec3A::ZERO).any() && e.cmpgt(Vec3A::ZERO).any() {
+    // Bound on |t − t_exact|: with N = a·n and D = d·n, the computed N is within
+    // γ₃·Σ|a_i n_i| of its value for the computed a and n (a dot of three), the rounding of a
+    // and of n (each one u) add γ₂·Σ|a_i n_i|: γ₅ in all; likewise D is within γ₄·Σ|d_i n_i|.
+    // Then |N/D − N*/D*| ≤ (|N − N*| + |t|·|D − D*|)/|D|, and the division adds u·|t|. The
+    // bound itself is computed with a few roundings: γ₇, γ₆ and γ₂ instead of γ₅, γ₄ and γ₁
+    // cover them.
+    let t_abs = t.abs();
+    let delta_t = (gamma(7) * (a * tri.n).abs().element_sum()
+        + gamma(6) * t_abs * (ray.dir * tri.n).abs().element_sum())
+        / den.abs()
+        + gamma(2) * t_abs;
+    if t > delta_t && t + delta_t < ray.t_max {
+        Some(TriHit { t, b1, b2 })
+    } else {
+        None
+    }
+}
+
+/// The bound on the error of the `f32` edge functions, as a multiple of `R²` (`R` the largest
+/// `|v − o|` component over the three vertices). With `|Sx|, |Sy| ≤ 1` (z is the largest
+/// direction component), a sheared coordinate is at most `2R(1 + γ₂)` and carries an error of at
+/// most `γ₃·2R(1 + u) ≤ 2γ₄R` (translation, product and sum); an edge function
+/// `x_j·y_k − x_k·y_j` then errs by at most `γ₂·8R²` (its own roundings) plus
+/// `2·(X·E_y + Y·E_x + E_x·E_y) ≤ 16γ₄R² + O(u²)` (its inputs' errors): `(8γ₂ + 16γ₄)R² ≈ 80u·R²`.
+/// 96u leaves room for the roundings of `R²` and of the comparison's own arithmetic.
+const EDGE_ERROR: f32 = 96.0 * f32::EPSILON * 0.5;
+
+/// The edge test in `f64` from the original data, for rays that pass within rounding distance
+/// of an edge: translation and products of `f32` values are (nearly) exact in `f64`, the shear
+/// uses the same `Sx`, `Sy` as the `f32` test (so both approximate the same exact problem), and
+/// each edge function errs by ~2⁻⁵⁰·R², 2⁻²⁹ times less than in `f32`. A shared edge gives
+/// bitwise opposite values in both triangles (same operands), so the test stays watertight.
+/// Returns the barycentrics `(b1, b2)` if the ray passes the triangle.
+#[cold]
+#[inline(never)]
+fn edge_test_f64<const KZ: usize>(tri: &TriSoa, ray: &PreparedRay) -> Option<(f32, f32)> {
+    let x = tri.xs.as_dvec3() - DVec3::splat(f64::from(ray.ox.x));
+    let y = tri.ys.as_dvec3() - DVec3::splat(f64::from(ray.oy.x));
+    let z = tri.zs.as_dvec3() - DVec3::splat(f64::from(ray.oz.x));
+    let (px, py, pz) = match KZ {
+        0 => (y, z, x),
+        1 => (z, x, y),
+        _ => (x, y, z),
+    };
+    let xt = px + f64::from(ray.sx) * pz;
+    let yt = py + f64::from(ray.sy) * pz;
+    let e = DVec3::new(
+        xt.y * yt.z - xt.z * yt.y,
+        xt.z * yt.x - xt.x * yt.z,
+        xt.x * yt.y - xt.y * yt.x,
+    );
+    if e.cmplt(DVec3::ZERO).any() && e.cmpgt(DVec3::ZERO).any() {
         return None;
     }
     let det = e.x + e.y + e.z;
     if det == 0.0 {
         return None;
     }
-    // Scaled distance t·det, to test the range before dividing.
-    let zt = pz * Vec3A::splat(ray.sz);
-    let t_scaled = e.x * zt.x + e.y * zt.y + e.z * zt.z;
-    if det < 0.0 && (t_scaled >= 0.0 || t_scaled < t_best * det) {
-        return None;
-    }
-    if det > 0.0 && (t_scaled <= 0.0 || t_scaled > t_best * det) {
-        return None;
-    }
-    let inv_det = 1.0 / det;
-    let t = t_scaled * inv_det;
-
-    // pbrt-v4 §6.8.4 (pbrt-v3 §3.9.6): bound δt on the error of t, from the bounds on the
-    // translated-sheared coordinates (δx, δy, δz), the edge functions (δe) and t itself.
-    let max_zt = zt.abs().max_element();
-    let max_xt = xt.abs().max_element();
-    let max_yt = yt.abs().max_element();
-    let delta_z = gamma(3) * max_zt;
-    let delta_x = gamma(5) * (max_xt + max_zt);
-    let delta_y = gamma(5) * (max_yt + max_zt);
-    let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-    let max_e = e.abs().max_element();
-    let delta_t =
-        3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv_det.abs();
-    // Written so that a NaN (from an overflowing product) rejects the hit.
-    if t > delta_t && t + delta_t < ray.t_max {
-        Some(TriHit {
-            t,
-            b1: e.y * inv_det,
-            b2: e.z * inv_det,
-        })
-    } else {
-        None
-    }
-}
-
-/// The three edge functions in `f64`: the products of two `f32` values are exact there, so each
-/// result is the correctly rounded difference, with the same antisymmetry as the `f32` form.
-#[cold]
-#[inline(never)]
-fn edge_functions_f64(xt: Vec3A, yt: Vec3A) -> Vec3A {
-    let x = xt.as_dvec3();
-    let y = yt.as_dvec3();
-    Vec3A::new(
-        (x.y * y.z - x.z * y.y) as f32,
-        (x.z * y.x - x.x * y.z) as f32,
-        (x.x * y.y - x.y * y.x) as f32,
-    )
+    Some(((e.y / det) as f32, (e.z / det) as f32))
 }
 
 #[cfg(test)]
