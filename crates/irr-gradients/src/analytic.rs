@@ -13,7 +13,7 @@ use glam::DVec3;
 use irr_sampling::{Frame, HemisphereStrata, SampleKey};
 
 /// The angle step of the rotation differences (see `known_answers` for the error bound).
-pub const ROTATION_STEP: f64 = 1e-5;
+pub const ROTATION_STEP: f64 = 1e-6;
 
 /// One emitting convex planar polygon of uniform radiance (emitting on both faces), and
 /// optionally an infinite non-emitting plane (a "ceiling") that gives the misses a finite distance.

@@ -62,6 +62,8 @@ mod value;
 #[cfg(test)]
 mod analytic;
 #[cfg(test)]
+mod cell_aligned;
+#[cfg(test)]
 mod known_answers;
 
 pub use gradient::{Gradients, TranslationGradient, directional, rotate_to_world};
