@@ -1,0 +1,235 @@
+//! The pinhole camera of glTF 2.0 (§3.10 "Cameras", and Appendix "Projection Matrices"): it sits
+//! at its node's origin, looks down its local −Z with +Y up, and its vertical field of view is
+//! `yfov`. The horizontal extent follows from the **image's** aspect ratio (width / height); the
+//! `aspectRatio` stored in the file is kept only to warn when it differs.
+//!
+//! Raster space: x to the right, y **down**, in pixels; pixel (x, y) covers [x, x+1) × [y, y+1),
+//! so row 0 is the top of the image. A raster point maps to normalised device coordinates
+//! `ndc = (2x/W − 1, 1 − 2y/H)` and to the camera-space direction
+//! `(ndc.x · tan(yfov/2) · W/H, ndc.y · tan(yfov/2), −1)`, exactly the inverse of glTF's
+//! perspective projection matrix.
+//!
+//! Clipping planes: rays start on the near plane (z = −znear in camera space) and end on the far
+//! plane when the file gives one, as a rasteriser using the same projection would clip.
+
+use glam::{Mat4, Vec2, Vec3};
+
+/// A pinhole camera in world space (metres).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Centre of projection.
+    pub position: Vec3,
+    /// Unit view direction (the camera's local −Z in world space).
+    pub forward: Vec3,
+    /// Unit up direction (local +Y), orthogonal to `forward`.
+    pub up: Vec3,
+    /// Unit right direction (local +X), `forward × up`.
+    pub right: Vec3,
+    /// Vertical field of view in radians, in (0, π).
+    pub yfov: f32,
+    /// Distance to the near clipping plane along `forward` (≥ 0).
+    pub znear: f32,
+    /// Distance to the far clipping plane along `forward`, if any.
+    pub zfar: Option<f32>,
+    /// The `aspectRatio` the file gave, if any (irr uses the image's instead).
+    pub aspect_ratio_in_file: Option<f32>,
+}
+
+/// A camera ray: origin on the near plane, unit direction, and the distance to the far plane.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraRay {
+    /// Where the ray starts (on the near plane).
+    pub origin: Vec3,
+    /// Unit direction.
+    pub direction: Vec3,
+    /// Distance along `direction` to the far plane (infinite without one).
+    pub t_max: f32,
+}
+
+impl Camera {
+    /// A camera at `position` looking at `target`, with `up` as the approximate up direction and
+    /// vertical field of view `yfov` (radians). Returns `None` if the directions are degenerate
+    /// (target at the position, up parallel to the view) or `yfov` is not in (0, π).
+    pub fn look_at(position: Vec3, target: Vec3, up: Vec3, yfov: f32) -> Option<Self> {
+        let forward = (target - position).try_normalize()?;
+        let right = forward.cross(up).try_normalize()?;
+        let up = right.cross(forward);
+        (yfov > 0.0 && yfov < std::f32::consts::PI && position.is_finite()).then_some(Self {
+            position,
+            forward,
+            up,
+            right,
+            yfov,
+            znear: 0.0,
+            zfar: None,
+            aspect_ratio_in_file: None,
+        })
+    }
+
+    /// The camera of a glTF node with world transform `world`: local −Z is the view direction,
+    /// local +Y the up direction. Scale and shear in `world` are removed (the axes are
+    /// re-orthonormalised, −Z kept exactly); `None` if the transform collapses the axes.
+    pub fn from_node(world: Mat4, yfov: f32) -> Option<Self> {
+        let position = world.transform_point3(Vec3::ZERO);
+        let forward = world.transform_vector3(Vec3::NEG_Z).try_normalize()?;
+        let up_hint = world.transform_vector3(Vec3::Y);
+        Self::look_at(position, position + forward, up_hint, yfov)
+    }
+
+    /// A camera that frames the box `[lo, hi]` for an image of aspect ratio `aspect` (width /
+    /// height): from the +Z side of the box's centre, looking down −Z (the orientation of a glTF
+    /// camera with an identity transform), vertical field of view 45°, far enough away that the
+    /// box's bounding sphere fits in both the vertical and horizontal fields of view.
+    pub fn framing(lo: Vec3, hi: Vec3, aspect: f32) -> Self {
+        let yfov = std::f32::consts::FRAC_PI_4;
+        let centre = 0.5 * (lo + hi);
+        let radius = (0.5 * (hi - lo).length()).max(f32::MIN_POSITIVE);
+        let half_y = 0.5 * yfov;
+        let half_x = (half_y.tan() * aspect.max(f32::MIN_POSITIVE)).atan();
+        let distance = radius / half_y.min(half_x).sin();
+        Self {
+            position: centre + Vec3::new(0.0, 0.0, distance),
+            forward: Vec3::NEG_Z,
+            up: Vec3::Y,
+            right: Vec3::X,
+            yfov,
+            znear: 0.0,
+            zfar: None,
+            aspect_ratio_in_file: None,
+        }
+    }
+
+    /// The ray through raster point `raster` (pixels, y down, (0, 0) the top-left corner of the
+    /// image) of a `width` × `height` image.
+    pub fn ray(&self, raster: Vec2, width: u32, height: u32) -> CameraRay {
+        let (w, h) = (width as f32, height as f32);
+        let ndc = Vec2::new(2.0 * raster.x / w - 1.0, 1.0 - 2.0 * raster.y / h);
+        let tan_half = (0.5 * self.yfov).tan();
+        // Camera-space direction with z = −1: a point of the plane one unit in front.
+        let d =
+            self.right * (ndc.x * tan_half * (w / h)) + self.up * (ndc.y * tan_half) + self.forward;
+        let length = d.length();
+        // The near plane is `znear` units along `forward`: the point znear·d, at distance
+        // znear·|d| along the unit direction; the far plane likewise at zfar·|d|.
+        let t_max = match self.zfar {
+            Some(zfar) => (zfar - self.znear) * length,
+            None => f32::INFINITY,
+        };
+        CameraRay {
+            origin: self.position + d * self.znear,
+            direction: d / length,
+            t_max,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Quat;
+    use proptest::prelude::*;
+
+    #[test]
+    fn identity_node_looks_down_negative_z() {
+        let c = Camera::from_node(Mat4::IDENTITY, 1.0).unwrap_or_else(|| panic!("degenerate"));
+        assert_eq!(c.forward, Vec3::NEG_Z);
+        assert_eq!(c.up, Vec3::Y);
+        assert_eq!(c.right, Vec3::X);
+        // The image centre looks straight ahead; the top row looks up, column 0 looks left.
+        let centre = c.ray(Vec2::new(8.0, 8.0), 16, 16);
+        assert_eq!(centre.direction, Vec3::NEG_Z);
+        let top = c.ray(Vec2::new(8.0, 0.0), 16, 16);
+        assert!(top.direction.y > 0.0);
+        let left = c.ray(Vec2::new(0.0, 8.0), 16, 16);
+        assert!(left.direction.x < 0.0);
+    }
+
+    /// The top edge of the image is yfov/2 above the axis and, for a W×H image, the right edge
+    /// is atan(tan(yfov/2)·W/H) to the right: the image's aspect ratio sets the horizontal field
+    /// of view. Tolerance: a few f32 ulps of the angle (acos near these angles is well
+    /// conditioned): 1e-6 rad.
+    #[test]
+    fn field_of_view_follows_yfov_and_image_aspect() {
+        let yfov = 0.7f32;
+        let c = Camera::from_node(Mat4::IDENTITY, yfov).unwrap_or_else(|| panic!("degenerate"));
+        let top = c.ray(Vec2::new(20.0, 0.0), 40, 20).direction;
+        assert!((top.dot(Vec3::NEG_Z).acos() - 0.5 * yfov).abs() < 1e-6);
+        let right = c.ray(Vec2::new(40.0, 10.0), 40, 20).direction;
+        let expected = ((0.5 * yfov).tan() * 2.0).atan();
+        assert!((right.dot(Vec3::NEG_Z).acos() - expected).abs() < 1e-6);
+    }
+
+    #[test]
+    fn cornell_camera_has_red_wall_on_the_left() {
+        // A half turn about Y: the Cornell box camera (looking down +Z). Its right is −X, so the
+        // left half of the image sees large x, where the Cornell data puts the red wall.
+        let world = Mat4::from_rotation_translation(
+            Quat::from_xyzw(0.0, 1.0, 0.0, 0.0),
+            Vec3::new(0.278, 0.273, -0.8),
+        );
+        let c = Camera::from_node(world, 0.6).unwrap_or_else(|| panic!("degenerate"));
+        assert!((c.forward - Vec3::Z).length() < 1e-6);
+        assert!((c.right - Vec3::NEG_X).length() < 1e-6);
+        let left = c.ray(Vec2::new(0.0, 0.5), 1, 1);
+        assert!(left.direction.x > 0.0);
+    }
+
+    #[test]
+    fn near_and_far_planes_clip() {
+        let mut c = Camera::from_node(Mat4::IDENTITY, 1.0).unwrap_or_else(|| panic!("degenerate"));
+        c.znear = 0.5;
+        c.zfar = Some(10.0);
+        let r = c.ray(Vec2::new(0.0, 0.0), 4, 4);
+        // The origin is on the plane z = −0.5 and the end of the ray on z = −10 (to f32 rounding
+        // of a few operations on values of order 10: 1e-5).
+        assert!((r.origin.z + 0.5).abs() < 1e-6);
+        assert!((r.origin + r.direction * r.t_max).z + 10.0 < 1e-5);
+    }
+
+    proptest! {
+        /// Every ray of the image is a unit vector in front of the camera, and rays through the
+        /// image centre follow `forward` (to f32 rounding: 1e-6).
+        #[test]
+        fn rays_are_unit_and_in_front(
+            qx in -1.0f32..1.0, qy in -1.0f32..1.0, qz in -1.0f32..1.0, qw in -1.0f32..1.0,
+            yfov in 0.01f32..3.1, px in 0.0f32..1.0, py in 0.0f32..1.0,
+            w in 1u32..2000, h in 1u32..2000,
+        ) {
+            let q = Quat::from_xyzw(qx, qy, qz, qw);
+            prop_assume!(q.length() > 0.1);
+            let world = Mat4::from_quat(q.normalize());
+            let c = Camera::from_node(world, yfov).unwrap_or_else(|| panic!("degenerate"));
+            let r = c.ray(Vec2::new(px * w as f32, py * h as f32), w, h);
+            prop_assert!((r.direction.length() - 1.0).abs() < 1e-5);
+            prop_assert!(r.direction.dot(c.forward) > 0.0);
+            let centre = c.ray(Vec2::new(0.5 * w as f32, 0.5 * h as f32), w, h);
+            prop_assert!((centre.direction - c.forward).length() < 1e-6);
+        }
+
+        /// The framing camera sees the whole bounding sphere: every corner of the box projects
+        /// inside the image.
+        #[test]
+        fn framing_sees_the_whole_box(
+            lx in -100.0f32..100.0, ly in -100.0f32..100.0, lz in -100.0f32..100.0,
+            sx in 0.01f32..50.0, sy in 0.01f32..50.0, sz in 0.01f32..50.0, aspect in 0.2f32..5.0,
+        ) {
+            let lo = Vec3::new(lx, ly, lz);
+            let hi = lo + Vec3::new(sx, sy, sz);
+            let c = Camera::framing(lo, hi, aspect);
+            let tan_half = (0.5 * c.yfov).tan();
+            for i in 0..8 {
+                let p = Vec3::new(
+                    if i & 1 == 0 { lo.x } else { hi.x },
+                    if i & 2 == 0 { lo.y } else { hi.y },
+                    if i & 4 == 0 { lo.z } else { hi.z },
+                );
+                let v = p - c.position;
+                let z = v.dot(c.forward);
+                prop_assert!(z > 0.0);
+                // Inside the frustum, with a relative margin of 1e-4 for rounding.
+                prop_assert!(v.dot(c.up).abs() <= z * tan_half * (1.0 + 1e-4));
+                prop_assert!(v.dot(c.right).abs() <= z * tan_half * aspect * (1.0 + 1e-4));
+            }
+        }
+    }
+}

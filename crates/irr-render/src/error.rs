@@ -1,0 +1,119 @@
+//! [`RenderError`]: every way loading, rendering or writing can fail, each displayed as one line
+//! that names the file (or the option) and the problem.
+
+use std::path::{Path, PathBuf};
+
+/// An error from loading a scene, checking settings, rendering or writing the output.
+///
+/// `Display` gives one line: the file (or option) first, then the problem, e.g.
+/// `assets/box.gltf: buffer 0: cannot read "box.bin" (assets/box.bin): No such file or directory`.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// The scene file could not be read at all (missing, a folder, no permission).
+    #[error("{}: cannot read: {source}", .path.display())]
+    Read {
+        /// The scene file.
+        path: PathBuf,
+        /// What the operating system said.
+        source: std::io::Error,
+    },
+    /// The file is not well-formed glTF: truncated or corrupt JSON, a broken .glb container, or
+    /// JSON that breaks glTF's schema (an index that points past the end of an array).
+    #[error("{}: not a valid glTF 2.0 file: {problem}", .path.display())]
+    Parse {
+        /// The scene file.
+        path: PathBuf,
+        /// What is wrong, on one line.
+        problem: String,
+    },
+    /// The file is well-formed but its content cannot be rendered: a buffer URI that points
+    /// nowhere, an accessor out of range, non-finite or absurdly large coordinates, a required
+    /// extension irr does not support, a camera with an impossible field of view.
+    #[error("{}: {problem}", .path.display())]
+    Scene {
+        /// The scene file.
+        path: PathBuf,
+        /// What is wrong, on one line.
+        problem: String,
+    },
+    /// A render setting (image size, samples per pixel, threads) is out of range.
+    #[error("{option}: {problem}")]
+    Setting {
+        /// The setting, as the command line names it (`--width`).
+        option: &'static str,
+        /// What is wrong, on one line.
+        problem: String,
+    },
+    /// The output could not be written (folder missing or read-only, disk full, wrong extension).
+    #[error("{}: cannot write: {problem}", .path.display())]
+    Write {
+        /// The output file.
+        path: PathBuf,
+        /// What is wrong, on one line.
+        problem: String,
+    },
+    /// An image file could not be read back (tests and tools read EXRs).
+    #[error("{}: cannot read image: {problem}", .path.display())]
+    ReadImage {
+        /// The image file.
+        path: PathBuf,
+        /// What is wrong, on one line.
+        problem: String,
+    },
+}
+
+/// Squeezes a message from another library onto one line.
+pub(crate) fn one_line(message: impl std::fmt::Display) -> String {
+    let text = message.to_string();
+    let mut out = String::with_capacity(text.len());
+    for part in text
+        .split(['\n', '\r'])
+        .map(str::trim)
+        .filter(|p| !p.is_empty())
+    {
+        if !out.is_empty() {
+            out.push_str("; ");
+        }
+        out.push_str(part);
+    }
+    out
+}
+
+impl RenderError {
+    pub(crate) fn scene(path: &Path, problem: impl std::fmt::Display) -> Self {
+        Self::Scene {
+            path: path.to_path_buf(),
+            problem: one_line(problem),
+        }
+    }
+
+    pub(crate) fn parse(path: &Path, problem: impl std::fmt::Display) -> Self {
+        Self::Parse {
+            path: path.to_path_buf(),
+            problem: one_line(problem),
+        }
+    }
+
+    pub(crate) fn write(path: &Path, problem: impl std::fmt::Display) -> Self {
+        Self::Write {
+            path: path.to_path_buf(),
+            problem: one_line(problem),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn messages_are_one_line_and_name_the_file() {
+        let e = RenderError::parse(Path::new("a/b.gltf"), "first\nsecond\r\n third");
+        let text = e.to_string();
+        assert_eq!(
+            text,
+            "a/b.gltf: not a valid glTF 2.0 file: first; second; third"
+        );
+        assert!(!text.contains('\n'));
+    }
+}

@@ -1,0 +1,157 @@
+//! irr-render turns a glTF file into an image: it loads the scene, renders it through an
+//! integrator in parallel tiles, and writes OpenEXR plus a PNG preview.
+//!
+//! # What it owns
+//! - [`load_scene`] / [`load_gltf`]: glTF 2.0 (`.gltf` with external or `data:` buffers, `.glb`)
+//!   into world-space meshes, Lambertian [`Material`]s and a [`Camera`]; every ignored feature
+//!   becomes a [`Warning`] with a count, every unreadable input a one-line [`RenderError`].
+//! - [`Camera`]: glTF's pinhole camera (looks down local −Z, `yfov` vertical, aspect ratio from
+//!   the image), or a default one framing the scene.
+//! - [`render`] and [`RenderSettings`]: the film (box filter, row 0 at the top), tiles on a
+//!   rayon pool, the progress bar and the summary ([`RenderStats`]); [`pixel_samples`] replays
+//!   one pixel.
+//! - [`write_exr_and_png`]: linear f32 OpenEXR and an sRGB PNG preview, both written to
+//!   temporary files and renamed into place; [`Image`] with [`Image::read_exr`].
+//!
+//! # What it must not know
+//! How radiance is estimated: that is the [`Integrator`]'s business (irr-integrator). It never
+//! looks inside an integrator and hands it nothing but the scene, the camera ray, the sample's
+//! random numbers and a ray counter.
+//!
+//! # Example
+//! ```
+//! use irr_render::{load_scene, render, write_exr_and_png, Image, RenderSettings};
+//! use irr_render::{AmbientOcclusion, AoSettings};
+//!
+//! # fn main() -> Result<(), irr_render::RenderError> {
+//! let assets = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets");
+//! let loaded = load_scene(&assets.join("ao-plane.gltf"))?;
+//! let settings = RenderSettings { width: 8, height: 8, spp: 2, ..RenderSettings::default() };
+//! let camera = loaded.camera_for(settings.width, settings.height);
+//! let ao = AmbientOcclusion::new(AoSettings::default());
+//! let out = render(&loaded.scene, &camera, &ao, &settings, false)?;
+//! // Nothing above the plane: every ambient-occlusion sample sees the sky.
+//! assert!(out.image.pixels().iter().all(|p| *p == glam::Vec3::ONE));
+//!
+//! let dir = tempfile::tempdir().map_err(|e| irr_render::RenderError::Write {
+//!     path: "tmp".into(),
+//!     problem: e.to_string(),
+//! })?;
+//! let (exr, png) = write_exr_and_png(&out.image, &dir.path().join("plane.exr"), 0.0)?;
+//! assert_eq!(Image::read_exr(&exr)?, out.image);
+//! assert!(png.exists());
+//! # Ok(())
+//! # }
+//! ```
+
+mod accessor;
+mod camera;
+mod error;
+mod glb;
+mod image;
+mod load;
+mod output;
+mod render;
+#[cfg(test)]
+mod testutil;
+mod uri;
+
+pub use camera::{Camera, CameraRay};
+pub use error::RenderError;
+pub use image::Image;
+pub use irr_integrator::{
+    AmbientOcclusion, AoSettings, Integrator, Material, PathSettings, PathTracer, RayCounter, Scene,
+};
+pub use load::{MAX_COORDINATE, SceneData, Warning, load_gltf};
+pub use output::{check_output, png_path_for, tone_map, write_exr_and_png};
+pub use render::{
+    MAX_DIMENSION, MAX_THREADS, RenderOutput, RenderSettings, RenderStats, TILE_SIZE,
+    mean_of_samples, pixel_samples, render,
+};
+
+use glam::Vec3;
+use irr_geometry::Geometry;
+use std::path::{Path, PathBuf};
+
+/// A scene ready to render: the integrator's [`Scene`] (geometry with its BVH, materials,
+/// emitters), the file's camera, and the warnings about what the file uses that irr ignored.
+#[derive(Debug)]
+pub struct LoadedScene {
+    /// The file it came from.
+    pub path: PathBuf,
+    /// Geometry, materials and emitters.
+    pub scene: Scene,
+    /// The file's first perspective camera, if it has one.
+    pub camera: Option<Camera>,
+    /// What the file uses that irr ignored, one entry per feature, and other notes (no
+    /// emitter, degenerate triangles dropped).
+    pub warnings: Vec<Warning>,
+    /// The bounds of the scene's triangles.
+    pub bounds: (Vec3, Vec3),
+}
+
+impl LoadedScene {
+    /// The camera to render a `width` × `height` image with: the file's, or, if it has none,
+    /// [`Camera::framing`] the scene's bounds at that aspect ratio.
+    pub fn camera_for(&self, width: u32, height: u32) -> Camera {
+        self.camera.unwrap_or_else(|| {
+            Camera::framing(
+                self.bounds.0,
+                self.bounds.1,
+                width as f32 / height.max(1) as f32,
+            )
+        })
+    }
+
+    /// A note when the file's camera gives an `aspectRatio` that differs from the image's
+    /// (irr follows the image; the vertical field of view is kept).
+    pub fn aspect_note(&self, width: u32, height: u32) -> Option<String> {
+        let file = self.camera?.aspect_ratio_in_file?;
+        let image = width as f32 / height.max(1) as f32;
+        // Relative difference above 0.1 %: beyond the rounding of any sensible file value.
+        ((file - image).abs() > 1e-3 * image).then(|| {
+            format!(
+                "{}: the camera's aspectRatio {file} differs from the image's {image} ({width}×{height}); irr keeps yfov and uses the image's",
+                self.path.display()
+            )
+        })
+    }
+}
+
+/// Loads a glTF 2.0 file and builds everything the integrators need (BVH, light sampler).
+///
+/// Errors name the file and the problem in one line; warnings (ignored features, no emitter,
+/// degenerate triangles dropped) are returned in [`LoadedScene::warnings`], never printed.
+pub fn load_scene(path: &Path) -> Result<LoadedScene, RenderError> {
+    let data = load_gltf(path)?;
+    let mut warnings = data.warnings;
+    let geometry =
+        Geometry::build(&data.meshes).map_err(|e| RenderError::scene(path, e.to_string()))?;
+    let report = *geometry.report();
+    if report.dropped_degenerate > 0 {
+        warnings.push(Warning {
+            file: path.to_path_buf(),
+            feature: "degenerate".to_string(),
+            count: report.dropped_degenerate,
+            message: format!(
+                "{} degenerate (zero-area) triangle{} dropped",
+                report.dropped_degenerate,
+                if report.dropped_degenerate == 1 {
+                    ""
+                } else {
+                    "s"
+                }
+            ),
+        });
+    }
+    let bounds = geometry.bounds();
+    let scene = Scene::new(geometry, data.materials)
+        .map_err(|e| RenderError::scene(path, e.to_string()))?;
+    Ok(LoadedScene {
+        path: path.to_path_buf(),
+        scene,
+        camera: data.camera,
+        warnings,
+        bounds,
+    })
+}

@@ -1,0 +1,298 @@
+//! Writing a render: an OpenEXR file of linear radiance (f32 RGB, lossless) and, beside it with
+//! the same stem, a PNG preview. Both are written to temporary files in the destination folder
+//! and renamed into place only once both are complete, so a failed or interrupted write never
+//! leaves a half-written file and never destroys the previous output.
+//!
+//! # The preview's tone mapping
+//! `srgb8(clamp(L · 2^exposure, 0, 1))`: the radiance `L` of each channel is scaled by
+//! `2^exposure` (exposure in stops; 0 shows radiance 1 as white), clipped to [0, 1], and
+//! encoded with the sRGB transfer function (IEC 61966-2-1: `12.92·v` below 0.0031308, else
+//! `1.055·v^(1/2.4) − 0.055`), then rounded to 8 bits. The PNG carries an sRGB chunk. Non-finite
+//! values show as black.
+
+use crate::error::{RenderError, one_line};
+use crate::image::Image as IrrImage;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// The PNG preview's path for an EXR path: the same folder and stem, extension `png`.
+pub fn png_path_for(exr_path: &Path) -> PathBuf {
+    exr_path.with_extension("png")
+}
+
+/// The folder a path's file lives in (`.` for a bare file name).
+fn folder_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+/// Checks, before any rendering, that the output can be written: the path ends in `.exr`, its
+/// folder exists (it is created if missing) and accepts new files, and neither the EXR nor its
+/// PNG preview is a folder. Leaves nothing behind.
+pub fn check_output(exr_path: &Path) -> Result<(), RenderError> {
+    let is_exr = exr_path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if !is_exr {
+        return Err(RenderError::write(
+            exr_path,
+            "the output must be an .exr file (the PNG preview is written beside it)",
+        ));
+    }
+    let folder = folder_of(exr_path);
+    std::fs::create_dir_all(folder).map_err(|e| {
+        RenderError::write(
+            exr_path,
+            format!("cannot create folder {}: {e}", folder.display()),
+        )
+    })?;
+    for target in [exr_path.to_path_buf(), png_path_for(exr_path)] {
+        if target.is_dir() {
+            return Err(RenderError::write(
+                exr_path,
+                format!("{} is a folder", target.display()),
+            ));
+        }
+    }
+    // A temporary file in the folder proves that it accepts new files; it is deleted on drop.
+    temp_in(folder, exr_path).map(drop)
+}
+
+fn temp_in(folder: &Path, for_path: &Path) -> Result<tempfile::NamedTempFile, RenderError> {
+    tempfile::Builder::new()
+        .prefix(".irr-")
+        .suffix(".tmp")
+        .tempfile_in(folder)
+        .map_err(|e| {
+            RenderError::write(
+                for_path,
+                format!("folder {} does not accept new files: {e}", folder.display()),
+            )
+        })
+}
+
+/// The sRGB transfer function (IEC 61966-2-1) of a linear value in [0, 1].
+fn srgb_encode(v: f32) -> f32 {
+    if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// One channel of the preview: see the module docs.
+pub fn tone_map(radiance: f32, exposure: f32) -> u8 {
+    let v = radiance * exposure.exp2();
+    if !v.is_finite() || v <= 0.0 {
+        return if v == f32::INFINITY { 255 } else { 0 };
+    }
+    (srgb_encode(v.min(1.0)) * 255.0).round() as u8
+}
+
+fn encode_exr(image: &IrrImage, file: &std::fs::File) -> Result<(), String> {
+    use exr::prelude::*;
+    let (w, h) = (image.width() as usize, image.height() as usize);
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+        let p = image.pixels()[y * w + x];
+        (p.x, p.y, p.z)
+    });
+    let mut layer = Layer::new(
+        (w, h),
+        LayerAttributes::named("irr"),
+        Encoding::SMALL_LOSSLESS,
+        channels,
+    );
+    // Row 0 of `image` is the top; OpenEXR's increasing-Y line order stores it first.
+    layer.encoding.line_order = LineOrder::Increasing;
+    let mut out = BufWriter::new(file);
+    Image::from_layer(layer)
+        .write()
+        .to_buffered(&mut out)
+        .map_err(one_line)?;
+    out.flush().map_err(one_line)
+}
+
+fn encode_png(image: &IrrImage, exposure: f32, file: &std::fs::File) -> Result<(), String> {
+    let data: Vec<u8> = image
+        .pixels()
+        .iter()
+        .flat_map(|p| p.to_array().map(|c| tone_map(c, exposure)))
+        .collect();
+    let mut out = BufWriter::new(file);
+    let mut encoder = png::Encoder::new(&mut out, image.width(), image.height());
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    let mut writer = encoder.write_header().map_err(one_line)?;
+    writer.write_image_data(&data).map_err(one_line)?;
+    writer.finish().map_err(one_line)?;
+    out.flush().map_err(one_line)
+}
+
+/// Writes `image` to `exr_path` (OpenEXR, f32 RGB, lossless ZIP compression) and its preview to
+/// [`png_path_for`]`(exr_path)`, tone mapped with `exposure` stops (see the module docs). Returns
+/// the two paths written.
+///
+/// Both files are first written to temporary files in the destination folder, flushed and
+/// synced, and only then renamed over the destination, the PNG first and the EXR last: if
+/// anything fails, the temporary files are deleted and any earlier output stays as it was.
+pub fn write_exr_and_png(
+    image: &IrrImage,
+    exr_path: &Path,
+    exposure: f32,
+) -> Result<(PathBuf, PathBuf), RenderError> {
+    check_output(exr_path)?;
+    if image.width() == 0 || image.height() == 0 {
+        return Err(RenderError::write(exr_path, "the image is empty"));
+    }
+    if !exposure.is_finite() {
+        return Err(RenderError::write(
+            exr_path,
+            format!("exposure {exposure} is not a finite number of stops"),
+        ));
+    }
+    let png_path = png_path_for(exr_path);
+    let folder = folder_of(exr_path);
+    let exr_tmp = temp_in(folder, exr_path)?;
+    encode_exr(image, exr_tmp.as_file())
+        .and_then(|()| exr_tmp.as_file().sync_all().map_err(one_line))
+        .map_err(|e| RenderError::write(exr_path, e))?;
+    let png_tmp = temp_in(folder, &png_path)?;
+    encode_png(image, exposure, png_tmp.as_file())
+        .and_then(|()| png_tmp.as_file().sync_all().map_err(one_line))
+        .map_err(|e| RenderError::write(&png_path, e))?;
+    png_tmp
+        .persist(&png_path)
+        .map_err(|e| RenderError::write(&png_path, e.error))?;
+    exr_tmp
+        .persist(exr_path)
+        .map_err(|e| RenderError::write(exr_path, e.error))?;
+    Ok((exr_path.to_path_buf(), png_path))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::image::Image;
+    use glam::Vec3;
+
+    fn temp_dir() -> tempfile::TempDir {
+        tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn sample_image() -> Image {
+        let mut image = Image::new(5, 3);
+        for y in 0..3 {
+            for x in 0..5 {
+                image.set(
+                    x,
+                    y,
+                    Vec3::new(x as f32, y as f32, 1e-3 * (x + 10 * y) as f32),
+                );
+            }
+        }
+        image.set(4, 2, Vec3::new(1e30, 0.0, f32::MIN_POSITIVE));
+        image
+    }
+
+    #[test]
+    fn exr_round_trips_bit_for_bit_with_row_0_on_top() {
+        let dir = temp_dir();
+        let path = dir.path().join("out.exr");
+        let image = sample_image();
+        let (exr, png) = write_exr_and_png(&image, &path, 0.0).unwrap_or_else(|e| panic!("{e}"));
+        assert!(png.exists());
+        let back = Image::read_exr(&exr).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(back, image);
+        assert_eq!(back.get(1, 0), Vec3::new(1.0, 0.0, 1e-3));
+        // Nothing else is left in the folder: no temporary files.
+        let mut names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap_or_else(|e| panic!("{e}"))
+            .map(|e| e.map(|e| e.file_name()).unwrap_or_default())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["out.exr", "out.png"]);
+    }
+
+    #[test]
+    fn png_is_a_tone_mapped_srgb_preview() {
+        let dir = temp_dir();
+        let path = dir.path().join("p.exr");
+        let mut image = Image::new(3, 1);
+        image.set(0, 0, Vec3::new(0.0, 1.0, 2.0));
+        image.set(1, 0, Vec3::new(0.5, 0.0031308, f32::NAN));
+        image.set(2, 0, Vec3::splat(0.25));
+        write_exr_and_png(&image, &path, 1.0).unwrap_or_else(|e| panic!("{e}"));
+        let file = std::fs::File::open(png_path_for(&path)).unwrap_or_else(|e| panic!("{e}"));
+        let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+            .read_info()
+            .unwrap_or_else(|e| panic!("{e}"));
+        let mut buf = vec![0; reader.output_buffer_size().unwrap_or(0)];
+        let info = reader
+            .next_frame(&mut buf)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!((info.width, info.height), (3, 1));
+        // Exposure +1 doubles: 0.5 → 1.0 → 255; 0.25 → 0.5 → sRGB 0.7354 → 188.
+        assert_eq!(&buf[..9], &[0, 255, 255, 255, 18, 0, 188, 188, 188]);
+    }
+
+    #[test]
+    fn tone_map_values() {
+        assert_eq!(tone_map(0.0, 0.0), 0);
+        assert_eq!(tone_map(1.0, 0.0), 255);
+        assert_eq!(tone_map(-3.0, 0.0), 0);
+        assert_eq!(tone_map(f32::NAN, 0.0), 0);
+        assert_eq!(tone_map(f32::INFINITY, 0.0), 255);
+        // 0.5 in linear light is 0.7354 in sRGB (IEC 61966-2-1): 187.5 → 188.
+        assert_eq!(tone_map(0.5, 0.0), 188);
+        assert_eq!(tone_map(0.25, 1.0), 188);
+    }
+
+    #[test]
+    fn failed_write_keeps_the_earlier_output() {
+        let dir = temp_dir();
+        let path = dir.path().join("keep.exr");
+        let first = sample_image();
+        write_exr_and_png(&first, &path, 0.0).unwrap_or_else(|e| panic!("{e}"));
+        let before = std::fs::read(&path).unwrap_or_else(|e| panic!("{e}"));
+        // An empty image cannot be written: the call fails and the earlier file is untouched.
+        let err = write_exr_and_png(&Image::new(0, 0), &path, 0.0);
+        assert!(err.is_err());
+        assert_eq!(
+            std::fs::read(&path).unwrap_or_else(|e| panic!("{e}")),
+            before
+        );
+    }
+
+    #[test]
+    fn bad_output_paths_are_refused_up_front() {
+        let dir = temp_dir();
+        let not_exr = dir.path().join("out.png");
+        let e = check_output(&not_exr)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("out.png") && e.contains(".exr"), "{e}");
+        // A folder under a regular file cannot be created.
+        let file = dir.path().join("plain");
+        std::fs::write(&file, b"x").unwrap_or_else(|e| panic!("{e}"));
+        let under_file = file.join("out.exr");
+        let e = check_output(&under_file)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(
+            e.contains("plain") && e.contains("cannot create folder"),
+            "{e}"
+        );
+        // The PNG's place is taken by a folder.
+        std::fs::create_dir(dir.path().join("taken.png")).unwrap_or_else(|e| panic!("{e}"));
+        let e = check_output(&dir.path().join("taken.exr"))
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("taken.png is a folder"), "{e}");
+    }
+}
