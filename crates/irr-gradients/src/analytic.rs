@@ -12,6 +12,17 @@ use crate::GatherSamples;
 use glam::DVec3;
 use irr_sampling::{Frame, HemisphereStrata, SampleKey};
 
+/// A proptest configuration with a fixed seed (the project's tests are deterministic) and no
+/// regression files.
+pub fn fixed_config(cases: u32, seed: u64) -> proptest::test_runner::Config {
+    proptest::test_runner::Config {
+        cases,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(seed),
+        failure_persistence: None,
+        ..proptest::test_runner::Config::default()
+    }
+}
+
 /// The angle step of the rotation differences (see `known_answers` for the error bound).
 pub const ROTATION_STEP: f64 = 1e-6;
 

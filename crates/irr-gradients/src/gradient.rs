@@ -308,3 +308,302 @@ impl<V: GatherValue> GatherSamples<V> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analytic::fixed_config;
+    use glam::Vec3A;
+    use proptest::collection::vec;
+    use proptest::prelude::*;
+
+    /// A gather of M×N cells (M < 10, N < 32) with radiance in [0, 10) and distances in
+    /// [0.01, 100) or misses.
+    fn gathers() -> impl Strategy<Value = GatherSamples<f32>> {
+        (1u32..10, 1u32..32)
+            .prop_flat_map(|(m, n)| {
+                let len = (m * n) as usize;
+                let r = prop_oneof![Just(f32::INFINITY), 1e-2f32..1e2];
+                (Just((m, n)), vec(0.0f32..10.0, len), vec(r, len))
+            })
+            .prop_map(|((m, n), l, r)| {
+                let s = HemisphereStrata::new(m, n).unwrap_or_else(|e| panic!("{e}"));
+                GatherSamples::new(s, l, r).unwrap_or_else(|e| panic!("{e}"))
+            })
+    }
+
+    /// Rounding tolerances for results of `g`. Every estimate is a sum of products of three
+    /// factors (a radiance or a difference of two, a weight rounded from f64, and 1/R), each
+    /// rounding by ≤ ε/2, accumulated over ≤ M + N + 2 sequential additions (row sums, then
+    /// rows), so its error is ≤ (M + N + 6)·ε·Σ|terms|. Σ|terms| is bounded by
+    /// - translation: 2·max L·max 1/r·(Σ θ-wall weights + Σ φ-wall weights)
+    ///   ≤ 2·max L·max 1/r·(π(M − 1) + N) (each of the M − 1 rows of θ-walls weighs
+    ///   2π sin θ cos θ ≤ π in all; each row of φ-walls ≤ N·(sin θⱼ₊₁ − sin θⱼ), summing to N);
+    /// - rotation: max L·Σ_cells |W| ≤ max L·2π (each |W| is at most the cell's solid angle).
+    ///
+    /// We allow twice that.
+    fn tolerances(g: &GatherSamples<f32>) -> (f32, f32) {
+        let (m, n) = (g.strata().m() as f32, g.strata().n() as f32);
+        let l_max = g.radiance().iter().copied().fold(0.0, f32::max);
+        let inv_r_max = g.distance().iter().map(|&r| 1.0 / r).fold(0.0, f32::max);
+        let count = (m + n + 6.0) * f32::EPSILON * 2.0;
+        let trans = count * 2.0 * l_max * inv_r_max * (std::f32::consts::PI * (m - 1.0) + n);
+        let rot = count * l_max * std::f32::consts::TAU;
+        (trans, rot)
+    }
+
+    /// The same gather with each cell's (L, r) taken from the cell `map(j, k)`.
+    fn remapped(
+        g: &GatherSamples<f32>,
+        map: impl Fn(u32, u32) -> (u32, u32),
+        scale: f32,
+    ) -> GatherSamples<f32> {
+        let s = *g.strata();
+        GatherSamples::from_fn(s, |c| {
+            let (j, k) = map(c.j, c.k);
+            let i = (j * s.n() + k) as usize;
+            (g.radiance()[i], g.distance()[i] * scale)
+        })
+        .unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn close(a: [f32; 3], b: [f32; 3], tol: f32) -> bool {
+        (0..3).all(|i| (a[i] - b[i]).abs() <= tol)
+    }
+
+    proptest! {
+        #![proptest_config(fixed_config(256, 0x6a7d))]
+
+        /// A constant radiance field has no gradient, whatever the distances: every wall's
+        /// radiance difference is exactly zero, so the translation gradient is exactly zero; the
+        /// rotation gradient's column weights sum to zero (Σₖ 2 sin(π/N) eφ(φ꜀) = 0), up to
+        /// rounding.
+        #[test]
+        fn constant_radiance_has_no_gradient(g in gathers(), l in 0.0f32..1e3, sky: bool) {
+            let s = *g.strata();
+            let c = GatherSamples::from_fn(s, |cell| {
+                let r = g.distance()[cell.index(&s) as usize];
+                (l, if sky { f32::INFINITY } else { r })
+            }).unwrap_or_else(|e| panic!("{e}"));
+            for v in [TranslationGradient::WardHeckbert, TranslationGradient::KrivanekGautron] {
+                prop_assert_eq!(c.translation_gradient(v), [0.0; 3]);
+            }
+            let (_, tol) = tolerances(&c);
+            let r = c.rotation_gradient();
+            prop_assert!(r[0].abs() <= tol && r[1].abs() <= tol && r[2] == 0.0, "{r:?} (tol {tol:e})");
+        }
+
+        /// The rotation gradient is perpendicular to the normal: zero along local z, and along
+        /// the normal after turning to world space (up to the frame's rounding, a few ε).
+        #[test]
+        fn rotation_gradient_is_perpendicular_to_the_normal(
+            g in gathers(),
+            nx in -1.0f32..1.0, ny in -1.0f32..1.0, nz in -1.0f32..1.0,
+        ) {
+            let normal = Vec3::new(nx, ny, nz);
+            prop_assume!(normal.length() > 1e-2);
+            let normal = normal.normalize();
+            let grads = g.gradients(TranslationGradient::WardHeckbert);
+            prop_assert_eq!(grads.rotation[2], 0.0);
+            let world = grads.in_world(&Frame::from_normal(normal));
+            let along = directional(&world.rotation, normal);
+            let size = grads.rotation[0].abs() + grads.rotation[1].abs();
+            prop_assert!(along.abs() <= 8.0 * f32::EPSILON * size, "{along} vs {size}");
+        }
+
+        /// Turning the whole configuration about the normal by s columns (2πs/N) moves each
+        /// cell's sample to the cell s columns on, and turns both gradients by 2πs/N about z:
+        /// the estimators treat every column alike, the wrap-around included.
+        #[test]
+        fn turning_about_the_normal_turns_the_gradients(g in gathers(), shift in 0u32..32) {
+            let n = g.strata().n();
+            let shift = shift % n;
+            let turned = remapped(&g, |j, k| (j, (k + n - shift) % n), 1.0);
+            let (sa, ca) = (std::f32::consts::TAU * shift as f32 / n as f32).sin_cos();
+            let turn = |v: [f32; 3]| [ca * v[0] - sa * v[1], sa * v[0] + ca * v[1], v[2]];
+            let (tt, tr) = tolerances(&g);
+            for variant in [TranslationGradient::WardHeckbert, TranslationGradient::KrivanekGautron] {
+                let a = g.gradients(variant);
+                let b = turned.gradients(variant);
+                // Turning the result adds ≤ 2 roundings per component: within the tolerance.
+                prop_assert!(close(b.translation, turn(a.translation), tt), "{:?} vs {:?}", b.translation, turn(a.translation));
+                prop_assert!(close(b.rotation, turn(a.rotation), tr), "{:?} vs {:?}", b.rotation, turn(a.rotation));
+            }
+        }
+
+        /// Mirroring the configuration in the xz-plane (φ → −φ, column k → N − 1 − k) mirrors
+        /// the translation gradient, (x, y, z) → (x, −y, z), and the rotation gradient, a
+        /// pseudo-vector, (x, y) → (−x, y).
+        #[test]
+        fn mirroring_mirrors_the_gradients(g in gathers()) {
+            let n = g.strata().n();
+            let mirrored = remapped(&g, |j, k| (j, n - 1 - k), 1.0);
+            let (tt, tr) = tolerances(&g);
+            for variant in [TranslationGradient::WardHeckbert, TranslationGradient::KrivanekGautron] {
+                let a = g.gradients(variant);
+                let b = mirrored.gradients(variant);
+                let t = a.translation;
+                let r = a.rotation;
+                prop_assert!(close(b.translation, [t[0], -t[1], t[2]], tt), "{:?} vs {:?}", b.translation, t);
+                prop_assert!(close(b.rotation, [-r[0], r[1], r[2]], tr), "{:?} vs {:?}", b.rotation, r);
+            }
+        }
+
+        /// Scaling every distance by s scales the translation gradient by 1/s and leaves the
+        /// rotation gradient (which never reads a distance) and the irradiance unchanged.
+        /// Tolerance: the rounding bound of `tolerances`, divided by s, plus the two roundings
+        /// of r·s and 1/(r·s) per term (within the factor 2 of `tolerances`).
+        #[test]
+        fn scaling_distances_scales_the_translation_gradient(g in gathers(), log_s in -3.0f32..3.0) {
+            let s = 10f32.powf(log_s);
+            let scaled = remapped(&g, |j, k| (j, k), s);
+            let (tt, _) = tolerances(&g);
+            for variant in [TranslationGradient::WardHeckbert, TranslationGradient::KrivanekGautron] {
+                let a = g.gradients(variant);
+                let b = scaled.gradients(variant);
+                prop_assert_eq!(b.rotation, a.rotation);
+                prop_assert_eq!(b.irradiance, a.irradiance);
+                let expected = a.translation.map(|v| v / s);
+                prop_assert!(close(b.translation, expected, 2.0 * tt / s), "{:?} vs {expected:?}", b.translation);
+            }
+        }
+
+        /// RGB is three scalars: each channel of a Vec3 (and Vec3A) gather gives exactly what
+        /// the f32 gather of that channel gives (the same operations in the same order).
+        #[test]
+        fn channels_are_independent(a in gathers(), seed: u64) {
+            let s = *a.strata();
+            let key = irr_sampling::SampleKey::new(seed, 0, 0);
+            let rgb = GatherSamples::from_fn(s, |c| {
+                let i = c.index(&s) as usize;
+                let u = key.uniform_2d(c.index(&s));
+                (Vec3::new(a.radiance()[i], 10.0 * u.x, 10.0 * u.y), a.distance()[i])
+            }).unwrap_or_else(|e| panic!("{e}"));
+            let rgb_a = GatherSamples::from_fn(s, |c| {
+                let i = c.index(&s) as usize;
+                (Vec3A::from(rgb.radiance()[i]), rgb.distance()[i])
+            }).unwrap_or_else(|e| panic!("{e}"));
+            for ch in 0..3 {
+                let mono = GatherSamples::from_fn(s, |c| {
+                    let i = c.index(&s) as usize;
+                    (rgb.radiance()[i][ch], rgb.distance()[i])
+                }).unwrap_or_else(|e| panic!("{e}"));
+                for variant in [TranslationGradient::WardHeckbert, TranslationGradient::KrivanekGautron] {
+                    let g1 = mono.gradients(variant);
+                    let g3 = rgb.gradients(variant);
+                    let g3a = rgb_a.gradients(variant);
+                    prop_assert_eq!(g3.irradiance[ch], g1.irradiance);
+                    prop_assert_eq!(g3a.irradiance[ch], g1.irradiance);
+                    for ax in 0..3 {
+                        prop_assert_eq!(g3.translation[ax][ch], g1.translation[ax]);
+                        prop_assert_eq!(g3.rotation[ax][ch], g1.rotation[ax]);
+                        prop_assert_eq!(g3a.translation[ax][ch], g1.translation[ax]);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The rotation weights are the cells' exact integrals: for L = 1 on the half φ ∈ [0, π)
+    /// only (cell-aligned for even N), ∇ᵣE = ∫_half sin θ eφ dω = ∫₀^{π/2} sin² θ dθ ·
+    /// ∫₀^π (−sin φ, cos φ) dφ = (π/4)·(−2, 0), for any M.
+    #[test]
+    fn rotation_of_a_half_sky_is_exact() {
+        for (m, n) in [(1, 2), (3, 8), (17, 54), (64, 200)] {
+            let s = HemisphereStrata::new(m, n).unwrap_or_else(|e| panic!("{e}"));
+            let g = GatherSamples::from_fn(s, |c| {
+                (if c.k < n / 2 { 1.0f32 } else { 0.0 }, f32::INFINITY)
+            })
+            .unwrap_or_else(|e| panic!("{e}"));
+            let r = g.rotation_gradient();
+            let expected = -std::f32::consts::FRAC_PI_2;
+            // Rounding: ≤ (M + N + 6)ε relative to Σ|terms| ≤ 2π (see `tolerances`).
+            let tol = (m + n + 6) as f32 * f32::EPSILON * std::f32::consts::TAU * 2.0;
+            assert!(
+                (r[0] - expected).abs() <= tol && r[1].abs() <= tol,
+                "{m}×{n}: {r:?}"
+            );
+        }
+    }
+
+    /// Turning to world space: a gather whose normal is +y, with its local x along the frame's
+    /// s, gives world gradients along s; extrapolation adds the two first-order terms.
+    #[test]
+    fn world_frame_and_extrapolation() {
+        let frame = Frame::from_normal(Vec3::Y);
+        let g = Gradients {
+            irradiance: 2.0f32,
+            rotation: [0.5, -0.25, 0.0],
+            translation: [1.0, 0.0, 3.0],
+        };
+        let w = g.in_world(&frame);
+        let t = Vec3::new(w.translation[0], w.translation[1], w.translation[2]);
+        let expected = frame.s * 1.0 + frame.n * 3.0;
+        assert!((t - expected).length() < 1e-6, "{t} vs {expected}");
+        let r = Vec3::new(w.rotation[0], w.rotation[1], w.rotation[2]);
+        assert!(r.dot(Vec3::Y).abs() < 1e-6);
+        // E + offset·∇ₜE + (nᵢ × n)·∇ᵣE, in the local frame.
+        let e = g.extrapolate(Vec3::new(0.1, 0.0, 0.0), Vec3::new(0.0, 0.2, 0.0));
+        assert!((e - (2.0 + 0.1 * 1.0 - 0.2 * 0.25)).abs() < 1e-6, "{e}");
+        // The same extrapolation in world space (offsets turned by the frame).
+        let ew = w.extrapolate(
+            frame.to_world(Vec3::new(0.1, 0.0, 0.0)),
+            frame.to_world(Vec3::new(0.0, 0.2, 0.0)),
+        );
+        assert!((ew - e).abs() < 1e-6);
+    }
+
+    /// R ≤ E/‖∇ₜE‖ over the tangent plane, per channel, the smallest channel's bound winning;
+    /// no gradient, no limit; the component along the normal does not count.
+    #[test]
+    fn radius_limit_follows_krivanek() {
+        let g = Gradients {
+            irradiance: Vec3::new(1.0, 2.0, 4.0),
+            rotation: [Vec3::ZERO; 3],
+            translation: [
+                Vec3::new(3.0, 1.0, 0.0),
+                Vec3::new(4.0, 0.0, 0.0),
+                Vec3::new(100.0, 100.0, 100.0),
+            ],
+        };
+        // Channel 0: 1/5; channel 1: 2/1; channel 2: no tangent gradient.
+        assert!((g.radius_limit(Vec3::Z) - 0.2).abs() < 1e-7);
+        let flat = Gradients {
+            irradiance: 1.0f32,
+            rotation: [0.0; 3],
+            translation: [0.0, 0.0, 5.0],
+        };
+        assert_eq!(flat.radius_limit(Vec3::Z), f32::INFINITY);
+        // In world space with the normal given, the same bound.
+        let frame = Frame::from_normal(Vec3::new(1.0, 2.0, 2.0).normalize());
+        let w = g.in_world(&frame);
+        assert!((w.radius_limit(frame.n) - 0.2).abs() < 1e-6);
+        // A zero irradiance with a gradient allows no radius at all.
+        let dark = Gradients {
+            irradiance: 0.0f32,
+            rotation: [0.0; 3],
+            translation: [1.0, 0.0, 0.0],
+        };
+        assert_eq!(dark.radius_limit(Vec3::Z), 0.0);
+    }
+
+    /// The horizon row: Ward & Heckbert's cell-centre weight (π/(MN))·tan θ꜀ falls short of the
+    /// cell's exact integral ∫ sin² θ dθ·2 sin(π/N) by a factor tending to 1/√2 (module docs).
+    /// Both in f64: the ratio at M = 10⁴ is within 1e-3 of 1/√2 (the next term is O(1/M)).
+    #[test]
+    fn horizon_row_claim_holds() {
+        let (m, n) = (10_000.0f64, 31_416.0f64);
+        let u_c = 1.0 - 0.5 / m;
+        let tan_c = (u_c / (1.0 - u_c)).sqrt();
+        let centre = std::f64::consts::PI / (m * n) * tan_c;
+        let t0 = ((m - 1.0) / m).sqrt().asin();
+        let g = |t: f64| 0.5 * (t - t.sin() * t.cos());
+        let exact =
+            (g(std::f64::consts::FRAC_PI_2) - g(t0)) * 2.0 * (std::f64::consts::PI / n).sin();
+        assert!(
+            (centre / exact - std::f64::consts::FRAC_1_SQRT_2).abs() < 1e-3,
+            "{}",
+            centre / exact
+        );
+    }
+}

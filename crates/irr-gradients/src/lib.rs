@@ -65,6 +65,8 @@ mod analytic;
 mod cell_aligned;
 #[cfg(test)]
 mod known_answers;
+#[cfg(test)]
+mod scene_tests;
 
 pub use gradient::{Gradients, TranslationGradient, directional, rotate_to_world};
 pub use samples::{GatherError, GatherSamples};

@@ -276,6 +276,8 @@ mod tests {
     }
 
     proptest! {
+        #![proptest_config(crate::analytic::fixed_config(64, 0x5a3f))]
+
         /// A uniform sky of radiance L gives E = πL: the MN cells of weight π/(MN) sum to π.
         /// Each cell's weight π/(MN) and each of the ≤ M + N additions of the row-wise sum
         /// round by ≤ ε/2 relative, so |E − πL| ≤ (M + N + 2)·ε·πL.
