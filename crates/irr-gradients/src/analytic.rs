@@ -2,7 +2,7 @@
 //! ray caster that turns such a scene into a [`GatherSamples`] with the real stratified sampler.
 //!
 //! Lambert's formula in Arvo's form (Arvo 1995, "Applications of Irradiance Tensors to the
-//! Simulation of Non-Lambertian Phenomena", §2, the irradiance from a polygonal luminaire):
+//! Simulation of Non-Lambertian Phenomena", the irradiance from a polygonal luminaire):
 //! E(x, n) = (L/2) · |Σᵢ Θᵢ (Γᵢ · n)|, over the edges of the polygon clipped to the half-space
 //! above the tangent plane at x, with Θᵢ the angle edge i subtends at x and Γᵢ the unit normal of
 //! the plane through x and edge i. Everything is in f64, so that central differences of it with

@@ -2,15 +2,16 @@
 //!
 //! # The model
 //! Every estimator here treats the incoming radiance as constant over each cell of the M×N
-//! stratification (Ward & Heckbert 1992, §2; Křivánek & Gautron 2009, §2.2): E = Σⱼₖ Aⱼₖ Lⱼₖ
+//! stratification (Ward & Heckbert 1992; Křivánek & Gautron 2009, ch. 2): E = Σⱼₖ Aⱼₖ Lⱼₖ
 //! with Aⱼₖ = ∫_cell cos θ dω = π/(MN). In the local frame (normal n = +z), with
 //! eθ = (cos θ cos φ, cos θ sin φ, −sin θ) and eφ = (−sin φ, cos φ, 0):
 //!
 //! **Rotation.** Turning the normal about the axis a by a small angle δ changes the cosine of
 //! every direction by δ·a·(n × ω), and adds no boundary term (cos θ = 0 on the horizon), so
-//! ∇ᵣE = ∫ L(ω) (n × ω) dω, and n × ω = sin θ eφ (Ward & Heckbert 1992, eq. 4). Ward & Heckbert
-//! estimate it as (π/(MN)) Σₖ vₖ Σⱼ tan θⱼ Lⱼₖ: the cosine-weighted estimate of the integral with
-//! vₖ = eφ(φₖ). We keep their model (L constant over a cell) but give each cell its exact weight
+//! ∇ᵣE = ∫ L(ω) (n × ω) dω, and n × ω = sin θ eφ (Ward & Heckbert 1992, the rotation
+//! gradient). They estimate it as (π/(MN)) Σₖ vₖ Σⱼ tan θⱼ Lⱼₖ, the cosine-weighted estimate of the
+//! integral with vₖ = eφ(φₖ) (Radiance takes θⱼ, φₖ at the cell's centre). We keep their model
+//! (L constant over a cell) but give each cell its exact weight
 //! ∫_cell sin θ eφ dω = ∫ sin² θ dθ · ∫ eφ dφ = [(θ − sin θ cos θ)/2]_{θⱼ}^{θⱼ₊₁} · 2 sin(π/N) eφ(φ꜀)
 //! (φ꜀ the column's middle azimuth). It equals (π/(MN)) tan θ꜀ vₖ to first order in the cell
 //! size, but stays right in the row at the horizon, where tan θ꜀ at the cell centre falls short of
@@ -25,10 +26,10 @@
 //! - a wall at θⱼ between cells (j−1, k) and (j, k), over φ ∈ [φₖ, φₖ₊₁), adds
 //!   (Lⱼₖ − Lⱼ₋₁,ₖ) · sin θⱼ cos θⱼ / R · ∫ eθ dφ, whose tangent part is
 //!   (Lⱼₖ − Lⱼ₋₁,ₖ) · (2π/N) sin θⱼ cos² θⱼ / R · uₖ with uₖ = (cos φ, sin φ, 0) at the cell's
-//!   middle azimuth (Ward & Heckbert 1992, eq. 5, first sum);
+//!   middle azimuth (Ward & Heckbert 1992, the translation gradient's first sum);
 //! - a wall at φₖ between cells (j, k−1) and (j, k), over θ ∈ [θⱼ, θⱼ₊₁), adds
 //!   (Lⱼₖ − Lⱼ,ₖ₋₁) / R · eφ(φₖ) · ∫ cos θ dθ = (Lⱼₖ − Lⱼ,ₖ₋₁)(sin θⱼ₊₁ − sin θⱼ)/R · eφ(φₖ)
-//!   (Ward & Heckbert 1992, eq. 5, second sum).
+//!   (Ward & Heckbert 1992, the translation gradient's second sum).
 //!
 //! R is unknown on the wall itself; both papers take the nearer of the two cells' hits,
 //! R = min(rⱼₖ, r_neighbour): at an occlusion edge the nearer object is the occluder, whose edge is
@@ -52,17 +53,20 @@ use std::f64::consts::TAU;
 /// neighbours (the φ-walls). The θ-walls and the normal component are the same in both.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum TranslationGradient {
-    /// Ward & Heckbert 1992, eq. 5: the φ-wall of row j weighs (sin θⱼ₊₁ − sin θⱼ)/R, the exact
-    /// integral of cos θ along the wall (exact for the piecewise-constant model when R is
-    /// constant along the wall). The default.
+    /// Ward & Heckbert 1992 (as Radiance's `ambcomp.c` computes it): the φ-wall of row j weighs
+    /// (sin θⱼ₊₁ − sin θⱼ)/R, the exact integral of cos θ along the wall (exact for the
+    /// piecewise-constant model when R is constant along the wall). The θ-walls use 2π/N where
+    /// the exact ∫ u dφ is 2 sin(π/N) (0.16 % more at N = 32). The default.
     #[default]
     WardHeckbert,
     /// Křivánek et al. 2005 ("Improved radiance gradient computation") in the form of Křivánek &
-    /// Gautron 2009, eq. 2.13: the φ-wall weighs cos θ꜀ (cos θⱼ − cos θⱼ₊₁) / (sin θ꜀ R), the change
-    /// of the cell's *solid angle* times the cosine at the cell's centre θ꜀ (sin² θ꜀ = (j + ½)/M).
-    /// Written for any per-cell weight (radiance caching's spherical harmonics, not only the
-    /// cosine), it agrees with Ward & Heckbert to first order in the cell size and is smaller by
-    /// up to 1 − 1/√2 in the row at the pole, where the cosine is not constant over the cell.
+    /// Gautron 2009, ch. 2 (as Mitsuba 0.6's `irrcache.cpp` computes it): the φ-wall weighs
+    /// cos θ꜀ (cos θⱼ − cos θⱼ₊₁) / (sin θ꜀ R), the change of the cell's *solid angle* times the
+    /// cosine at the cell's centre θ꜀ (sin² θ꜀ = (j + ½)/M). Written for any per-cell weight
+    /// (radiance caching's spherical harmonics, not only the cosine), it agrees with Ward &
+    /// Heckbert to first order in the cell size, but in the row at the pole it is short by a
+    /// factor tending to 1/√2 and in the row at the horizon long by √2, where the cosine is
+    /// far from constant over the cell.
     KrivanekGautron,
 }
 
@@ -72,7 +76,7 @@ pub enum TranslationGradient {
 /// `rotation[a]` and `translation[a]` are the a-th (x, y, z) components, one value each: for RGB
 /// the gradient of each channel. The first-order extrapolation to a nearby point p with normal n
 /// from this record at (pᵢ, nᵢ) is E + (p − pᵢ)·∇ₜE + (nᵢ × n)·∇ᵣE ([`Gradients::extrapolate`];
-/// Ward & Heckbert 1992, eq. 3; Křivánek & Gautron 2009, eq. 2.18).
+/// Ward & Heckbert 1992; Křivánek & Gautron 2009, ch. 2).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Gradients<V> {
     /// The irradiance estimate E.
@@ -84,8 +88,8 @@ pub struct Gradients<V> {
     pub translation: [V; 3],
 }
 
-/// The gradient-based bound on a record's radius (Ward & Heckbert 1992, §3; Křivánek et al.
-/// 2006, §3.2): R ≤ E/‖∇ₜE‖ per channel, so that the first-order extrapolation never changes the
+/// The gradient-based bound on a record's radius (Ward & Heckbert 1992; Křivánek et al.
+/// 2006, "Making radiance and irradiance caching practical"): R ≤ E/‖∇ₜE‖ per channel, so that the first-order extrapolation never changes the
 /// value by more than the value itself. Only the part of ∇ₜE in the tangent plane of `normal`
 /// counts (cached neighbours lie on the surface). `f32::INFINITY` when the gradient is zero.
 fn radius_limit_of<V: GatherValue>(e: V, t: &[V; 3], normal: Vec3) -> f32 {
@@ -141,7 +145,7 @@ impl<V: GatherValue> Gradients<V> {
 
     /// The gradient-based radius limit min over channels of E/‖∇ₜE‖, with ∇ₜE taken in the
     /// tangent plane of `normal` (`Vec3::Z` for local-frame gradients, the record's normal for
-    /// world-frame ones). See Křivánek et al. 2006, §3.2. `f32::INFINITY` for a zero gradient.
+    /// world-frame ones). See Křivánek et al. 2006. `f32::INFINITY` for a zero gradient.
     pub fn radius_limit(&self, normal: Vec3) -> f32 {
         radius_limit_of(self.irradiance, &self.translation, normal)
     }
@@ -225,7 +229,7 @@ impl Tables {
 }
 
 impl<V: GatherValue> GatherSamples<V> {
-    /// ∇ᵣE in the local frame (z = 0): Σⱼₖ Lⱼₖ ∫_cell sin θ eφ dω (Ward & Heckbert 1992, eq. 4,
+    /// ∇ᵣE in the local frame (z = 0): Σⱼₖ Lⱼₖ ∫_cell sin θ eφ dω (Ward & Heckbert 1992,
     /// with each cell's exact weight; see the module docs).
     pub fn rotation_gradient(&self) -> [V; 3] {
         // The variant does not enter the rotation tables.

@@ -5,7 +5,7 @@
 //! where it escaped to the sky). Nothing here knows rays or scenes: the caller traced the rays.
 //!
 //! Also here: the irradiance estimate and the distance statistics that set a record's radius
-//! (Ward, Rubinstein & Clear 1988, §2.2: the harmonic mean distance; Tabellion & Lamorlette 2004
+//! (Ward, Rubinstein & Clear 1988: the harmonic mean distance; Tabellion & Lamorlette 2004
 //! and Křivánek et al. 2006: the minimum distance).
 
 use crate::value::GatherValue;
@@ -137,8 +137,8 @@ impl<V: GatherValue> GatherSamples<V> {
         &self.distance
     }
 
-    /// The irradiance estimate E = (π/(MN)) Σⱼₖ Lⱼₖ (Ward & Heckbert 1992, eq. 1 with cells of
-    /// equal projected solid angle; Křivánek & Gautron 2009, eq. 2.5).
+    /// The irradiance estimate E = (π/(MN)) Σⱼₖ Lⱼₖ (Ward & Heckbert 1992, with cells of
+    /// equal projected solid angle; Křivánek & Gautron 2009, ch. 2).
     ///
     /// Summed row by row, so the rounding error grows with M + N rather than with M·N.
     pub fn irradiance(&self) -> V {
@@ -152,7 +152,7 @@ impl<V: GatherValue> GatherSamples<V> {
     }
 
     /// The harmonic mean distance to the hits, R = MN / Σⱼₖ 1/rⱼₖ (Ward, Rubinstein & Clear 1988,
-    /// §2.2, the "harmonic mean distance" Rᵢ of the record's split-sphere bound): a miss counts
+    /// the "harmonic mean distance" Rᵢ of the record's split-sphere bound): a miss counts
     /// as infinitely far (1/r = 0). `f32::INFINITY` when every ray missed.
     pub fn harmonic_mean_distance(&self) -> f32 {
         // Accumulate in f64: up to 2²⁰ terms of very different sizes.

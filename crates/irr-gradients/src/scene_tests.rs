@@ -3,7 +3,7 @@
 //! between a few records (with them on and off).
 //!
 //! The interpolation here is a stand-in (two bracketing records, inverse-distance weights, the
-//! first-order extrapolation of Ward & Heckbert 1992, eq. 3, written inline): irr-gradients may
+//! first-order extrapolation of Ward & Heckbert 1992, written inline): irr-gradients may
 //! not depend on irr-cache. The full cache test, with Ward's weights and the radius limit, comes
 //! with the integrator.
 
@@ -124,7 +124,7 @@ fn records(scene: &Scene, points: &[(DVec3, DVec3)]) -> Vec<Record> {
 
 /// RMS relative error against the closed form at `queries`, interpolating with gradients off
 /// and on: Ward's weights wᵢ = 1/(‖p − pᵢ‖/Rᵢ + √(1 − n·nᵢ)) (Ward, Rubinstein & Clear 1988,
-/// eq. 4) over the records with wᵢ > 1/a, a = 0.2, each record's value either Eᵢ or its
+/// the weight of the split-sphere model) over the records with wᵢ > 1/a, a = 0.2, each record's value either Eᵢ or its
 /// first-order extrapolation Eᵢ + (p − pᵢ)·∇ₜEᵢ + (nᵢ × n)·∇ᵣEᵢ.
 fn interpolation_errors(
     scene: &Scene,
