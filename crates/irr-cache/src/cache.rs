@@ -1,7 +1,7 @@
 //! The cache: records, their octree, the metric, and gradient-corrected interpolation.
 
 use crate::metric::{Candidate, ErrorMetric, TabellionLamorlette};
-use crate::octree::{Entry, Octree, contains};
+use crate::octree::{Entry, Octree, contains, contains_offset};
 use crate::record::{InsertError, Record, unit_query_normal};
 use crate::value::CacheValue;
 use glam::{DVec3, Vec3};
@@ -157,6 +157,10 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         });
     }
 
+    /// Calls `f` for every record of positive weight at (p, n).
+    ///
+    /// In two passes: the records in range are collected (a batch at a time) before any is read,
+    /// so that their cache misses overlap instead of each waiting for the previous weight.
     #[inline]
     fn weighted(
         &self,
@@ -164,17 +168,36 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         n: DVec3,
         mut f: impl FnMut(RecordId, &Record<V>, &Candidate, f64),
     ) {
-        self.octree.for_each_on_path(p, |e| {
-            if !contains(e.center, e.radius, p) {
-                return;
+        const BATCH: usize = 32;
+        let mut batch = [(0u32, DVec3::ZERO, 0.0f64); BATCH];
+        let mut len = 0;
+        let mut flush = |batch: &[(u32, DVec3, f64)]| {
+            for &(index, offset, d2) in batch {
+                let record = &self.records[index as usize];
+                let candidate = Candidate {
+                    offset,
+                    distance: d2.sqrt(),
+                    query_normal: n,
+                    record_normal: record.normal.as_dvec3(),
+                    record_radius: f64::from(record.radius),
+                };
+                let w = self.metric.weight(&candidate);
+                if w > 0.0 && w.is_finite() {
+                    f(index, record, &candidate, w);
+                }
             }
-            let record = &self.records[e.index as usize];
-            let candidate = Candidate::new(p, n, record.position, record.normal, record.radius);
-            let w = self.metric.weight(&candidate);
-            if w > 0.0 && w.is_finite() {
-                f(e.index, record, &candidate, w);
+        };
+        self.octree.for_each_on_path(p, |e| {
+            if let Some((offset, d2)) = contains_offset(e.center, e.radius, p) {
+                batch[len] = (e.index, offset, d2);
+                len += 1;
+                if len == BATCH {
+                    flush(&batch);
+                    len = 0;
+                }
             }
         });
+        flush(&batch[..len]);
     }
 
     /// E(p, n) = Σ wᵢ·Ẽᵢ / Σ wᵢ over the records with wᵢ > 0, where each record's value is
@@ -306,14 +329,14 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         });
     }
 
-    /// Bytes held by the cache (records, octree nodes and entries), capacity included.
+    /// Bytes held by the cache (records, octree cells and entries), capacity included.
     pub fn memory_bytes(&self) -> usize {
         size_of::<Self>()
             + self.records.capacity() * size_of::<Record<V>>()
             + self.octree.memory_bytes()
     }
 
-    /// The number of octree nodes and of entries (a record is filed in 1 to 8 cells).
+    /// The number of non-empty octree cells and of entries (a record is filed in 1 to 8 cells).
     pub fn octree_counts(&self) -> (usize, usize) {
         self.octree.counts()
     }
