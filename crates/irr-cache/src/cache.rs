@@ -29,6 +29,17 @@ pub struct Interpolation<V> {
     pub count: u32,
 }
 
+/// A record of a batch was refused ([`IrradianceCache::extend`]); nothing was added.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[error("record {index} of the batch was refused: {source}")]
+pub struct BatchError {
+    /// The record's position in the batch.
+    pub index: usize,
+    /// Why it was refused.
+    #[source]
+    pub source: InsertError,
+}
+
 /// The index of a record in its cache ([`IrradianceCache::records`]), in insertion order.
 pub type RecordId = u32;
 
@@ -97,20 +108,26 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         index
     }
 
-    /// Adds a batch of records, all or none: if one is refused, the error comes with its position
-    /// in the batch and nothing is added. Returns the ids given to the batch.
+    /// Adds a batch of records, all or none: if one is refused, the error names its position in
+    /// the batch and nothing is added. Returns the ids given to the batch.
     pub fn extend<I: IntoIterator<Item = Record<V>>>(
         &mut self,
         records: I,
-    ) -> Result<std::ops::Range<RecordId>, (usize, InsertError)> {
+    ) -> Result<std::ops::Range<RecordId>, BatchError> {
         let batch = records
             .into_iter()
             .enumerate()
-            .map(|(i, r)| self.prepare(r).map_err(|e| (i, e)))
+            .map(|(index, r)| {
+                self.prepare(r)
+                    .map_err(|source| BatchError { index, source })
+            })
             .collect::<Result<Vec<_>, _>>()?;
         if self.records.len() + batch.len() > u32::MAX as usize {
             let first_over = (u32::MAX as usize).saturating_sub(self.records.len());
-            return Err((first_over, InsertError::Full));
+            return Err(BatchError {
+                index: first_over,
+                source: InsertError::Full,
+            });
         }
         let start = self.records.len() as u32;
         self.records.reserve(batch.len());
@@ -201,8 +218,8 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
     }
 
     /// E(p, n) = Σ wᵢ·Ẽᵢ / Σ wᵢ over the records with wᵢ > 0, where each record's value is
-    /// corrected to first order by its gradients (Ward & Heckbert 1992, eq. 8–10; Křivánek &
-    /// Gautron 2009, eq. 2.x):
+    /// corrected to first order by its gradients (Ward & Heckbert 1992, "Irradiance Gradients";
+    /// the form of Křivánek & Gautron 2009, ch. 2, and Mitsuba 0.6's interpolation):
     ///
     /// Ẽᵢ = Eᵢ + (nᵢ × n)·∇ᵣEᵢ + (p − pᵢ)·∇ₜEᵢ,
     ///
@@ -263,7 +280,7 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
     }
 
     /// Neighbour clamping, first half (Křivánek et al. 2006, "Making Radiance and Irradiance
-    /// Caching Practical: Adaptive Caching and Neighbor Clamping", §4): the radius `radius` of a
+    /// Caching Practical: Adaptive Caching and Neighbor Clamping"): the radius `radius` of a
     /// new record at `p`, lowered to min over existing records j of (Rⱼ + ‖p − pⱼ‖), so radii
     /// vary no faster than distance (the triangle inequality). Only records with ‖p − pⱼ‖ <
     /// `radius` can lower it. The second half, lowering the neighbours' radii in turn, is
@@ -281,7 +298,7 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         r as f32
     }
 
-    /// Neighbour clamping, second half (Křivánek et al. 2006, §4): every record j within
+    /// Neighbour clamping, second half (Křivánek et al. 2006): every record j within
     /// `radius` of `p` gets Rⱼ ← min(Rⱼ, `radius` + ‖p − pⱼ‖), and is refiled in the octree when
     /// its radius changes. Call it with the new record's (already clamped) radius, before or
     /// after inserting it. Returns how many records changed.

@@ -266,9 +266,9 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         let mut cache = Self::new(metric);
         cache
             .extend(payload.chunks_exact(record_bytes).map(decode_record::<V>))
-            .map_err(|(index, source)| CacheFileError::Record {
-                index: index as u64,
-                source,
+            .map_err(|e| CacheFileError::Record {
+                index: e.index as u64,
+                source: e.source,
             })?;
         Ok(cache)
     }

@@ -72,7 +72,7 @@ mod octree;
 mod record;
 mod value;
 
-pub use cache::{Interpolation, IrradianceCache, RecordId, within_influence};
+pub use cache::{BatchError, Interpolation, IrradianceCache, RecordId, within_influence};
 pub use io::CacheFileError;
 pub use metric::{
     Angle, Candidate, Cuts, ErrorMetric, MetricError, PixelRange, RadiusLimits,

@@ -8,7 +8,7 @@
 //! - [`ErrorMetric::weight`]: the weight, positive where the record may be used, zero elsewhere;
 //!   never NaN or infinite.
 //! - [`ErrorMetric::radius_limits`]: the range a new record's radius should be clamped to, given
-//!   the world-space size of a pixel at its position (Tabellion & Lamorlette 2004, §3.3;
+//!   the world-space size of a pixel at its position (Tabellion & Lamorlette 2004;
 //!   pbrt-v2's `minpixelspacing`/`maxpixelspacing`). The clamping itself is the caller's: the
 //!   cache stores the radius it is given.
 //!
@@ -124,7 +124,7 @@ impl Candidate {
 
 /// The two tests applied before any weight formula.
 ///
-/// - **In front** (Ward & Heckbert 1992, §3, the dᵢ test): with
+/// - **In front** (Ward & Heckbert 1992, the dᵢ test): with
 ///   dᵢ = (p − pᵢ)·(n + nᵢ)/2, a record with dᵢ < −τ·Rᵢ lies in front of the query point's
 ///   tangent plane (it sits on a bump or a fold that may shadow p) and is skipped. On a smooth
 ///   sphere dᵢ = 0 exactly (the averaged normal cancels the curvature), so τ only has to absorb
@@ -226,7 +226,7 @@ impl RadiusLimits {
 }
 
 /// Influence limits in pixels: a record's influence radius should span between `min` and `max`
-/// pixels on screen (Tabellion & Lamorlette 2004, §3.3: R⁻ = 1.5 and R⁺ = 10 pixels).
+/// pixels on screen (Tabellion & Lamorlette 2004: R⁻ = 1.5 and R⁺ = 10 pixels).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PixelRange {
     min: f32,
@@ -299,7 +299,7 @@ fn f32_up(x: f64) -> f32 {
     if f64::from(r) < x { r.next_up() } else { r }
 }
 
-/// Ward, Rubinstein & Clear 1988 (eq. 4 and §"Ambient Value Calculation"):
+/// Ward, Rubinstein & Clear 1988, "A Ray Tracing Solution for Diffuse Interreflection":
 ///
 /// wᵢ = 1 / ε, ε = ‖p − pᵢ‖/Rᵢ + √(1 − n·nᵢ), and a record is used where wᵢ > 1/a, i.e. ε < a,
 /// with a the user's accuracy. The weight is then Ward's wᵢ itself (not shifted by 1/a), as in the
@@ -382,9 +382,11 @@ impl ErrorMetric for Ward {
     }
 }
 
-/// Tabellion & Lamorlette 2004 (§3.3, "An Approximate Global Illumination System for Computer
+/// Tabellion & Lamorlette 2004 ("An Approximate Global Illumination System for Computer
 /// Generated Films"), in the form of Křivánek & Gautron 2009 ("Practical Global Illumination with
-/// Irradiance Caching", §2.x, the "Tabellion and Lamorlette" weight), which this type follows:
+/// Irradiance Caching", ch. 2, the "Tabellion and Lamorlette" weight), which this type follows
+/// (Mitsuba 0.6's `Record::getWeight` and YafaRay's `irradianceCache_t::weight` compute the same
+/// form, the latter with the clamping inside as Tabellion & Lamorlette write it):
 ///
 /// εᵢ = κ · max( ‖p − pᵢ‖ / (Rᵢ/2),  √(1 − n·nᵢ) / √(1 − cos 10°) ),  wᵢ = 1 − εᵢ, used where
 /// wᵢ > 0.
@@ -476,5 +478,167 @@ impl ErrorMetric for TabellionLamorlette {
         // Influence = R/(2κ): R = 2κ·influence.
         self.pixels
             .radius_limits(pixel_spacing, 1.0 / (2.0 * f64::from(self.kappa)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn at(q: DVec3, n: DVec3, radius: f32) -> Candidate {
+        Candidate::new(q, n, Vec3::ZERO, Vec3::Z, radius)
+    }
+
+    #[test]
+    fn tabellion_lamorlette_known_values() {
+        let t = TabellionLamorlette::default();
+        // κ·‖p − pᵢ‖/(R/2) = 0.5/1 exactly: w = 0.5 exactly.
+        assert_eq!(t.weight(&at(DVec3::new(0.5, 0.0, 0.0), DVec3::Z, 2.0)), 0.5);
+        // At 5°, the normal term is sin 2.5° / sin 5° (chord identity).
+        let n5 = DVec3::new(5f64.to_radians().sin(), 0.0, 5f64.to_radians().cos());
+        let expected = 1.0 - (2.5f64.to_radians().sin() / 5f64.to_radians().sin());
+        // The chord is computed from the difference of two unit vectors (a few ulps of 1) and
+        // divided by a constant: the weight is exact to a few 2⁻⁵³; 1e-12 is generous.
+        assert!((t.weight(&at(DVec3::ZERO, n5, 2.0)) - expected).abs() < 1e-12);
+        // κ = 2 halves the influence: R/(2κ) = R/4.
+        let strict = TabellionLamorlette::new(2.0).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(strict.influence_radius(4.0), 1.0);
+        assert_eq!(
+            strict.weight(&at(DVec3::new(1.0, 0.0, 0.0), DVec3::Z, 4.0)),
+            0.0
+        );
+        assert_eq!(
+            strict.weight(&at(DVec3::new(0.5, 0.0, 0.0), DVec3::Z, 4.0)),
+            0.5
+        );
+    }
+
+    #[test]
+    fn ward_known_values() {
+        let w = Ward::new(0.5).unwrap_or_else(|e| panic!("{e}"));
+        // ε = 0.5/2 = 0.25 exactly: w = 4.
+        assert_eq!(w.weight(&at(DVec3::new(0.5, 0.0, 0.0), DVec3::Z, 2.0)), 4.0);
+        // Coincident: ε floored at 2⁻²³.
+        assert_eq!(w.weight(&at(DVec3::ZERO, DVec3::Z, 2.0)), 8_388_608.0);
+        // ε = a is outside (w must exceed 1/a strictly).
+        assert_eq!(w.weight(&at(DVec3::new(1.0, 0.0, 0.0), DVec3::Z, 2.0)), 0.0);
+        assert_eq!(w.influence_radius(2.0), 1.0);
+        // The normal term: √(1 − cos 60°) = √0.5.
+        let n60 = DVec3::new(60f64.to_radians().sin(), 0.0, 60f64.to_radians().cos());
+        let loose = Ward::new(1.0).unwrap_or_else(|e| panic!("{e}")).with_cuts(
+            Cuts::new(Angle::from_degrees(90.0), 0.05).unwrap_or_else(|e| panic!("{e}")),
+        );
+        let e = Ward::error(&at(DVec3::ZERO, n60, 1.0));
+        assert!((e - 0.5f64.sqrt()).abs() < 1e-12);
+        assert!((loose.weight(&at(DVec3::ZERO, n60, 1.0)) - 1.0 / 0.5f64.sqrt()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn influence_radii_are_rounded_up() {
+        let w = Ward::new(0.3).unwrap_or_else(|e| panic!("{e}"));
+        let t = TabellionLamorlette::new(3.0).unwrap_or_else(|e| panic!("{e}"));
+        for r in [1e-30f32, 0.1, 1.0, 7.3, 1e20] {
+            let exact = f64::from(0.3f32) * f64::from(r);
+            let got = w.influence_radius(r);
+            assert!(
+                f64::from(got) >= exact && f64::from(got.next_down()) < exact,
+                "{r}"
+            );
+            let exact = f64::from(r) / 6.0;
+            let got = t.influence_radius(r);
+            assert!(
+                f64::from(got) >= exact && f64::from(got.next_down()) < exact,
+                "{r}"
+            );
+        }
+    }
+
+    #[test]
+    fn radius_limits_follow_the_pixel_spacing() {
+        let t = TabellionLamorlette::default();
+        // Influence R/2 in [1.5, 10] pixels of 0.01: R in [0.03, 0.2]. Two f32 roundings (of the
+        // spacing 0.01 and of each limit) make a relative error ≤ 2·2⁻²⁴ ≈ 1.2e-7: the absolute
+        // bounds below are 0.03·1.2e-7 = 3.6e-9 < 1e-8 and so on.
+        let l = t.radius_limits(0.01);
+        assert!(
+            (l.min - 0.03).abs() < 1e-8 && (l.max - 0.2).abs() < 1e-7,
+            "{l:?}"
+        );
+        // Ward a = 0.1: influence 0.1·R in [1.5, 10] pixels: R in [0.15, 1.0].
+        let l = Ward::new(0.1)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .radius_limits(0.01);
+        assert!(
+            (l.min - 0.15).abs() < 1e-7 && (l.max - 1.0).abs() < 1e-6,
+            "{l:?}"
+        );
+        for unknown in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            assert_eq!(t.radius_limits(unknown), RadiusLimits::UNBOUNDED);
+        }
+        let l = RadiusLimits { min: 1.0, max: 2.0 };
+        assert_eq!(
+            [l.clamp(0.5), l.clamp(1.5), l.clamp(3.0), l.clamp(f32::NAN)],
+            [1.0, 1.5, 2.0, 1.0]
+        );
+    }
+
+    #[test]
+    fn bad_parameters_are_errors() {
+        for a in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            assert!(matches!(Ward::new(a), Err(MetricError::Accuracy(_))));
+            assert!(matches!(
+                TabellionLamorlette::new(a),
+                Err(MetricError::Kappa(_))
+            ));
+        }
+        for deg in [0.0, -5.0, 180.5, f32::NAN] {
+            assert!(matches!(
+                Cuts::new(Angle::from_degrees(deg), 0.05),
+                Err(MetricError::NormalAngle(_))
+            ));
+        }
+        assert!(Cuts::new(Angle::from_degrees(180.0), 0.0).is_ok());
+        for tol in [-0.1, f32::NAN, f32::INFINITY] {
+            assert!(matches!(
+                Cuts::new(Angle::from_degrees(10.0), tol),
+                Err(MetricError::InFrontTolerance(_))
+            ));
+        }
+        for (a, b) in [
+            (0.0, 1.0),
+            (2.0, 1.0),
+            (1.0, f32::INFINITY),
+            (f32::NAN, 1.0),
+        ] {
+            assert!(matches!(
+                PixelRange::new(a, b),
+                Err(MetricError::PixelRange(..))
+            ));
+        }
+    }
+
+    #[test]
+    fn angles_convert_both_ways() {
+        assert_eq!(Angle::from_degrees(180.0).radians(), std::f64::consts::PI);
+        assert!((Angle::from_radians(1.0).degrees() - 57.295_779_513).abs() < 1e-6);
+        assert!((Angle::from_degrees(60.0).chord() - 1.0).abs() < 1e-15);
+        assert_eq!(Angle::from_degrees(180.0).chord(), 2.0);
+    }
+
+    proptest! {
+        /// The chord identity ‖a − b‖²/2 = 1 − a·b holds for unit vectors; for vectors of squared
+        /// length 1 + δ it is off by (δa + δb)/2, and each side carries a few f64 roundings of
+        /// quantities ≤ 4 (≤ 8·2⁻⁵³ in all).
+        #[test]
+        fn chord_identity(a in (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0), b in (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0)) {
+            let (a, b) = (Vec3::new(a.0, a.1, a.2), Vec3::new(b.0, b.1, b.2));
+            prop_assume!(a.length() > 1e-3 && b.length() > 1e-3);
+            let (a, b) = (a.normalize().as_dvec3(), b.normalize().as_dvec3());
+            let chord = (a - b).length();
+            let slack = ((a.length_squared() - 1.0).abs() + (b.length_squared() - 1.0).abs()) / 2.0
+                + 8.0 * f64::EPSILON / 2.0;
+            prop_assert!((chord * chord / 2.0 - (1.0 - a.dot(b))).abs() <= slack);
+        }
     }
 }

@@ -8,7 +8,7 @@
 //! which is what a root that doubles whenever a record falls outside it achieves, without ever
 //! re-rooting; and a query does not pay for the empty levels above the records.
 //!
-//! **Filing (Ward et al. 1988, §"Octree").** A record is filed at the level whose cells match its
+//! **Filing (as in Ward et al. 1988).** A record is filed at the level whose cells match its
 //! influence radius r: the smallest e with 2ᵉ ≥ [`FIT`]·r. Its entry is copied into **every** cell of
 //! that level that its sphere's bounding box overlaps (at most 2 per axis, 8 in all, because the
 //! box is no wider than a cell). A query at p then looks, on each occupied level, at the one cell

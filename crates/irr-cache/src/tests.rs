@@ -55,7 +55,7 @@ fn ward(a: f32) -> Ward {
 fn cache_of<M: ErrorMetric>(metric: M, records: &[Record<Rgb>]) -> IrradianceCache<Rgb, M> {
     let mut c = IrradianceCache::new(metric);
     c.extend(records.iter().copied())
-        .unwrap_or_else(|(i, e)| panic!("record {i}: {e}"));
+        .unwrap_or_else(|e| panic!("{e}"));
     c
 }
 
@@ -539,7 +539,10 @@ fn extend_is_all_or_nothing() {
     let bad = Record::new(Vec3::ZERO, Vec3::Z, 1.0, Rgb::new(1.0, f32::NAN, 0.0));
     assert_eq!(
         cache.extend([good, good, bad, good]),
-        Err((2, InsertError::Value))
+        Err(BatchError {
+            index: 2,
+            source: InsertError::Value
+        })
     );
     assert!(cache.is_empty());
     assert!(cache.interpolate(Vec3::ZERO, Vec3::Z).is_none());
@@ -733,7 +736,7 @@ fn any_scale_and_translation() {
         .collect();
     mixed
         .extend(small.iter().copied())
-        .unwrap_or_else(|(i, e)| panic!("{i}: {e}"));
+        .unwrap_or_else(|e| panic!("{e}"));
     mixed
         .insert(Record::new(
             Vec3::new(-3e4, 2e4, 0.0),

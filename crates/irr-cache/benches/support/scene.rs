@@ -122,8 +122,8 @@ impl Scene {
 
     pub fn cache(&self, n: usize) -> IrradianceCache<Rgb, TabellionLamorlette> {
         let mut cache = IrradianceCache::new(TabellionLamorlette::default());
-        if let Err((i, e)) = cache.extend(self.records(n, 1)) {
-            panic!("record {i}: {e}");
+        if let Err(e) = cache.extend(self.records(n, 1)) {
+            panic!("{e}");
         }
         cache
     }
