@@ -13,6 +13,10 @@
 //!   Heckbert's "in front" test with a tolerance relative to R, the normal-divergence cut with an
 //!   [`Angle`] that cannot be read in the wrong unit) and the [`RadiusLimits`] a caller clamps a
 //!   new radius to, from the pixel spacing.
+//! - The octree of influence spheres (a linear octree: cells keyed by level and integer
+//!   coordinates in a hash table, no bounds to set or grow; each record filed at the level that
+//!   matches its influence radius, as in Ward et al. 1988). A query visits exactly the records whose
+//!   sphere contains p, the same set as a brute-force scan, to the last bit.
 //! - [`IrradianceCache`]: insertion (`insert`, all-or-nothing `extend`), the exact range query,
 //!   [`IrradianceCache::interpolate`] (returning the value, the total weight and the record count,
 //!   or `None` on a miss), neighbour clamping, and [`IrradianceCache::write_to`] /

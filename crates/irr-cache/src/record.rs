@@ -13,7 +13,7 @@ use thiserror::Error;
 /// Gradients are stored per axis: `translation_gradient[k]` is ∂E/∂p along world axis k, and
 /// `rotation_gradient[k]` is the k-th component of the rotation gradient ∇ᵣE (Ward & Heckbert
 /// 1992), so that the first-order change of E when the normal turns from nᵢ to n is
-/// (nᵢ × n)·∇ᵣE = Σₖ (nᵢ × n)[k] · `rotation_gradient[k]`.
+/// (nᵢ × n)·∇ᵣE = Σₖ (nᵢ × n)ₖ · `rotation_gradient[k]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C)]
 pub struct Record<V> {
