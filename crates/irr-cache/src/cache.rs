@@ -286,7 +286,7 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
     /// `radius` can lower it. The second half, lowering the neighbours' radii in turn, is
     /// [`IrradianceCache::clamp_neighbours`].
     pub fn neighbour_clamped_radius(&self, p: Vec3, radius: f32) -> f32 {
-        if !(p.is_finite() && radius.is_finite() && radius > 0.0) {
+        if !(p.is_finite() && radius.is_finite() && radius >= f32::MIN_POSITIVE) {
             return radius;
         }
         let pd = p.as_dvec3();
@@ -301,9 +301,11 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
     /// Neighbour clamping, second half (Křivánek et al. 2006): every record j within
     /// `radius` of `p` gets Rⱼ ← min(Rⱼ, `radius` + ‖p − pⱼ‖), and is refiled in the octree when
     /// its radius changes. Call it with the new record's (already clamped) radius, before or
-    /// after inserting it. Returns how many records changed.
+    /// after inserting it. Returns how many records changed. Nothing changes when `p` is not
+    /// finite or `radius` is not a valid record radius (see [`Record::validated`]), so every
+    /// stored radius stays valid (and the cache can still be written and read back).
     pub fn clamp_neighbours(&mut self, p: Vec3, radius: f32) -> usize {
-        if !(p.is_finite() && radius.is_finite() && radius > 0.0) {
+        if !(p.is_finite() && radius.is_finite() && radius >= f32::MIN_POSITIVE) {
             return 0;
         }
         let pd = p.as_dvec3();
