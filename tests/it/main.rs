@@ -1,4 +1,6 @@
 //! Cross-crate integration tests for irr: one binary, a module per subject.
 
+mod bad_input;
 mod geometry;
+mod render;
 mod sampling;

@@ -1,6 +1,8 @@
 //! irr's developer commands, run as `cargo xtask <command>` (the alias in `.cargo/config.toml`
 //! builds this crate in release mode).
 //!
+//! - `cargo xtask render`: renders a glTF scene (by default the Cornell box in assets/) to
+//!   `out/<scene>.exr` plus a PNG preview; `cargo xtask render --help` lists the options.
 //! - `cargo xtask tidy`: checks the codebase's own rules (also run by `cargo test` through the
 //!   `#[test]`s in `tidy.rs`).
 //!
@@ -10,6 +12,7 @@ use clap::{Parser, Subcommand};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+mod render;
 mod tidy;
 
 /// irr's developer commands.
@@ -22,6 +25,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Render a glTF scene to OpenEXR (linear radiance) and a PNG preview.
+    Render(render::RenderArgs),
     /// Check the codebase's own rules: crate docs, and the one-way dependency table.
     Tidy,
 }
@@ -35,6 +40,7 @@ pub fn workspace_root() -> PathBuf {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Render(args) => render::run(args, &workspace_root()),
         Command::Tidy => tidy::run(&workspace_root()),
     };
     match result {

@@ -102,7 +102,7 @@ mod tests {
     pub(crate) fn build(json: &[u8], bin: Option<&[u8]>) -> Vec<u8> {
         let mut out = Vec::new();
         let pad = |v: &mut Vec<u8>, byte: u8| {
-            while v.len() % 4 != 0 {
+            while !v.len().is_multiple_of(4) {
                 v.push(byte);
             }
         };

@@ -91,11 +91,14 @@ pub struct SceneData {
     pub bounds: Option<(Vec3, Vec3)>,
 }
 
+/// Writes a warning's line from its final count.
+type Message = Box<dyn Fn(usize) -> String>;
+
 /// Collects warnings, merging counts per feature, in first-seen order.
 struct Warnings {
     file: PathBuf,
     order: Vec<String>,
-    counts: BTreeMap<String, (usize, Box<dyn Fn(usize) -> String>)>,
+    counts: BTreeMap<String, (usize, Message)>,
 }
 
 impl Warnings {
@@ -334,11 +337,11 @@ impl<'a> Loader<'a> {
             match v {
                 Value::Object(map) => {
                     for (key, value) in map {
-                        if key == "extensions" {
-                            if let Value::Object(exts) = value {
-                                for name in exts.keys() {
-                                    *counts.entry(name.clone()).or_default() += 1;
-                                }
+                        if key == "extensions"
+                            && let Value::Object(exts) = value
+                        {
+                            for name in exts.keys() {
+                                *counts.entry(name.clone()).or_default() += 1;
                             }
                         }
                         walk(value, counts);
@@ -625,7 +628,6 @@ impl<'a> Loader<'a> {
         Ok(camera)
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn primitive(
         &mut self,
         node: &gltf::Node<'_>,
