@@ -42,7 +42,9 @@
 //! distance `(b − o)·(1/d)` carries at most three roundings, so the far distance is scaled by
 //! `1 + 2γ₃` and a box that the exact ray touches is never rejected.
 
-use glam::{DVec3, Vec3, Vec3A, Vec3Swizzles};
+use glam::{DVec3, Vec3, Vec3A, Vec3Swizzles, Vec4};
+use obvhs::aabb::Aabb;
+use obvhs::cwbvh::node::{CwBvhNode, extract_byte64};
 
 use crate::Ray;
 use crate::mesh::cross_f64;
@@ -52,6 +54,9 @@ pub(crate) const fn gamma(n: i32) -> f32 {
     let nu = n as f32 * (f32::EPSILON * 0.5);
     nu / (1.0 - nu)
 }
+
+/// The clamp on `1/d` (2⁶⁴).
+const INV_DIR_LIMIT: Vec3A = Vec3A::splat(18_446_744_073_709_551_616.0);
 
 /// Ize's factor on the far slab distance: `1 + 2γ₃`.
 const BOX_FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
@@ -83,7 +88,7 @@ impl TriSoa {
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct PreparedRay {
     pub(crate) origin: Vec3A,
-    dir: Vec3A,
+    pub(crate) dir: Vec3A,
     pub(crate) inv_dir: Vec3A,
     ox: Vec3A,
     oy: Vec3A,
@@ -94,40 +99,48 @@ pub(crate) struct PreparedRay {
     pub(crate) kz: usize,
     /// The caller's `t_max`.
     pub(crate) t_max: f32,
+    /// For the 4-wide box tests: the origin and inverse direction per axis, splatted; the
+    /// inverse direction scaled by Ize's `1 + 2γ₃` for far distances (one more rounding of at
+    /// most u, which the factor's margin of γ₃ − u covers); and per axis the index of the near
+    /// plane among (min x, min y, min z, max x, max y, max z).
+    pub(crate) o4: [Vec4; 3],
+    pub(crate) inv4: [Vec4; 3],
+    pub(crate) inv_far4: [Vec4; 3],
+    pub(crate) near: [usize; 3],
 }
 
 impl PreparedRay {
     /// `None` for a ray that cannot hit anything: non-finite origin or direction, zero
     /// direction, or a `t_max` that is NaN or not positive.
+    #[inline(always)]
     pub(crate) fn new(ray: &Ray) -> Option<PreparedRay> {
-        let d = ray.direction;
-        if !ray.origin.is_finite() || !d.is_finite() || d == Vec3::ZERO || ray.t_max.is_nan() {
-            return None;
-        }
-        if ray.t_max <= 0.0 {
+        let o = Vec3A::from(ray.origin);
+        let d = Vec3A::from(ray.direction);
+        let finite = o.is_finite() && d.is_finite();
+        if !finite || d.cmpeq(Vec3A::ZERO).all() || ray.t_max.is_nan() || ray.t_max <= 0.0 {
             return None;
         }
         let a = d.abs();
-        let kz = if a.x > a.y && a.x > a.z {
-            0
+        // kz is the largest component; kx = kz + 1, ky = kz + 2 (mod 3). pbrt-v4: Sx = −d_x/d_z,
+        // Sy = −d_y/d_z in the permuted frame (Sz is not needed: the distance comes from the
+        // plane, see the module docs).
+        let (kz, sx, sy) = if a.x > a.y && a.x > a.z {
+            (0, -d.y / d.x, -d.z / d.x)
         } else if a.y > a.z {
-            1
+            (1, -d.z / d.y, -d.x / d.y)
         } else {
-            2
+            (2, -d.x / d.z, -d.y / d.z)
         };
-        let kx = (kz + 1) % 3;
-        let ky = (kx + 1) % 3;
-        // pbrt-v4: Sx = −d_x/d_z, Sy = −d_y/d_z in the permuted frame (Sz is not needed: the
-        // distance comes from the plane, see the module docs).
-        let sx = -d[kx] / d[kz];
-        let sy = -d[ky] / d[kz];
-        // 1/d, clamped so that a zero component gives ±f32::MAX instead of ±∞ (∞·0 would be NaN
-        // when the origin lies on a slab plane). This only matters for |d_i| < 2.9e-39.
-        let inv_dir = (Vec3A::ONE / Vec3A::from(d)).clamp(Vec3A::splat(-f32::MAX), Vec3A::MAX);
-        let o = Vec3A::from(ray.origin);
+        // 1/d, clamped to ±2⁶⁴ so that a zero component gives a large finite value instead of
+        // ±∞ (∞·0 is NaN when the origin lies on a slab plane, and the CWBVH node test multiplies
+        // it by node extents, which must not overflow for coordinates below ~1e18). The clamp
+        // only changes components below 5.4e-20 (relative to the others: the ray is then
+        // parallel to that axis to within 5e-20 rad).
+        let inv_dir = (Vec3A::ONE / d).clamp(-INV_DIR_LIMIT, INV_DIR_LIMIT);
+        let inv_far = inv_dir * BOX_FAR_SCALE;
         Some(PreparedRay {
             origin: o,
-            dir: Vec3A::from(d),
+            dir: d,
             inv_dir,
             ox: Vec3A::splat(o.x),
             oy: Vec3A::splat(o.y),
@@ -136,7 +149,39 @@ impl PreparedRay {
             sy,
             kz,
             t_max: ray.t_max,
+            o4: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
+            inv4: [
+                Vec4::splat(inv_dir.x),
+                Vec4::splat(inv_dir.y),
+                Vec4::splat(inv_dir.z),
+            ],
+            inv_far4: [
+                Vec4::splat(inv_far.x),
+                Vec4::splat(inv_far.y),
+                Vec4::splat(inv_far.z),
+            ],
+            near: [
+                if inv_dir.x < 0.0 { 3 } else { 0 },
+                if inv_dir.y < 0.0 { 4 } else { 1 },
+                if inv_dir.z < 0.0 { 5 } else { 2 },
+            ],
         })
+    }
+
+    /// Entry distances of four boxes given by their planes (min x, min y, min z, max x, max y,
+    /// max z; lane = box), and the mask of those entered within `[0, t_best]`, conservatively
+    /// (Ize's factor on the far distances; the planes must be exact box bounds).
+    #[inline(always)]
+    pub(crate) fn hits4(&self, planes: &[Vec4; 6], t_best: f32) -> (Vec4, u32) {
+        let mut t_near = Vec4::ZERO;
+        let mut t_far = Vec4::splat(t_best);
+        for a in 0..3 {
+            let near = planes[self.near[a]];
+            let far = planes[(self.near[a] + 3) % 6];
+            t_near = t_near.max((near - self.o4[a]) * self.inv4[a]);
+            t_far = t_far.min((far - self.o4[a]) * self.inv_far4[a]);
+        }
+        (t_near, t_near.cmple(t_far).bitmask())
     }
 }
 
@@ -154,6 +199,123 @@ pub(crate) fn box_entry(min: Vec3A, max: Vec3A, ray: &PreparedRay, t_best: f32) 
     } else {
         f32::INFINITY
     }
+}
+
+/// The ray's octant as obvhs's CWBVH child ordering expects it: per byte, bit 2 set for
+/// x ≥ 0, bit 1 for y ≥ 0, bit 0 for z ≥ 0 (the slots are visited in an order that is near to
+/// far along the ray).
+#[inline(always)]
+pub(crate) fn octant_inv4(ray: &PreparedRay) -> u32 {
+    let d = ray.dir;
+    (if d.x < 0.0 { 0 } else { 0x0404_0404 })
+        | (if d.y < 0.0 { 0 } else { 0x0202_0202 })
+        | (if d.z < 0.0 { 0 } else { 0x0101_0101 })
+}
+
+/// The children of a CWBVH node (Ylitie et al. 2017) that the ray enters with an entry
+/// distance in `[0, t_best]`, as the hit mask obvhs's traversal expects (high byte: internal
+/// children in traversal order; low 24 bits: the triangles of hit leaves).
+///
+/// The child boxes are `p + q·e` with 8-bit `q` and a power-of-two `e` per axis, so a slab
+/// distance is `q·(e/d) + (p − o)/d`. Unlike the exact boxes of the BVH2, this sum can cancel
+/// (an origin inside the node), so Ize's relative correction does not apply; instead every
+/// distance is widened by an absolute bound, `γ₄·(255·|e/d| + |(p − o)/d|)` per axis (the
+/// product, the translation, the inverse and the sum each round once). It also covers the
+/// quantisation, which obvhs rounds outward up to one rounding of `min − p` (≤ u·255·e).
+#[inline(always)]
+pub(crate) fn cwbvh_node_hits(node: &CwBvhNode, ray: &PreparedRay, t_best: f32, oct: u32) -> u32 {
+    let adj_inv = node.compute_extent() * ray.inv_dir;
+    let adj_o = (Vec3A::from(node.p) - ray.origin) * ray.inv_dir;
+    let slack = gamma(4) * (adj_inv.abs() * 255.0 + adj_o.abs()).max_element();
+    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct);
+    let neg = ray.inv_dir.cmplt(Vec3A::ZERO);
+    let (nx, fx) = near_far(&node.child_min_x, &node.child_max_x, neg.test(0));
+    let (ny, fy) = near_far(&node.child_min_y, &node.child_max_y, neg.test(1));
+    let (nz, fz) = near_far(&node.child_min_z, &node.child_max_z, neg.test(2));
+    let mut hit_mask = 0;
+    for g in 0..2 {
+        let t_near = (q4(nx, g) * adj_inv.x + Vec4::splat(adj_o.x))
+            .max(q4(ny, g) * adj_inv.y + Vec4::splat(adj_o.y))
+            .max(q4(nz, g) * adj_inv.z + Vec4::splat(adj_o.z))
+            - Vec4::splat(slack);
+        let t_far = (q4(fx, g) * adj_inv.x + Vec4::splat(adj_o.x))
+            .min(q4(fy, g) * adj_inv.y + Vec4::splat(adj_o.y))
+            .min(q4(fz, g) * adj_inv.z + Vec4::splat(adj_o.z))
+            + Vec4::splat(slack);
+        let hit = t_near
+            .max(Vec4::ZERO)
+            .cmple(t_far.min(Vec4::splat(t_best)))
+            .bitmask();
+        for j in 0..4 {
+            if hit & (1 << j) != 0 {
+                let child = 4 * g + j;
+                hit_mask |= extract_byte64(child_bits8, child) << extract_byte64(bit_index8, child);
+            }
+        }
+    }
+    hit_mask
+}
+
+/// A BVH8 node's eight child boxes as floats, in two groups of four children: per group the
+/// min x, y, z and max x, y, z planes (lane = child). Empty slots hold the empty box.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+pub(crate) struct Planes8 {
+    g: [[Vec4; 6]; 2],
+}
+
+impl Planes8 {
+    pub(crate) fn new(boxes: &[Aabb; 8]) -> Planes8 {
+        let mut g = [[Vec4::ZERO; 6]; 2];
+        for (child, b) in boxes.iter().enumerate() {
+            for axis in 0..3 {
+                g[child / 4][axis][child % 4] = b.min[axis];
+                g[child / 4][3 + axis][child % 4] = b.max[axis];
+            }
+        }
+        Planes8 { g }
+    }
+}
+
+/// [`cwbvh_node_hits`] for a node whose child boxes are exact floats ([`Planes8`]): two 4-wide
+/// slab tests, conservative by Ize's factor on the far distances (the boxes are exact, so the
+/// relative bound applies).
+#[inline(always)]
+pub(crate) fn bvh8_node_hits(
+    planes: &Planes8,
+    node: &CwBvhNode,
+    ray: &PreparedRay,
+    t_best: f32,
+    oct: u32,
+) -> u32 {
+    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct);
+    let mut hit_mask = 0;
+    for (g, p) in planes.g.iter().enumerate() {
+        let (_, mut hit) = ray.hits4(p, t_best);
+        while hit != 0 {
+            let child = 4 * g + hit.trailing_zeros() as usize;
+            hit &= hit - 1;
+            hit_mask |= extract_byte64(child_bits8, child) << extract_byte64(bit_index8, child);
+        }
+    }
+    hit_mask
+}
+
+/// The near and far quantised planes of an axis, by the sign of the ray's direction.
+#[inline(always)]
+fn near_far<'a>(lo: &'a [u8; 8], hi: &'a [u8; 8], negative: bool) -> (&'a [u8; 8], &'a [u8; 8]) {
+    if negative { (hi, lo) } else { (lo, hi) }
+}
+
+/// Children `4g..4g + 4` of a quantised plane, as floats.
+#[inline(always)]
+fn q4(q: &[u8; 8], g: usize) -> Vec4 {
+    Vec4::new(
+        f32::from(q[4 * g]),
+        f32::from(q[4 * g + 1]),
+        f32::from(q[4 * g + 2]),
+        f32::from(q[4 * g + 3]),
+    )
 }
 
 /// A triangle hit: distance and the barycentrics of vertices 1 and 2.
@@ -191,11 +353,10 @@ pub(crate) fn intersect_triangle<const KZ: usize>(
     let yt = py + Vec3A::splat(ray.sy) * pz;
     // Edge functions e_i = x_j·y_k − x_k·y_j for (i, j, k) cyclic: e0 weighs vertex 0.
     let e = xt.yzx() * yt.zxy() - xt.zxy() * yt.yzx();
-    // Filter (as in exact geometric predicates): with R the largest |v − o| component, every
-    // |e_i| above EDGE_ERROR·R² has the sign of the exact edge function; otherwise redo the test
-    // in f64, whose error is 2⁻²⁹ times smaller (see `EDGE_ERROR`).
-    let r = x.abs().max(y.abs()).max(z.abs()).max_element();
-    let delta_e = EDGE_ERROR * r * r + f32::MIN_POSITIVE;
+    // Filter (as in exact geometric predicates): every |e_i| above the bound `edge_error` has
+    // the sign of the exact edge function; otherwise redo the test in f64, whose error is 2⁻²⁹
+    // times smaller.
+    let delta_e = edge_error(x, y, z, xt, yt);
     let (b1, b2) = if e.abs().cmple(Vec3A::splat(delta_e)).any() {
         edge_test_f64::<KZ>(tri, ray)?
     } else {
@@ -232,14 +393,29 @@ pub(crate) fn intersect_triangle<const KZ: usize>(
     }
 }
 
-/// The bound on the error of the `f32` edge functions, as a multiple of `R²` (`R` the largest
-/// `|v − o|` component over the three vertices). With `|Sx|, |Sy| ≤ 1` (z is the largest
-/// direction component), a sheared coordinate is at most `2R(1 + γ₂)` and carries an error of at
-/// most `γ₃·2R(1 + u) ≤ 2γ₄R` (translation, product and sum); an edge function
-/// `x_j·y_k − x_k·y_j` then errs by at most `γ₂·8R²` (its own roundings) plus
-/// `2·(X·E_y + Y·E_x + E_x·E_y) ≤ 16γ₄R² + O(u²)` (its inputs' errors): `(8γ₂ + 16γ₄)R² ≈ 80u·R²`.
-/// 96u leaves room for the roundings of `R²` and of the comparison's own arithmetic.
-const EDGE_ERROR: f32 = 96.0 * f32::EPSILON * 0.5;
+/// A bound on the error of the `f32` edge functions, from the translated vertices `x, y, z`
+/// (`v − o`) and the sheared ones `xt, yt`.
+///
+/// With `R` the largest `|v − o|` component and `|Sx|, |Sy| ≤ 1` (z is the largest direction
+/// component), a sheared coordinate `x + Sx·z` carries an error of at most
+/// `E = γ₃·2R(1 + u) ≤ 2γ₄R` (translation, product and sum; `u` for `R` itself being computed).
+/// An edge function `x_j·y_k − x_k·y_j` then errs by at most `γ₂·(|x_j y_k| + |x_k y_j|)` (its
+/// own two roundings) plus `2·(X·E + Y·E + E²)` (its inputs' errors), with `X`, `Y` the largest
+/// `|xt|`, `|yt|`: in all `2γ₂·XY + 4γ₄R·(X + Y) + 8γ₄²R²`. It is evaluated with `γ₃` and `γ₅`
+/// in place of `γ₂` and `γ₄`, which covers the few roundings of the evaluation, plus the
+/// smallest normal float for products that underflow.
+///
+/// Unlike a bound in `R²` alone, this one stays small for a small triangle far from the
+/// origin (its sheared coordinates `X`, `Y` are small where the ray passes near it), so the
+/// `f64` path stays rare.
+#[inline(always)]
+fn edge_error(x: Vec3A, y: Vec3A, z: Vec3A, xt: Vec3A, yt: Vec3A) -> f32 {
+    let r = x.abs().max(y.abs()).max(z.abs()).max_element();
+    let xm = xt.abs().max_element();
+    let ym = yt.abs().max_element();
+    let e = 2.0 * gamma(5) * r;
+    2.0 * gamma(3) * xm * ym + 2.0 * e * (xm + ym) + 2.0 * e * e + f32::MIN_POSITIVE
+}
 
 /// The edge test in `f64` from the original data, for rays that pass within rounding distance
 /// of an edge: translation and products of `f32` values are (nearly) exact in `f64`, the shear

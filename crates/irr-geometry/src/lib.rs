@@ -65,7 +65,7 @@ mod mesh;
 mod ray;
 
 pub use error::GeometryError;
-pub use geometry::{Geometry, Hit, SurfacePoint};
+pub use geometry::{BvhLayout, Geometry, Hit, SurfacePoint};
 pub use mesh::{BuildReport, Triangle, TriangleMesh};
 pub use ray::{
     POSITION_RELATIVE_ERROR, Ray, offset_ray_origin, offset_ray_origin_with_error, position_error,

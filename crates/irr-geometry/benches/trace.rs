@@ -1,0 +1,457 @@
+//! Incoherent-ray throughput of irr-geometry: closest hit and occlusion, single-threaded and
+//! on all cores, on (a) a Cornell box (36 triangles) and (b) a generated scene of over 10⁶
+//! triangles (a 512 × 512 height field and 420 spheres above it).
+//!
+//! Each iteration traces the same 2¹⁶ rays; divan's `item/s` column is rays per second (so
+//! `Mitem/s` reads as Mrays/s). The rays are those of a path tracer's second bounce, the
+//! incoherent kind: primary rays from a pinhole camera through random image points hit the
+//! scene, and from each hit point
+//! - a closest-hit ray leaves in a cosine-distributed direction around the normal (on the side
+//!   the camera ray came from), spawned with `Ray::spawn`;
+//! - an occlusion ray goes to a uniformly random point of the scene's area light, built with
+//!   `Ray::spawn_to` (a segment, `t_max = 1`).
+//!
+//! The scenes are built once per process, outside the timings.
+//!
+//! Run with `cargo bench -p irr-geometry`. For a profile, set
+//! `IRR_PROFILE=<cornell|million>:<bvh2|cwbvh|bvh8>:<closest|occluded>` and run the bench binary under
+//! `valgrind --tool=callgrind`: it then traces that case's rays once (or `IRR_PROFILE_REPEATS`
+//! times, printing the best rate), outside divan, and exits.
+
+use std::sync::LazyLock;
+use std::time::Instant;
+
+use divan::{Bencher, counter::ItemsCount};
+use glam::Vec3;
+use irr_geometry::{BvhLayout, Geometry, Ray, TriangleMesh};
+
+fn main() {
+    match std::env::var("IRR_PROFILE") {
+        Ok(spec) => profile(&spec),
+        Err(_) => divan::main(),
+    }
+}
+
+/// Traces one case's rays once (see the module docs).
+fn profile(spec: &str) {
+    let parts: Vec<&str> = spec.split(':').collect();
+    let [name, layout, query] = parts[..] else {
+        panic!("IRR_PROFILE={spec}: expected <scene>:<layout>:<query>");
+    };
+    let layout = match layout {
+        "cwbvh" => BvhLayout::Cwbvh,
+        "bvh8" => BvhLayout::Bvh8,
+        _ => BvhLayout::Bvh2,
+    };
+    let (meshes, camera, light) = setup(name);
+    let s = scene(name, &meshes, layout, &camera, light);
+    let occlusion = query == "occluded";
+    let rays = if occlusion { &s.shadow } else { &s.closest };
+    let repeats: usize = std::env::var("IRR_PROFILE_REPEATS")
+        .ok()
+        .and_then(|r| r.parse().ok())
+        .unwrap_or(1);
+    let mut best = f64::INFINITY;
+    let mut hits = 0;
+    for _ in 0..repeats {
+        let start = Instant::now();
+        hits = trace(&s.geometry, rays, occlusion, 1);
+        best = best.min(start.elapsed().as_secs_f64());
+    }
+    println!(
+        "{spec}: {hits} of {} rays hit, best of {repeats}: {:.3} Mrays/s",
+        rays.len(),
+        rays.len() as f64 / best / 1e6
+    );
+}
+
+/// Rays per iteration.
+const RAYS: usize = 1 << 16;
+
+/// SplitMix64, for reproducible scenes and rays.
+struct Rng(u64);
+
+impl Rng {
+    fn f32(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn in_box(&mut self, min: Vec3, max: Vec3) -> Vec3 {
+        min + (max - min) * Vec3::new(self.f32(), self.f32(), self.f32())
+    }
+    /// A cosine-distributed direction around the unit `n`.
+    fn cosine(&mut self, n: Vec3) -> Vec3 {
+        let (u, v) = (self.f32(), self.f32());
+        let r = u.sqrt();
+        let phi = std::f32::consts::TAU * v;
+        let t = n.any_orthonormal_vector();
+        let b = n.cross(t);
+        (t * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u).max(0.0).sqrt()).normalize()
+    }
+}
+
+/// Appends a quad (two triangles) to `mesh`.
+fn quad(mesh: &mut TriangleMesh, corners: [Vec3; 4], material: u32) {
+    let base = mesh.positions.len() as u32;
+    mesh.positions.extend(corners);
+    mesh.indices
+        .extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
+    mesh.material_ids.extend([material; 2]);
+}
+
+/// Appends a closed box (12 triangles) rotated by `angle` about y.
+fn rotated_box(mesh: &mut TriangleMesh, centre: Vec3, half: Vec3, angle: f32, material: u32) {
+    let q = glam::Quat::from_rotation_y(angle);
+    let c = |x: f32, y: f32, z: f32| centre + q * (Vec3::new(x, y, z) * half);
+    let faces = [
+        [
+            c(-1., -1., -1.),
+            c(-1., -1., 1.),
+            c(-1., 1., 1.),
+            c(-1., 1., -1.),
+        ],
+        [
+            c(1., -1., -1.),
+            c(1., 1., -1.),
+            c(1., 1., 1.),
+            c(1., -1., 1.),
+        ],
+        [
+            c(-1., -1., -1.),
+            c(1., -1., -1.),
+            c(1., -1., 1.),
+            c(-1., -1., 1.),
+        ],
+        [
+            c(-1., 1., -1.),
+            c(-1., 1., 1.),
+            c(1., 1., 1.),
+            c(1., 1., -1.),
+        ],
+        [
+            c(-1., -1., -1.),
+            c(-1., 1., -1.),
+            c(1., 1., -1.),
+            c(1., -1., -1.),
+        ],
+        [
+            c(-1., -1., 1.),
+            c(1., -1., 1.),
+            c(1., 1., 1.),
+            c(-1., 1., 1.),
+        ],
+    ];
+    for f in faces {
+        quad(mesh, f, material);
+    }
+}
+
+/// The Cornell box: five walls, a light quad under the ceiling and two rotated boxes: 36
+/// triangles in [0, 1]³, open at the front (z = 1).
+fn cornell_box() -> Vec<TriangleMesh> {
+    let mut m = TriangleMesh::default();
+    let v = Vec3::new;
+    quad(
+        &mut m,
+        [v(0., 0., 0.), v(1., 0., 0.), v(1., 0., 1.), v(0., 0., 1.)],
+        0,
+    ); // floor
+    quad(
+        &mut m,
+        [v(0., 1., 0.), v(0., 1., 1.), v(1., 1., 1.), v(1., 1., 0.)],
+        0,
+    ); // ceiling
+    quad(
+        &mut m,
+        [v(0., 0., 0.), v(0., 1., 0.), v(1., 1., 0.), v(1., 0., 0.)],
+        0,
+    ); // back
+    quad(
+        &mut m,
+        [v(0., 0., 0.), v(0., 0., 1.), v(0., 1., 1.), v(0., 1., 0.)],
+        1,
+    ); // left
+    quad(
+        &mut m,
+        [v(1., 0., 0.), v(1., 1., 0.), v(1., 1., 1.), v(1., 0., 1.)],
+        2,
+    ); // right
+    quad(
+        &mut m,
+        [
+            v(0.4, 0.999, 0.4),
+            v(0.6, 0.999, 0.4),
+            v(0.6, 0.999, 0.6),
+            v(0.4, 0.999, 0.6),
+        ],
+        3,
+    ); // light
+    rotated_box(&mut m, v(0.33, 0.3, 0.35), v(0.15, 0.3, 0.15), 0.3, 0);
+    rotated_box(&mut m, v(0.68, 0.15, 0.65), v(0.15, 0.15, 0.15), -0.3, 0);
+    vec![m]
+}
+
+/// Over 10⁶ triangles: a 512 × 512 height field (524 288 triangles) over [−50, 50]², 420
+/// spheres of 1216 triangles (510 720) of random radius scattered above it, and a 40 × 40 area
+/// light (2 triangles) high above.
+fn million() -> Vec<TriangleMesh> {
+    let mut rng = Rng(0x1_000_000);
+    let n = 512u32;
+    let mut terrain = TriangleMesh::default();
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, z) = (
+                i as f32 / n as f32 * 100.0 - 50.0,
+                j as f32 / n as f32 * 100.0 - 50.0,
+            );
+            let y = 2.0 * (0.21 * x).sin() * (0.17 * z).cos() + 0.5 * (0.9 * x + 0.4 * z).sin();
+            terrain.positions.push(Vec3::new(x, y, z));
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let v = |di: u32, dj: u32| (j + dj) * (n + 1) + i + di;
+            terrain.indices.push([v(0, 0), v(0, 1), v(1, 1)]);
+            terrain.indices.push([v(0, 0), v(1, 1), v(1, 0)]);
+        }
+    }
+    terrain.material_ids = vec![0; terrain.indices.len()];
+
+    let (slices, stacks) = (32u32, 20u32);
+    let mut spheres = TriangleMesh::default();
+    for _ in 0..420 {
+        let centre = rng.in_box(Vec3::new(-48.0, 4.0, -48.0), Vec3::new(48.0, 20.0, 48.0));
+        let radius = 0.5 + 2.5 * rng.f32();
+        let base = spheres.positions.len() as u32;
+        for s in 0..=stacks {
+            let theta = std::f32::consts::PI * s as f32 / stacks as f32;
+            for k in 0..slices {
+                let phi = std::f32::consts::TAU * k as f32 / slices as f32;
+                let dir = Vec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.cos(),
+                    theta.sin() * phi.sin(),
+                );
+                spheres.positions.push(centre + radius * dir);
+            }
+        }
+        let v = |s: u32, k: u32| base + s * slices + k % slices;
+        for s in 0..stacks {
+            for k in 0..slices {
+                // One triangle per slice in the rows that touch a pole (the other would be
+                // degenerate), two elsewhere: 32·(2·20 − 2) = 1216 per sphere.
+                if s != 0 {
+                    spheres.indices.push([v(s, k), v(s + 1, k), v(s, k + 1)]);
+                }
+                if s != stacks - 1 {
+                    spheres
+                        .indices
+                        .push([v(s, k + 1), v(s + 1, k), v(s + 1, k + 1)]);
+                }
+            }
+        }
+    }
+    spheres.material_ids = vec![1; spheres.indices.len()];
+    // A 40 × 40 area light facing down, high above the middle.
+    let mut light = TriangleMesh::default();
+    let v = Vec3::new;
+    quad(
+        &mut light,
+        [
+            v(-20., 40., -20.),
+            v(20., 40., -20.),
+            v(20., 40., 20.),
+            v(-20., 40., 20.),
+        ],
+        2,
+    );
+    vec![terrain, spheres, light]
+}
+
+struct Scene {
+    geometry: Geometry,
+    closest: Vec<Ray>,
+    shadow: Vec<Ray>,
+}
+
+/// A pinhole camera at `eye` looking at `target` with a 45° field of view.
+struct Camera {
+    eye: Vec3,
+    forward: Vec3,
+    right: Vec3,
+    up: Vec3,
+}
+
+impl Camera {
+    fn new(eye: Vec3, target: Vec3) -> Camera {
+        let forward = (target - eye).normalize();
+        let right = forward.cross(Vec3::Y).normalize();
+        let up = right.cross(forward);
+        Camera {
+            eye,
+            forward,
+            right,
+            up,
+        }
+    }
+    fn ray(&self, rng: &mut Rng) -> Ray {
+        let h = (22.5f32).to_radians().tan();
+        let (x, y) = (h * (2.0 * rng.f32() - 1.0), h * (2.0 * rng.f32() - 1.0));
+        Ray::new(
+            self.eye,
+            (self.forward + x * self.right + y * self.up).normalize(),
+        )
+    }
+}
+
+/// Builds the scene and its second-bounce rays (see the module docs); `light` is the material
+/// id of the area light's triangles.
+fn scene(
+    name: &str,
+    meshes: &[TriangleMesh],
+    layout: BvhLayout,
+    camera: &Camera,
+    light: u32,
+) -> Scene {
+    let start = Instant::now();
+    let geometry =
+        Geometry::build_with_layout(meshes, layout).unwrap_or_else(|e| panic!("{name}: {e}"));
+    eprintln!(
+        "{name} ({layout:?}): {} triangles, {} nodes, built in {:.2} s",
+        geometry.triangle_count(),
+        geometry.node_count(),
+        start.elapsed().as_secs_f64()
+    );
+    let lights: Vec<u32> = (0..geometry.triangle_count() as u32)
+        .filter(|&t| geometry.triangle(t).material_id == light)
+        .collect();
+    let mut rng = Rng(0xBEEF);
+    let (mut closest, mut shadow) = (Vec::with_capacity(RAYS), Vec::with_capacity(RAYS));
+    while closest.len() < RAYS {
+        let primary = camera.ray(&mut rng);
+        let Some(hit) = geometry.intersect(&primary) else {
+            continue;
+        };
+        let s = geometry.surface(&primary, &hit);
+        let n = if s.geometric_normal.dot(primary.direction) < 0.0 {
+            s.geometric_normal
+        } else {
+            -s.geometric_normal
+        };
+        closest.push(Ray::spawn(s.position, n, rng.cosine(n)));
+        let l =
+            geometry.triangle(lights[(rng.f32() * lights.len() as f32) as usize % lights.len()]);
+        let (mut b1, mut b2) = (rng.f32(), rng.f32());
+        if b1 + b2 > 1.0 {
+            (b1, b2) = (1.0 - b1, 1.0 - b2);
+        }
+        shadow.push(Ray::spawn_to(s.position, n, l.point(b1, b2), l.normal()));
+    }
+    Scene {
+        geometry,
+        closest,
+        shadow,
+    }
+}
+
+/// The camera and light of each scene.
+fn setup(name: &str) -> (Vec<TriangleMesh>, Camera, u32) {
+    if name == "cornell" {
+        let camera = Camera::new(Vec3::new(0.5, 0.5, 2.2), Vec3::new(0.5, 0.5, 0.0));
+        (cornell_box(), camera, 3)
+    } else {
+        let camera = Camera::new(Vec3::new(0.0, 30.0, 75.0), Vec3::new(0.0, 0.0, 0.0));
+        (million(), camera, 2)
+    }
+}
+
+fn all_layouts(name: &str) -> [Scene; 3] {
+    let (m, camera, light) = setup(name);
+    LAYOUTS.map(|layout| scene(name, &m, layout, &camera, light))
+}
+
+static CORNELL: LazyLock<[Scene; 3]> = LazyLock::new(|| all_layouts("cornell"));
+static MILLION: LazyLock<[Scene; 3]> = LazyLock::new(|| all_layouts("million"));
+
+fn get(name: &str, layout: BvhLayout) -> &'static Scene {
+    let scenes = if name == "cornell" {
+        &*CORNELL
+    } else {
+        &*MILLION
+    };
+    &scenes[LAYOUTS.iter().position(|&l| l == layout).unwrap_or(0)]
+}
+
+/// Traces `rays` on `threads` threads (each takes a contiguous share); returns a count of hits
+/// so the work cannot be optimised away.
+#[inline(never)]
+fn trace(g: &Geometry, rays: &[Ray], occlusion: bool, threads: usize) -> usize {
+    let work = |chunk: &[Ray]| {
+        chunk
+            .iter()
+            .filter(|r| {
+                if occlusion {
+                    g.occluded(r)
+                } else {
+                    g.intersect(r).is_some()
+                }
+            })
+            .count()
+    };
+    if threads == 1 {
+        return work(rays);
+    }
+    std::thread::scope(|s| {
+        let handles: Vec<_> = rays
+            .chunks(rays.len().div_ceil(threads))
+            .map(|c| s.spawn(move || work(c)))
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| {
+                h.join()
+                    .unwrap_or_else(|_| panic!("tracing thread panicked"))
+            })
+            .sum()
+    })
+}
+
+fn threads_all() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+const SCENES: [&str; 2] = ["cornell", "million"];
+/// The layouts, as the benchmarks' const argument numbers them: 0 BVH2, 1 CWBVH, 2 BVH8 (the
+/// CWBVH tree with float boxes, the default).
+const LAYOUTS: [BvhLayout; 3] = [BvhLayout::Bvh2, BvhLayout::Cwbvh, BvhLayout::Bvh8];
+
+fn run(bencher: Bencher, name: &str, layout: BvhLayout, occlusion: bool, threads: usize) {
+    let s = get(name, layout);
+    let rays = if occlusion { &s.shadow } else { &s.closest };
+    bencher
+        .counter(ItemsCount::new(rays.len()))
+        .bench(|| trace(&s.geometry, divan::black_box(rays), occlusion, threads));
+}
+
+#[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
+fn closest_1_thread<const LAYOUT: usize>(bencher: Bencher, name: &str) {
+    run(bencher, name, LAYOUTS[LAYOUT], false, 1);
+}
+
+#[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
+fn closest_all_threads<const LAYOUT: usize>(bencher: Bencher, name: &str) {
+    run(bencher, name, LAYOUTS[LAYOUT], false, threads_all());
+}
+
+#[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
+fn occluded_1_thread<const LAYOUT: usize>(bencher: Bencher, name: &str) {
+    run(bencher, name, LAYOUTS[LAYOUT], true, 1);
+}
+
+#[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
+fn occluded_all_threads<const LAYOUT: usize>(bencher: Bencher, name: &str) {
+    run(bencher, name, LAYOUTS[LAYOUT], true, threads_all());
+}
