@@ -30,19 +30,19 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value_t = IntegratorChoice::Path)]
     pub integrator: IntegratorChoice,
     /// Samples per pixel (≥ 1)
-    #[arg(long, default_value_t = 256, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = RenderSettings::default().spp.into(), allow_negative_numbers = true)]
     pub spp: i64,
     /// Image width in pixels (1 to 16384)
-    #[arg(long, default_value_t = 256, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = RenderSettings::default().width.into(), allow_negative_numbers = true)]
     pub width: i64,
     /// Image height in pixels (1 to 16384)
-    #[arg(long, default_value_t = 256, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = RenderSettings::default().height.into(), allow_negative_numbers = true)]
     pub height: i64,
     /// Worker threads; 0 means one per core
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = RenderSettings::default().threads as i64, allow_negative_numbers = true)]
     pub threads: i64,
     /// Seed of every random number (same seed, same image, bit for bit, for any thread count)
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = RenderSettings::default().seed)]
     pub seed: u64,
     /// Output OpenEXR file; the PNG preview is written beside it with the same stem
     /// [default: out/<scene stem>.exr in the workspace]

@@ -61,16 +61,21 @@ pub fn check_output(exr_path: &Path) -> Result<(), RenderError> {
 }
 
 fn temp_in(folder: &Path, for_path: &Path) -> Result<tempfile::NamedTempFile, RenderError> {
-    tempfile::Builder::new()
-        .prefix(".irr-")
-        .suffix(".tmp")
-        .tempfile_in(folder)
-        .map_err(|e| {
-            RenderError::write(
-                for_path,
-                format!("folder {} does not accept new files: {e}", folder.display()),
-            )
-        })
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".irr-").suffix(".tmp");
+    // Temporary files are private (0600) by default; the output is an ordinary file, so ask
+    // for 0666 and let the umask narrow it, as `std::fs::write` does.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    builder.tempfile_in(folder).map_err(|e| {
+        RenderError::write(
+            for_path,
+            format!("folder {} does not accept new files: {e}", folder.display()),
+        )
+    })
 }
 
 /// The sRGB transfer function (IEC 61966-2-1) of a linear value in [0, 1].
@@ -214,6 +219,12 @@ mod tests {
             .collect();
         names.sort();
         assert_eq!(names, ["out.exr", "out.png"]);
+        // Ordinary permissions, as a file written with std::fs::write in the same folder gets.
+        let plain = dir.path().join("plain");
+        std::fs::write(&plain, b"x").unwrap_or_else(|e| panic!("{e}"));
+        let mode = |p: &Path| std::fs::metadata(p).map(|m| m.permissions()).ok();
+        assert_eq!(mode(&exr), mode(&plain));
+        assert_eq!(mode(&png), mode(&plain));
     }
 
     #[test]

@@ -43,7 +43,8 @@ pub struct RenderSettings {
     pub width: u32,
     /// Image height in pixels. Default: 256. Range: 1 to [`MAX_DIMENSION`].
     pub height: u32,
-    /// Samples per pixel. Default: 64. Range: 1 to `u32::MAX`.
+    /// Samples per pixel. Default: 256 (the Cornell box at 256×256 looks converged). Range: 1
+    /// to `u32::MAX`.
     pub spp: u32,
     /// Seed of every random number. Default: 0. Range: any `u64`.
     pub seed: u64,
@@ -57,7 +58,7 @@ impl Default for RenderSettings {
         Self {
             width: 256,
             height: 256,
-            spp: 64,
+            spp: 256,
             seed: 0,
             threads: 0,
         }
