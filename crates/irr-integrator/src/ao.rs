@@ -2,6 +2,7 @@
 //! distance.
 
 use crate::integrator::{Integrator, RayCounter};
+use crate::path::ShadingPoint;
 use crate::scene::Scene;
 use glam::Vec3;
 use irr_geometry::Ray;
@@ -57,14 +58,9 @@ impl Integrator for AmbientOcclusion {
         };
         let surface = scene.geometry().surface(ray, &hit);
         // Occlusion is measured on the side the camera looks at.
-        let wo = -ray.direction;
-        let ng = surface.geometric_normal;
-        let ng = if ng.dot(wo) < 0.0 { -ng } else { ng };
-        let ns = if surface.shading_normal.dot(ng) < 0.0 {
-            -surface.shading_normal
-        } else {
-            surface.shading_normal
-        };
+        let ShadingPoint {
+            position, ng, ns, ..
+        } = ShadingPoint::new(&surface, -ray.direction);
         let frame = Frame::from_normal(ns);
         let samples = self.settings.samples.max(1);
         let mut visible = 0u32;
@@ -75,7 +71,7 @@ impl Integrator for AmbientOcclusion {
             if wi.dot(ng) <= 0.0 {
                 continue;
             }
-            let mut shadow = Ray::spawn(surface.position, ng, wi);
+            let mut shadow = Ray::spawn(position, ng, wi);
             shadow.t_max = self.settings.max_distance;
             rays.shadow += 1;
             if !scene.geometry().occluded(&shadow) {

@@ -30,6 +30,8 @@ pub struct LightSampler {
     triangles: Vec<u32>,
     /// Their areas.
     areas: Vec<f32>,
+    /// Their unit winding normals, computed once here rather than per sample.
+    normals: Vec<Vec3>,
     /// Probability of choosing each.
     probabilities: Vec<f32>,
     /// cdf[i] = probability of choosing one of triangles 0..=i; the last entry is exactly 1.
@@ -54,7 +56,7 @@ impl LightSampler {
             if !m.is_emissive() {
                 continue;
             }
-            let area = 0.5 * (tri.p[1] - tri.p[0]).cross(tri.p[2] - tri.p[0]).length();
+            let area = tri.area();
             if area <= 0.0 || !area.is_finite() {
                 continue;
             }
@@ -67,6 +69,7 @@ impl LightSampler {
             s.light_of_triangle[id as usize] = s.triangles.len() as u32;
             s.triangles.push(id);
             s.areas.push(area);
+            s.normals.push(tri.normal());
             powers.push(power);
         }
         // Accumulate in f64 so that thousands of small emitters do not lose their share.
@@ -108,11 +111,11 @@ impl LightSampler {
         let id = self.triangles[i];
         let tri = geometry.triangle(id);
         let b = sample_uniform_triangle(u_point);
-        let position = tri.p[0] * b[0] + tri.p[1] * b[1] + tri.p[2] * b[2];
-        let normal = (tri.p[1] - tri.p[0]).cross(tri.p[2] - tri.p[0]).normalize();
+        // `Triangle::point` keeps the point within half an ulp of the triangle's plane, the
+        // accuracy `Ray::spawn_to` assumes when it offsets the shadow ray's end off the light.
         Some(LightSample {
-            position,
-            normal,
+            position: tri.point(b[1], b[2]),
+            normal: self.normals[i],
             triangle: id,
             pdf_area: self.probabilities[i] * uniform_triangle_pdf(self.areas[i]),
         })

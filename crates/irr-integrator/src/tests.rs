@@ -336,7 +336,7 @@ fn light_sampler_is_a_distribution() {
     let mut total = 0.0f64;
     for id in 0..g.triangle_count() as u32 {
         let t = g.triangle(id);
-        let area = 0.5 * (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).length();
+        let area = t.area();
         let pdf = s.lights().pdf_area(id);
         if s.materials()[t.material_id as usize].is_emissive() {
             assert!(pdf > 0.0);
