@@ -1,6 +1,6 @@
 //! The cache: records, their octree, the metric, and gradient-corrected interpolation.
 
-use crate::metric::{Candidate, ErrorMetric, TabellionLamorlette};
+use crate::metric::{Candidate, ErrorMetric, RadiusLimits, TabellionLamorlette};
 use crate::octree::{Entry, Octree, contains, contains_offset};
 use crate::record::{InsertError, Record, unit_query_normal};
 use crate::value::CacheValue;
@@ -99,11 +99,14 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
 
     fn push(&mut self, record: Record<V>, influence: f32) -> RecordId {
         let index = self.records.len() as u32;
-        self.octree.insert(Entry {
-            center: record.position,
-            radius: influence,
-            index,
-        });
+        self.octree.insert(
+            Entry {
+                center: record.position,
+                radius: influence,
+                index,
+            },
+            record.unclamped_radius,
+        );
         self.records.push(record);
         index
     }
@@ -232,6 +235,20 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
     /// of the Ẽᵢ up to a relative (k + 2)·2⁻⁵³ (of Σ wᵢ|Ẽᵢ| / Σ wᵢ), then one `f32` rounding
     /// (2⁻²⁴ relative).
     pub fn interpolate(&self, p: Vec3, n: Vec3) -> Option<Interpolation<V>> {
+        self.interpolate_filtered(p, n, |_, _| true)
+    }
+
+    /// [`IrradianceCache::interpolate`] over the records `accept` lets through: it is asked about
+    /// each record of positive weight, once, in the octree's order (which depends only on the set
+    /// of records). A renderer uses it to skip records it finds invalid for reasons the cache
+    /// cannot see, e.g. a record on the other side of a wall (a visibility test between the query
+    /// point and the record, as a leak guard).
+    pub fn interpolate_filtered(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        mut accept: impl FnMut(RecordId, &Record<V>) -> bool,
+    ) -> Option<Interpolation<V>> {
         let nd = unit_query_normal(n)?;
         if !p.is_finite() {
             return None;
@@ -240,7 +257,10 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         let mut sum = V::wide_zero();
         let mut total_weight = 0.0;
         let mut count = 0u32;
-        self.weighted(pd, nd, |_, record, candidate, w| {
+        self.weighted(pd, nd, |index, record, candidate, w| {
+            if !accept(index, record) {
+                return;
+            }
             // The rotation: the first-order change of E when the normal turns from nᵢ to n.
             let turn = candidate.record_normal.cross(nd);
             // The translation: from pᵢ to p.
@@ -279,12 +299,58 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         })
     }
 
+    /// Whether any record has a positive weight at (`p`, `n`): the test [`IrradianceCache::interpolate`]
+    /// makes before it sums, without the sums, and stopping at the first record found. `false`
+    /// when `p` or `n` is not finite or `n` is zero. A renderer that computes candidate records in
+    /// parallel uses it to drop a candidate that an earlier candidate of the same pass covers.
+    pub fn covers(&self, p: Vec3, n: Vec3) -> bool {
+        self.covers_filtered(p, n, |_, _| true)
+    }
+
+    /// [`IrradianceCache::covers`] counting only the records `accept` lets through (see
+    /// [`IrradianceCache::interpolate_filtered`]): `covers_filtered` is true exactly when
+    /// `interpolate_filtered` with the same filter finds a record.
+    pub fn covers_filtered(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        mut accept: impl FnMut(RecordId, &Record<V>) -> bool,
+    ) -> bool {
+        let Some(nd) = unit_query_normal(n) else {
+            return false;
+        };
+        if !p.is_finite() {
+            return false;
+        }
+        let pd = p.as_dvec3();
+        let mut found = false;
+        self.octree.for_each_on_path(pd, |e| {
+            if found {
+                return;
+            }
+            if let Some((offset, d2)) = contains_offset(e.center, e.radius, pd) {
+                let record = &self.records[e.index as usize];
+                let candidate = Candidate {
+                    offset,
+                    distance: d2.sqrt(),
+                    query_normal: nd,
+                    record_normal: record.normal.as_dvec3(),
+                    record_radius: f64::from(record.radius),
+                };
+                let w = self.metric.weight(&candidate);
+                found = w > 0.0 && w.is_finite() && accept(e.index, record);
+            }
+        });
+        found
+    }
+
     /// Neighbour clamping, first half (Křivánek et al. 2006, "Making Radiance and Irradiance
-    /// Caching Practical: Adaptive Caching and Neighbor Clamping"): the radius `radius` of a
-    /// new record at `p`, lowered to min over existing records j of (Rⱼ + ‖p − pⱼ‖), so radii
-    /// vary no faster than distance (the triangle inequality). Only records with ‖p − pⱼ‖ <
-    /// `radius` can lower it. The second half, lowering the neighbours' radii in turn, is
-    /// [`IrradianceCache::clamp_neighbours`].
+    /// Caching Practical: Adaptive Caching and Neighbor Clamping"): the unclamped radius
+    /// `radius` of a new record at `p`, lowered to min over existing records j of
+    /// (gⱼ + ‖p − pⱼ‖), gⱼ their unclamped radii ([`Record::unclamped_radius`]), so radii vary no
+    /// faster than distance (the triangle inequality). Only records with ‖p − pⱼ‖ < `radius` can
+    /// lower it, and only those are visited. The second half, lowering the neighbours' radii in
+    /// turn, is [`IrradianceCache::clamp_neighbours`].
     pub fn neighbour_clamped_radius(&self, p: Vec3, radius: f32) -> f32 {
         if !(p.is_finite() && radius.is_finite() && radius >= f32::MIN_POSITIVE) {
             return radius;
@@ -293,43 +359,147 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         let mut r = f64::from(radius);
         self.records_near(pd, radius, |_, record| {
             let d = (pd - record.position.as_dvec3()).length();
-            r = r.min(f64::from(record.radius) + d);
+            r = r.min(f64::from(record.unclamped_radius) + d);
         });
         r as f32
     }
 
-    /// Neighbour clamping, second half (Křivánek et al. 2006): every record j within
-    /// `radius` of `p` gets Rⱼ ← min(Rⱼ, `radius` + ‖p − pⱼ‖), and is refiled in the octree when
-    /// its radius changes. Call it with the new record's (already clamped) radius, before or
-    /// after inserting it. Returns how many records changed. Nothing changes when `p` is not
-    /// finite or `radius` is not a valid record radius (see [`Record::validated`]), so every
-    /// stored radius stays valid (and the cache can still be written and read back).
+    /// Neighbour clamping, second half (Křivánek et al. 2006): every record j with
+    /// gⱼ > `radius` + dⱼ (gⱼ its unclamped radius, dⱼ = ‖p − pⱼ‖) gets gⱼ ← `radius` + dⱼ, and its
+    /// radius Rⱼ ← min(Rⱼ, max(gⱼ, its minimum radius)): a record is never pushed below its own
+    /// minimum (Mitsuba 0.6 re-clamps the same way). A record whose Rⱼ changes is refiled in the
+    /// octree. Call it with the new record's unclamped radius, before or after inserting it.
+    /// Returns how many records changed (g or R).
+    ///
+    /// The records to lower can lie far from `p`: a large record whose sphere reaches past the new
+    /// one has dⱼ up to gⱼ − `radius`. The octree's search covers, on each level, the largest
+    /// unclamped radius filed there ([`Octree::for_each_within_reach`]), so none is missed.
+    ///
+    /// Nothing changes when `p` is not finite or `radius` is not a valid record radius (see
+    /// [`Record::validated`]), so every stored radius stays valid.
     pub fn clamp_neighbours(&mut self, p: Vec3, radius: f32) -> usize {
         if !(p.is_finite() && radius.is_finite() && radius >= f32::MIN_POSITIVE) {
             return 0;
         }
         let pd = p.as_dvec3();
-        let mut lowered: Vec<(RecordId, f32)> = Vec::new();
-        self.records_near(pd, radius, |index, record| {
+        let r = f64::from(radius);
+        let mut due: Vec<RecordId> = Vec::new();
+        let records = &self.records;
+        self.octree.for_each_within_reach(pd, r, &mut |e: &Entry| {
+            let record = &records[e.index as usize];
             let d = (pd - record.position.as_dvec3()).length();
-            let limit = (f64::from(radius) + d) as f32;
-            if limit < record.radius && !lowered.iter().any(|&(i, _)| i == index) {
-                lowered.push((index, limit));
+            if f64::from(record.unclamped_radius) > r + d {
+                due.push(e.index);
             }
         });
-        for &(index, limit) in &lowered {
+        due.sort_unstable();
+        due.dedup();
+        let mut changed = 0;
+        for &index in &due {
             let record = self.records[index as usize];
-            let old = self.metric.influence_radius(record.radius);
-            let new = self.metric.influence_radius(limit);
-            self.octree.remove(record.position, old, index);
-            self.records[index as usize].radius = limit;
-            self.octree.insert(Entry {
-                center: record.position,
-                radius: new,
-                index,
-            });
+            let d = (pd - record.position.as_dvec3()).length();
+            let g = (r + d) as f32;
+            if g >= record.unclamped_radius {
+                // Rounding r + d to f32 reached gⱼ again: nothing to lower.
+                continue;
+            }
+            let new_radius = record
+                .radius
+                .min(g.max(record.min_radius).max(f32::MIN_POSITIVE));
+            self.records[index as usize].unclamped_radius = g;
+            changed += 1;
+            if new_radius < record.radius {
+                let old = self.metric.influence_radius(record.radius);
+                let new = self.metric.influence_radius(new_radius);
+                self.octree.remove(record.position, old, index);
+                self.records[index as usize].radius = new_radius;
+                self.octree.insert(
+                    Entry {
+                        center: record.position,
+                        radius: new,
+                        index,
+                    },
+                    g,
+                );
+            }
         }
-        lowered.len()
+        changed
+    }
+
+    /// The radius pipeline for a new record, without inserting it: what
+    /// [`IrradianceCache::insert_with_radius`] would store. Read-only, so a renderer can plan
+    /// candidates from many threads; see [`RadiusInputs`] for the steps.
+    pub fn plan_radius(
+        &self,
+        record: &Record<V>,
+        inputs: &RadiusInputs,
+    ) -> Result<Placement, InsertError> {
+        let limits = inputs.limits;
+        if !(limits.min.is_finite()
+            && limits.min >= 0.0
+            && limits.max.is_finite()
+            && limits.max >= limits.min)
+        {
+            return Err(InsertError::Limits(limits.min, limits.max));
+        }
+        if inputs.distance.is_nan() {
+            return Err(InsertError::Distance(inputs.distance));
+        }
+        let normal = crate::record::unit_normal(record.normal).ok_or(InsertError::Normal)?;
+        // 1. The gather's distance; nothing hit (+∞) means the maximum, the scene's own bound on
+        //    how far a record may reach. A hit at zero distance is the smallest radius there is.
+        let mut g = if inputs.distance == f32::INFINITY {
+            limits.max
+        } else {
+            inputs.distance.max(f32::MIN_POSITIVE)
+        };
+        // 2. The gradient limit R ≤ E/‖∇ₜE‖ (Křivánek et al. 2006), per channel, the gradient
+        //    taken in the tangent plane (cached neighbours lie on the surface).
+        let channel_limits = gradient_limits(record, normal);
+        let gradient_limit = channel_limits.iter().copied().fold(f32::INFINITY, f32::min);
+        g = g.min(gradient_limit).max(f32::MIN_POSITIVE);
+        // 3. Neighbour clamping's first half: g ≤ gⱼ + dⱼ for every record j.
+        if inputs.neighbour_clamping {
+            g = self
+                .neighbour_clamped_radius(record.position, g)
+                .max(f32::MIN_POSITIVE);
+        }
+        // 4. The pixel and world-space limits.
+        let radius = limits.clamp(g).max(f32::MIN_POSITIVE);
+        // 5. The gradient cap: where the minimum raised R above what the gradient allows, scale
+        //    the gradient down so that ‖∇ₜE‖·R ≤ E (Radiance's `doambient`; Mitsuba 0.6 scales
+        //    by R_limit/R too), per channel: extrapolated over R, no channel moves by more than
+        //    its own value.
+        let scales = channel_limits.map(|l| if l < radius { l / radius } else { 1.0 });
+        Ok(Placement {
+            radius,
+            unclamped_radius: g,
+            min_radius: limits.min,
+            gradient_limit,
+            gradient_scale: scales,
+        })
+    }
+
+    /// Inserts a record whose radius comes from the radius pipeline (see [`RadiusInputs`]): the
+    /// record's own `radius`, `unclamped_radius` and `min_radius` are replaced by the pipeline's,
+    /// its translation gradient is scaled by the gradient cap, and with neighbour clamping on, the
+    /// neighbours are lowered in turn ([`IrradianceCache::clamp_neighbours`]). Returns the new
+    /// record's id and the placement used. A refused record changes nothing.
+    pub fn insert_with_radius(
+        &mut self,
+        record: Record<V>,
+        inputs: &RadiusInputs,
+    ) -> Result<(RecordId, Placement), InsertError> {
+        let placement = self.plan_radius(&record, inputs)?;
+        let record = placement.apply(record);
+        let (record, influence) = self.prepare(record)?;
+        if self.records.len() >= u32::MAX as usize {
+            return Err(InsertError::Full);
+        }
+        if inputs.neighbour_clamping {
+            self.clamp_neighbours(record.position, record.unclamped_radius);
+        }
+        Ok((self.push(record, influence), placement))
     }
 
     /// Calls `f` with records whose position lies within `radius` of `p` (possibly more than
@@ -359,6 +529,101 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
     pub fn octree_counts(&self) -> (usize, usize) {
         self.octree.counts()
     }
+}
+
+/// What the radius pipeline needs besides the record ([`IrradianceCache::plan_radius`],
+/// [`IrradianceCache::insert_with_radius`]).
+///
+/// The pipeline sets a new record's radius in the order the sources use (Ward et al. 1988; Ward
+/// & Heckbert 1992; Tabellion & Lamorlette 2004; Křivánek et al. 2006; Radiance's `ambient.c`,
+/// Mitsuba 0.6's `irrcache.cpp`):
+/// 1. the gather's distance statistic `distance` (the harmonic mean, or the minimum, of the hit
+///    distances above ~10° of the horizon, computed by the caller, e.g. irr-gradients'
+///    `GatherSamples::harmonic_mean_distance_above`); +∞ (nothing hit: open sky) becomes
+///    `limits.max`, so every record's radius is finite;
+/// 2. the gradient limit g ≤ E/‖∇ₜE‖ per channel (Křivánek et al. 2006), ∇ₜE in the tangent
+///    plane; skipped for value types that may be negative;
+/// 3. neighbour clamping's first half, g ≤ gⱼ + dⱼ (if `neighbour_clamping`): the result is the
+///    record's **unclamped radius**;
+/// 4. the pixel and world-space limits: R = clamp(g, `limits.min`, `limits.max`);
+/// 5. the gradient cap: where R exceeds a channel's gradient limit (step 4 raised it to the
+///    minimum), that channel's translation gradient is scaled by limit/R, so ‖∇ₜE‖·R ≤ E.
+///
+/// Inserting then applies neighbour clamping's second half to the existing records.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RadiusInputs {
+    /// The gather's distance statistic (world units, > 0; +∞ when every ray missed).
+    pub distance: f32,
+    /// The limits: R ∈ [min, max], max finite (the caller combines the pixel limits of
+    /// [`ErrorMetric::radius_limits`] with its world-space ones).
+    pub limits: RadiusLimits,
+    /// Whether to apply neighbour clamping (both halves).
+    pub neighbour_clamping: bool,
+}
+
+/// What the radius pipeline decided for one record ([`IrradianceCache::plan_radius`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placement {
+    /// R, the radius the record is used with.
+    pub radius: f32,
+    /// g, the unclamped radius (after steps 1–3).
+    pub unclamped_radius: f32,
+    /// The minimum radius the record keeps for later neighbour clamping.
+    pub min_radius: f32,
+    /// The gradient limit min over channels of E/‖∇ₜE‖ (+∞ for no gradient).
+    pub gradient_limit: f32,
+    /// The factor each channel's translation gradient is scaled by (1 where the cap does not
+    /// bind). Channels past [`CacheValue::CHANNELS`] are 1 and unused.
+    pub gradient_scale: [f32; MAX_SCALED_CHANNELS],
+}
+
+/// How many channels [`Placement::gradient_scale`] holds: the gradient cap applies to value types
+/// of at most this many channels (irradiance, occlusion); wider ones (coefficient vectors, which
+/// may be negative) are not capped.
+pub const MAX_SCALED_CHANNELS: usize = 4;
+
+impl Placement {
+    /// `record` with this placement's radii and its translation gradient scaled by the cap.
+    pub fn apply<V: CacheValue>(&self, record: Record<V>) -> Record<V> {
+        let scale = |g: V| {
+            let c = g.channels();
+            V::from_fn(|i| c[i] * self.gradient_scale.get(i).copied().unwrap_or(1.0))
+        };
+        Record {
+            radius: self.radius,
+            unclamped_radius: self.unclamped_radius,
+            min_radius: self.min_radius,
+            translation_gradient: record.translation_gradient.map(scale),
+            ..record
+        }
+    }
+}
+
+/// Per channel, E/‖∇ₜE‖ with ∇ₜE projected on the tangent plane of `normal` (+∞ for a zero
+/// tangent gradient, and for value types that may be negative or have more channels than
+/// [`MAX_SCALED_CHANNELS`]). Computed in f64, rounded down to f32 so the cap it implies holds.
+fn gradient_limits<V: CacheValue>(record: &Record<V>, normal: Vec3) -> [f32; MAX_SCALED_CHANNELS] {
+    let mut out = [f32::INFINITY; MAX_SCALED_CHANNELS];
+    if !V::NON_NEGATIVE || V::CHANNELS > MAX_SCALED_CHANNELS {
+        return out;
+    }
+    let n = normal.as_dvec3();
+    let e = record.value.channels();
+    let t = &record.translation_gradient;
+    for (c, limit) in out.iter_mut().enumerate().take(V::CHANNELS) {
+        let g = DVec3::new(
+            f64::from(t[0].channels()[c]),
+            f64::from(t[1].channels()[c]),
+            f64::from(t[2].channels()[c]),
+        );
+        let len = (g - n * g.dot(n)).length();
+        if len > 0.0 {
+            let l = f64::from(e[c]).max(0.0) / len;
+            let r = l as f32;
+            *limit = if f64::from(r) > l { r.next_down() } else { r };
+        }
+    }
+    out
 }
 
 /// Whether `p` lies strictly inside a sphere of influence: the exact test the octree applies, to

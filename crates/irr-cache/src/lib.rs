@@ -8,7 +8,8 @@
 //!   [`Rgb`] irradiance, `f32` (ambient occlusion) and `[f32; N]` (e.g. spherical-harmonic
 //!   coefficients for radiance caching).
 //! - [`Record`]: position, normal, validity radius R, value E, translation gradient ∂E/∂p and
-//!   rotation gradient ∇ᵣE, each gradient as `[V; 3]` (per world axis). 112 bytes for `Rgb`.
+//!   rotation gradient ∇ᵣE, each gradient as `[V; 3]` (per world axis), and
+//!   the unclamped and minimum radii that neighbour clamping needs. 120 bytes for `Rgb`.
 //! - [`ErrorMetric`] with [`Ward`] and [`TabellionLamorlette`], the shared [`Cuts`] (Ward &
 //!   Heckbert's "in front" test with a tolerance relative to R, the normal-divergence cut with an
 //!   [`Angle`] that cannot be read in the wrong unit) and the [`RadiusLimits`] a caller clamps a
@@ -76,7 +77,10 @@ mod octree;
 mod record;
 mod value;
 
-pub use cache::{BatchError, Interpolation, IrradianceCache, RecordId, within_influence};
+pub use cache::{
+    BatchError, Interpolation, IrradianceCache, MAX_SCALED_CHANNELS, Placement, RadiusInputs,
+    RecordId, within_influence,
+};
 pub use io::CacheFileError;
 pub use metric::{
     Angle, Candidate, Cuts, ErrorMetric, MetricError, PixelRange, RadiusLimits,

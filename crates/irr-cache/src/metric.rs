@@ -9,8 +9,10 @@
 //!   never NaN or infinite.
 //! - [`ErrorMetric::radius_limits`]: the range a new record's radius should be clamped to, given
 //!   the world-space size of a pixel at its position (Tabellion & Lamorlette 2004;
-//!   pbrt-v2's `minpixelspacing`/`maxpixelspacing`). The clamping itself is the caller's: the
-//!   cache stores the radius it is given.
+//!   pbrt-v2's `minpixelspacing`/`maxpixelspacing`). The limits bound the record's radius, not
+//!   its influence: the metric's parameter (κ, a) still scales the influence where they bind,
+//!   so it keeps controlling record density in open areas (see [`PixelRange`]). The clamping
+//!   itself is the caller's (or the cache's radius pipeline, `RadiusInputs`).
 //!
 //! Two metrics are provided, [`Ward`] and [`TabellionLamorlette`]; both apply the same [`Cuts`]
 //! (the "in front" test and the normal-divergence cut) before their formula.
@@ -225,8 +227,16 @@ impl RadiusLimits {
     }
 }
 
-/// Influence limits in pixels: a record's influence radius should span between `min` and `max`
-/// pixels on screen (Tabellion & Lamorlette 2004: R⁻ = 1.5 and R⁺ = 10 pixels).
+/// Radius limits in pixels (Tabellion & Lamorlette 2004: R⁻ = 1.5 and R⁺ = 10 pixels).
+///
+/// They bound each metric's **distance scale**, the length over which its position error grows
+/// by 1 at parameter 1: R/2 for [`TabellionLamorlette`] (whose error is κ·‖p − pᵢ‖/(R/2)), R for
+/// [`Ward`] (a·… with ‖p − pᵢ‖/R). So Tabellion & Lamorlette's radius is clamped to
+/// [2R⁻, 2R⁺] pixels, which is their rule max(min(Rᵢ/2, R⁺), R⁻) on the weight's denominator,
+/// and the influence R/(2κ) then spans [R⁻/κ, R⁺/κ] pixels (Mitsuba 0.6 the same): a smaller κ
+/// allows larger records, a larger κ makes them denser, also where a limit binds. Ward's radius
+/// is clamped to [R⁻, R⁺] pixels (pbrt-v2 clamps its record distance the same way) and its
+/// influence a·R spans [a·R⁻, a·R⁺] pixels.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PixelRange {
     min: f32,
@@ -250,14 +260,14 @@ impl PixelRange {
     pub fn max(&self) -> f32 {
         self.max
     }
-    /// The radius limits for a metric whose influence radius is `factor`·R, at a pixel of
-    /// world-space size `pixel_spacing`; unbounded when the spacing is unknown (zero, negative or
-    /// not finite, e.g. a ray without differentials).
-    fn radius_limits(&self, pixel_spacing: f32, factor: f64) -> RadiusLimits {
+    /// The radius limits for a metric whose distance scale is R/`per_radius` (see the type's
+    /// docs), at a pixel of world-space size `pixel_spacing`; unbounded when the spacing is
+    /// unknown (zero, negative or not finite, e.g. a ray without a footprint).
+    fn radius_limits(&self, pixel_spacing: f32, per_radius: f64) -> RadiusLimits {
         if !(pixel_spacing.is_finite() && pixel_spacing > 0.0) {
             return RadiusLimits::UNBOUNDED;
         }
-        let s = f64::from(pixel_spacing) / factor;
+        let s = f64::from(pixel_spacing) * per_radius;
         RadiusLimits {
             min: (f64::from(self.min) * s) as f32,
             max: (f64::from(self.max) * s) as f32,
@@ -377,8 +387,8 @@ impl ErrorMetric for Ward {
     }
 
     fn radius_limits(&self, pixel_spacing: f32) -> RadiusLimits {
-        self.pixels
-            .radius_limits(pixel_spacing, f64::from(self.accuracy))
+        // Distance scale R: R ∈ [R⁻, R⁺] pixels, whatever a.
+        self.pixels.radius_limits(pixel_spacing, 1.0)
     }
 }
 
@@ -394,8 +404,8 @@ impl ErrorMetric for Ward {
 /// A **maximum** of the two terms, not Ward's sum. The 10° is a normalisation: at κ = 1 the
 /// normal term alone reaches 1 at 10°. Tabellion & Lamorlette write the position term's
 /// denominator as max(min(Rᵢ/2, R⁺), R⁻), clamping inside the weight; Křivánek & Gautron clamp
-/// Rᵢ when the record is made, which is the same for limits [2R⁻, 2R⁺] on Rᵢ: here the caller
-/// clamps with [`ErrorMetric::radius_limits`]. With the chord identity (module docs) the normal
+/// Rᵢ when the record is made, which is the same for limits [2R⁻, 2R⁺] on Rᵢ, and that is what
+/// [`ErrorMetric::radius_limits`] returns here, for every κ (see [`PixelRange`]). With the chord identity (module docs) the normal
 /// term is ‖n − nᵢ‖ / (2 sin 5°).
 ///
 /// Influence radius: κ·‖p − pᵢ‖/(Rᵢ/2) < 1 needs ‖p − pᵢ‖ < Rᵢ/(2κ).
@@ -475,9 +485,8 @@ impl ErrorMetric for TabellionLamorlette {
     }
 
     fn radius_limits(&self, pixel_spacing: f32) -> RadiusLimits {
-        // Influence = R/(2κ): R = 2κ·influence.
-        self.pixels
-            .radius_limits(pixel_spacing, 1.0 / (2.0 * f64::from(self.kappa)))
+        // Distance scale R/2: R ∈ [2R⁻, 2R⁺] pixels, whatever κ (influence R/(2κ)).
+        self.pixels.radius_limits(pixel_spacing, 2.0)
     }
 }
 
@@ -557,7 +566,7 @@ mod tests {
     #[test]
     fn radius_limits_follow_the_pixel_spacing() {
         let t = TabellionLamorlette::default();
-        // Influence R/2 in [1.5, 10] pixels of 0.01: R in [0.03, 0.2]. Two f32 roundings (of the
+        // R/2 in [1.5, 10] pixels of 0.01: R in [0.03, 0.2]. Two f32 roundings (of the
         // spacing 0.01 and of each limit) make a relative error ≤ 2·2⁻²⁴ ≈ 1.2e-7: the absolute
         // bounds below are 0.03·1.2e-7 = 3.6e-9 < 1e-8 and so on.
         let l = t.radius_limits(0.01);
@@ -565,14 +574,16 @@ mod tests {
             (l.min - 0.03).abs() < 1e-8 && (l.max - 0.2).abs() < 1e-7,
             "{l:?}"
         );
-        // Ward a = 0.1: influence 0.1·R in [1.5, 10] pixels: R in [0.15, 1.0].
-        let l = Ward::new(0.1)
-            .unwrap_or_else(|e| panic!("{e}"))
-            .radius_limits(0.01);
-        assert!(
-            (l.min - 0.15).abs() < 1e-7 && (l.max - 1.0).abs() < 1e-6,
-            "{l:?}"
-        );
+        // Ward: R itself in [1.5, 10] pixels: [0.015, 0.1], for every a.
+        for a in [0.1, 0.3] {
+            let l = Ward::new(a)
+                .unwrap_or_else(|e| panic!("{e}"))
+                .radius_limits(0.01);
+            assert!(
+                (l.min - 0.015).abs() < 1e-8 && (l.max - 0.1).abs() < 1e-7,
+                "{l:?}"
+            );
+        }
         for unknown in [0.0, -1.0, f32::NAN, f32::INFINITY] {
             assert_eq!(t.radius_limits(unknown), RadiusLimits::UNBOUNDED);
         }
@@ -581,6 +592,35 @@ mod tests {
             [l.clamp(0.5), l.clamp(1.5), l.clamp(3.0), l.clamp(f32::NAN)],
             [1.0, 1.5, 2.0, 1.0]
         );
+    }
+
+    /// Issue 9, item 2: the pixel limits bound R the same for every κ, so the influence limits
+    /// in pixels are R⁻/κ and R⁺/κ (Tabellion & Lamorlette; Mitsuba 0.6): a smaller κ allows
+    /// larger records, and κ keeps controlling density where the maximum binds. Before the fix
+    /// the limits were [2κR⁻, 2κR⁺], so the influence in pixels was the same for every κ.
+    #[test]
+    fn pixel_limits_leave_kappa_in_control() {
+        let spacing = 0.01f32;
+        for kappa in [0.5f32, 1.0, 2.0] {
+            let t = TabellionLamorlette::new(kappa).unwrap_or_else(|e| panic!("{e}"));
+            let l = t.radius_limits(spacing);
+            // The same R limits for every κ (two f32 roundings: 1.2e-7 relative).
+            assert!((l.min - 0.03).abs() < 1e-8, "κ = {kappa}: {l:?}");
+            assert!((l.max - 0.2).abs() < 1e-7, "κ = {kappa}: {l:?}");
+            // Influence in pixels: R/(2κ)/spacing = R⁻/κ … R⁺/κ; influence_radius rounds up
+            // (one more rounding): 4 ulps relative in all.
+            let lo = f64::from(t.influence_radius(l.min)) / f64::from(spacing);
+            let hi = f64::from(t.influence_radius(l.max)) / f64::from(spacing);
+            let tol = 4.0 * f64::from(f32::EPSILON);
+            assert!(
+                (lo / (1.5 / f64::from(kappa)) - 1.0).abs() < tol,
+                "κ = {kappa}: {lo}"
+            );
+            assert!(
+                (hi / (10.0 / f64::from(kappa)) - 1.0).abs() < tol,
+                "κ = {kappa}: {hi}"
+            );
+        }
     }
 
     #[test]

@@ -120,12 +120,14 @@ impl Hasher for CellHasher {
     }
 }
 
-/// An occupied level: its exponent, 2⁻ᵉ, and how many cells it has.
+/// An occupied level: its exponent, 2⁻ᵉ, how many cells it has, and the largest reach any entry
+/// filed there was given (an upper bound: removals do not lower it).
 #[derive(Clone, Copy, Debug)]
 struct Level {
     exponent: i16,
     inverse_side: f64,
     cells: usize,
+    max_reach: f32,
 }
 
 /// The cell coordinate of `x` on a level of cell side 1/`inverse_side`: ⌊x·2⁻ᵉ⌋, saturating (see
@@ -185,6 +187,7 @@ impl Octree {
                         exponent: e,
                         inverse_side: 2f64.powi(-i32::from(e)),
                         cells: 0,
+                        max_reach: 0.0,
                     },
                 );
                 i
@@ -204,13 +207,21 @@ impl Octree {
         )
     }
 
-    /// Files `entry` (whose radius is finite and ≥ 0).
-    pub fn insert(&mut self, entry: Entry) {
+    /// Files `entry` (whose radius is finite and ≥ 0). `reach` is a length the caller attaches to
+    /// the entry (the cache: the record's unclamped radius), for [`Octree::for_each_within_reach`].
+    ///
+    /// Each cell keeps its entries sorted by index, whatever order they were filed in: a record
+    /// refiled after neighbour clamping goes back to its place, so the order in which a query
+    /// visits records (and so the order of interpolation's sums) depends only on the set of
+    /// records, not on the history of the cache.
+    pub fn insert(&mut self, entry: Entry, reach: f32) {
         let Some(e) = level_for(entry.radius) else {
             return;
         };
         let li = self.level_index(e);
-        let (lo, hi) = Self::cell_range(&self.levels[li], entry.center, entry.radius);
+        let level = &mut self.levels[li];
+        level.max_reach = level.max_reach.max(reach);
+        let (lo, hi) = Self::cell_range(level, entry.center, entry.radius);
         for x in lo[0]..=hi[0] {
             for y in lo[1]..=hi[1] {
                 for z in lo[2]..=hi[2] {
@@ -218,7 +229,9 @@ impl Octree {
                     if list.is_empty() {
                         self.levels[li].cells += 1;
                     }
-                    list.push(entry);
+                    // Appending is the common case (indices grow); a refiled entry is inserted.
+                    let at = list.partition_point(|other| other.index < entry.index);
+                    list.insert(at, entry);
                     self.entries += 1;
                 }
             }
@@ -258,6 +271,31 @@ impl Octree {
     /// several such cells comes several times).
     pub fn for_each_in_box(&self, lo: DVec3, hi: DVec3, f: &mut impl FnMut(&Entry)) {
         for level in &self.levels {
+            self.for_each_in_box_at(level, lo, hi, f);
+        }
+    }
+
+    /// Calls `f` with every entry whose centre may lie within `reach − threshold` of `p`, where
+    /// `reach` is what [`Octree::insert`] was given for it: on each level, the cells overlapping the
+    /// box of half-side (the level's largest reach − `threshold`) around p. A superset (filter
+    /// with the exact test); levels whose largest reach is ≤ `threshold` are skipped.
+    ///
+    /// This is the search neighbour clamping's second half needs: the records j with
+    /// Rⱼ > r + ‖p − pⱼ‖ have ‖p − pⱼ‖ < Rⱼ − r, however far their spheres of influence (which
+    /// decide their level) reach.
+    pub fn for_each_within_reach(&self, p: DVec3, threshold: f64, f: &mut impl FnMut(&Entry)) {
+        for level in &self.levels {
+            let half = f64::from(level.max_reach) - threshold;
+            if half > 0.0 {
+                let half = half * (1.0 + 2f64.powi(-40));
+                let (lo, hi) = (p - DVec3::splat(half), p + DVec3::splat(half));
+                self.for_each_in_box_at(level, lo, hi, f);
+            }
+        }
+    }
+
+    fn for_each_in_box_at(&self, level: &Level, lo: DVec3, hi: DVec3, f: &mut impl FnMut(&Entry)) {
+        {
             let s = level.inverse_side;
             let a = [0, 1, 2].map(|k| coordinate(lo[k], s));
             let b = [0, 1, 2].map(|k| coordinate(hi[k], s));
@@ -295,6 +333,7 @@ impl Octree {
     }
 
     /// Removes the entries of record `index`, filed with influence radius `radius` around `center`.
+    /// Its level keeps its largest reach (an upper bound stays an upper bound).
     pub fn remove(&mut self, center: Vec3, radius: f32, index: u32) {
         let Some(e) = level_for(radius) else {
             return;
@@ -310,9 +349,12 @@ impl Octree {
                     let Some(list) = self.cells.get_mut(&cell) else {
                         continue;
                     };
-                    let before = list.len();
-                    list.retain(|en| en.index != index);
-                    self.entries -= before - list.len();
+                    // The list is sorted by index: find the entry rather than scan.
+                    let at = list.partition_point(|en| en.index < index);
+                    if list.get(at).is_some_and(|en| en.index == index) {
+                        list.remove(at);
+                        self.entries -= 1;
+                    }
                     if list.is_empty() {
                         self.cells.remove(&cell);
                         self.levels[li].cells -= 1;
@@ -381,10 +423,10 @@ mod tests {
     #[test]
     fn any_extent_without_bounds() {
         let mut t = Octree::default();
-        t.insert(entry(0.0, 0.0, 0.0, 0.1, 0));
-        t.insert(entry(-1000.0, 5.0, 3.0, 0.1, 1));
-        t.insert(entry(1000.0, -7.0, 1e4, 2.0, 2));
-        t.insert(entry(-3e38, 3e38, 0.0, 1e30, 3));
+        t.insert(entry(0.0, 0.0, 0.0, 0.1, 0), 0.0);
+        t.insert(entry(-1000.0, 5.0, 3.0, 0.1, 1), 0.0);
+        t.insert(entry(1000.0, -7.0, 1e4, 2.0, 2), 0.0);
+        t.insert(entry(-3e38, 3e38, 0.0, 1e30, 3), 0.0);
         for (p, i) in [
             (DVec3::ZERO, 0),
             (DVec3::new(-1000.0, 5.0, 3.05), 1),
@@ -400,13 +442,16 @@ mod tests {
         let mut t = Octree::default();
         for i in 0..1000u32 {
             let f = i as f32;
-            t.insert(entry(
-                f.sin() * 10.0,
-                f.cos() * 10.0,
-                (f * 0.37).sin(),
-                0.01 + 0.1 * (f * 0.13).cos().abs(),
-                i,
-            ));
+            t.insert(
+                entry(
+                    f.sin() * 10.0,
+                    f.cos() * 10.0,
+                    (f * 0.37).sin(),
+                    0.01 + 0.1 * (f * 0.13).cos().abs(),
+                    i,
+                ),
+                0.0,
+            );
             let (_, entries) = t.counts();
             assert!(entries <= 8 * (i as usize + 1));
         }
@@ -416,8 +461,8 @@ mod tests {
     fn removal_removes_every_copy_and_empty_cells() {
         let mut t = Octree::default();
         let (a, b) = (entry(0.5, 0.5, 0.5, 0.3, 0), entry(3.6, 0.6, 0.6, 0.01, 1));
-        t.insert(a);
-        t.insert(b);
+        t.insert(a, 0.0);
+        t.insert(b, 0.0);
         t.remove(a.center, a.radius, 0);
         let mut left = Vec::new();
         t.for_each_in_box(DVec3::splat(-10.0), DVec3::splat(10.0), &mut |e| {
@@ -432,8 +477,8 @@ mod tests {
     #[test]
     fn a_box_much_larger_than_the_cells_scans_instead() {
         let mut t = Octree::default();
-        t.insert(entry(0.25, 0.0, 0.0, 1e-6, 0));
-        t.insert(entry(7.0, 0.0, 0.0, 1e-6, 1));
+        t.insert(entry(0.25, 0.0, 0.0, 1e-6, 0), 0.0);
+        t.insert(entry(7.0, 0.0, 0.0, 1e-6, 1), 0.0);
         let mut seen = Vec::new();
         t.for_each_in_box(DVec3::splat(-1.0), DVec3::splat(1.0), &mut |e| {
             seen.push(e.index)

@@ -7,8 +7,15 @@ use thiserror::Error;
 /// One cached value: where it was computed, how far it may be reused, and its gradients.
 ///
 /// Stored as plain `f32` data (`Vec3` is three `f32`, no padding): an RGB record,
-/// `Record<Rgb>`, takes 4 · (3 + 3 + 1 + 3 + 9 + 9) = **112 bytes**, a scalar record
-/// `Record<f32>` 4 · (3 + 3 + 1 + 1 + 3 + 3) = 56 bytes.
+/// `Record<Rgb>`, takes 4 · (3 + 3 + 1 + 2 + 3 + 9 + 9) = **120 bytes**, a scalar record
+/// `Record<f32>` 4 · (3 + 3 + 1 + 2 + 1 + 3 + 3) = 64 bytes.
+///
+/// Besides the radius R it uses, a record keeps what neighbour clamping needs to change R later
+/// (Křivánek et al. 2006; Mitsuba 0.6 keeps the same per record): the **unclamped radius**, the
+/// geometric radius before any pixel or world-space minimum or maximum was applied (the gather's
+/// distance, gradient-limited, neighbour-clamped), which is what neighbour clamping propagates;
+/// and the **minimum radius**, below which clamping must not push R. [`Record::new`] sets the
+/// first to R and the second to 0, which makes neighbour clamping act on R directly.
 ///
 /// Gradients are stored per axis: `translation_gradient[k]` is ∂E/∂p along world axis k, and
 /// `rotation_gradient[k]` is the k-th component of the rotation gradient ∇ᵣE (Ward & Heckbert
@@ -24,6 +31,12 @@ pub struct Record<V> {
     /// Rᵢ, the validity radius (e.g. the harmonic mean or the minimum of the gather's hit
     /// distances, clamped by the caller). The metric turns it into an influence radius.
     pub radius: f32,
+    /// The geometric radius before the minimum and maximum limits (see the type's docs); finite
+    /// and > 0.
+    pub unclamped_radius: f32,
+    /// The smallest R neighbour clamping may leave (the pixel or world-space minimum); finite
+    /// and ≥ 0.
+    pub min_radius: f32,
     /// Eᵢ, the value.
     pub value: V,
     /// ∂E/∂p, one value per world axis.
@@ -39,9 +52,21 @@ impl<V: CacheValue> Record<V> {
             position,
             normal,
             radius,
+            unclamped_radius: radius,
+            min_radius: 0.0,
             value,
             translation_gradient: [V::zero(); 3],
             rotation_gradient: [V::zero(); 3],
+        }
+    }
+
+    /// The same record with an unclamped radius and a minimum radius of its own (see the type's
+    /// docs); R is unchanged.
+    pub fn with_clamping_history(self, unclamped_radius: f32, min_radius: f32) -> Self {
+        Self {
+            unclamped_radius,
+            min_radius,
+            ..self
         }
     }
 
@@ -64,6 +89,12 @@ impl<V: CacheValue> Record<V> {
         }
         if !(self.radius.is_finite() && self.radius >= f32::MIN_POSITIVE) {
             return Err(InsertError::Radius(self.radius));
+        }
+        if !(self.unclamped_radius.is_finite() && self.unclamped_radius >= f32::MIN_POSITIVE) {
+            return Err(InsertError::UnclampedRadius(self.unclamped_radius));
+        }
+        if !(self.min_radius.is_finite() && self.min_radius >= 0.0) {
+            return Err(InsertError::MinRadius(self.min_radius));
         }
         let normal = unit_normal(self.normal).ok_or(InsertError::Normal)?;
         let finite = |v: &V| v.channels().iter().all(|c| c.is_finite());
@@ -140,6 +171,18 @@ pub enum InsertError {
     /// The radius is zero, negative, subnormal, NaN or infinite.
     #[error("record radius must be a finite normal float > 0, got {0}")]
     Radius(f32),
+    /// The unclamped radius is zero, negative, subnormal, NaN or infinite.
+    #[error("record unclamped radius must be a finite normal float > 0, got {0}")]
+    UnclampedRadius(f32),
+    /// The minimum radius is negative, NaN or infinite.
+    #[error("record minimum radius must be finite and >= 0, got {0}")]
+    MinRadius(f32),
+    /// The radius limits given to the radius pipeline are not 0 ≤ min ≤ max < ∞.
+    #[error("radius limits must satisfy 0 <= min <= max < inf, got [{0}, {1}]")]
+    Limits(f32, f32),
+    /// The distance given to the radius pipeline is NaN.
+    #[error("the gather distance is {0}")]
+    Distance(f32),
     /// The metric gives this record an influence radius that is not finite (a huge radius with a
     /// tiny accuracy).
     #[error("the metric gives an influence radius of {0}, which is not finite")]
@@ -165,8 +208,8 @@ mod tests {
 
     #[test]
     fn layout_is_compact() {
-        assert_eq!(size_of::<Record<Rgb>>(), 112);
-        assert_eq!(size_of::<Record<f32>>(), 56);
+        assert_eq!(size_of::<Record<Rgb>>(), 120);
+        assert_eq!(size_of::<Record<f32>>(), 64);
         assert_eq!(align_of::<Record<Rgb>>(), 4);
     }
 
@@ -199,6 +242,18 @@ mod tests {
             r(|x| x.radius = f32::NAN),
             Err(InsertError::Radius(_))
         ));
+        assert_eq!(
+            r(|x| x.unclamped_radius = f32::INFINITY),
+            Err(InsertError::UnclampedRadius(f32::INFINITY))
+        );
+        assert_eq!(
+            r(|x| x.unclamped_radius = 0.0),
+            Err(InsertError::UnclampedRadius(0.0))
+        );
+        assert_eq!(
+            r(|x| x.min_radius = -1.0),
+            Err(InsertError::MinRadius(-1.0))
+        );
         assert_eq!(r(|x| x.value.0[1] = f32::NAN), Err(InsertError::Value));
         assert_eq!(r(|x| x.value.0[2] = -0.5), Err(InsertError::NegativeValue));
         assert_eq!(

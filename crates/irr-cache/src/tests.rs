@@ -443,11 +443,11 @@ proptest! {
                 prop_assert!(f64::from(r) <= (f64::from(other.radius) + d) * slack);
             }
             cache.clamp_neighbours(p, r);
+            // Every record, near or far (issue 9, item 1: not only those within r).
             for other in cache.records() {
                 let d = (p.as_dvec3() - other.position.as_dvec3()).length();
-                if d < f64::from(r) {
-                    prop_assert!(f64::from(other.radius) <= (f64::from(r) + d) * slack);
-                }
+                prop_assert!(f64::from(other.radius) <= (f64::from(r) + d) * slack);
+                prop_assert!(f64::from(other.unclamped_radius) <= (f64::from(r) + d) * slack);
             }
             cache.insert(Record::new(p, n, r, Rgb::splat(1.0))).unwrap_or_else(|e| panic!("{e}"));
         }
@@ -843,7 +843,7 @@ proptest! {
     fn files_round_trip_bit_for_bit(records in prop::collection::vec(record_strategy(), 0..80)) {
         let cache = cache_of(tl(), &records);
         let bytes = bytes_of(&cache);
-        prop_assert_eq!(bytes.len(), 28 + 112 * records.len() + 8);
+        prop_assert_eq!(bytes.len(), 28 + 120 * records.len() + 8);
         let back = IrradianceCache::<Rgb, _>::read_from(bytes.as_slice(), tl())
             .unwrap_or_else(|e| panic!("{e}"));
         prop_assert_eq!(bytes_of(&back), bytes);
@@ -886,15 +886,17 @@ fn foreign_and_wrong_version_files_are_rejected_with_the_reason() {
     assert!(matches!(read(png), Some(CacheFileError::NotACacheFile)));
     assert!(matches!(read(b""), Some(CacheFileError::Truncated)));
 
-    let mut v2 = bytes.clone();
-    v2[8..12].copy_from_slice(&2u32.to_le_bytes());
-    assert!(matches!(
-        read(&v2),
-        Some(CacheFileError::Version {
-            found: 2,
-            supported: 1
-        })
-    ));
+    // A file of the previous format (version 1, without the radii neighbour clamping keeps) and
+    // of a future one are refused by version, never misread.
+    for version in [1u32, 3] {
+        let mut other = bytes.clone();
+        other[8..12].copy_from_slice(&version.to_le_bytes());
+        let e = read(&other);
+        assert!(
+            matches!(e, Some(CacheFileError::Version { found, supported: 2 }) if found == version),
+            "{e:?}"
+        );
+    }
 
     // An RGB file read as ambient occlusion, and as 3 signed coefficients.
     let as_ao = IrradianceCache::<f32, _>::read_from(bytes.as_slice(), tl()).err();
@@ -940,7 +942,7 @@ fn scalar_and_coefficient_caches_round_trip() {
     ao.insert(Record::new(Vec3::ONE, Vec3::X, 0.5, 0.75))
         .unwrap_or_else(|e| panic!("{e}"));
     let bytes = bytes_of(&ao);
-    assert_eq!(bytes.len(), 28 + 56 + 8);
+    assert_eq!(bytes.len(), 28 + 64 + 8);
     let back = IrradianceCache::<f32, _>::read_from(bytes.as_slice(), ward(0.2))
         .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(back.records(), ao.records());
@@ -960,4 +962,328 @@ fn scalar_and_coefficient_caches_round_trip() {
         back.interpolate(Vec3::ZERO, Vec3::Y).map(|h| h.value),
         Some(coeffs)
     );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Neighbour clamping and the radius pipeline (issue 9).
+
+/// Item 1: a large record whose centre lies farther than the new record's radius, but whose
+/// sphere reaches past it, must shrink. The new record (r = 0.1) at the origin; the neighbour at
+/// d = 1 with R = 5 > r + d = 1.1. The old search (records within r of the new one) never saw
+/// it: this test failed before the fix with R staying 5.
+#[test]
+fn a_large_neighbour_beyond_the_new_radius_shrinks() {
+    let mut cache = IrradianceCache::<Rgb, _>::new(tl());
+    let big = cache
+        .insert(Record::new(Vec3::X, Vec3::Y, 5.0, Rgb::splat(1.0)))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(cache.clamp_neighbours(Vec3::ZERO, 0.1), 1);
+    let r = cache.records()[big as usize];
+    // 0.1 + 1 in f64, rounded once to f32.
+    assert_eq!(r.radius, (0.1f64 + 1.0) as f32);
+    assert_eq!(r.unclamped_radius, r.radius);
+    // The octree was refiled: the record no longer reaches x = 1.7 (influence R/2 = 0.55).
+    assert!(
+        cache
+            .interpolate(Vec3::new(1.7, 0.0, 0.0), Vec3::Y)
+            .is_none()
+    );
+    assert!(
+        cache
+            .interpolate(Vec3::new(1.5, 0.0, 0.0), Vec3::Y)
+            .is_some()
+    );
+}
+
+/// Item 1: on a line of records at spacing 1, each inserted with the pipeline and the same
+/// large distance, one small record propagates its limit: after it, record k steps away holds
+/// g ≤ g_small + k (the triangle inequality in both directions).
+#[test]
+fn a_small_record_propagates_its_limit_along_a_line() {
+    let mut cache = IrradianceCache::<Rgb, _>::new(tl());
+    let inputs = |distance| RadiusInputs {
+        distance,
+        limits: RadiusLimits {
+            min: 0.0,
+            max: 1000.0,
+        },
+        neighbour_clamping: true,
+    };
+    for k in 0..10 {
+        let rec = Record::new(Vec3::new(k as f32, 0.0, 0.0), Vec3::Y, 1.0, Rgb::splat(1.0));
+        cache
+            .insert_with_radius(rec, &inputs(100.0))
+            .unwrap_or_else(|e| panic!("{e}"));
+    }
+    // Before the small one, the first-half clamp already chains: record k ≤ 100 + ... stays 100.
+    assert!(cache.records().iter().all(|r| r.radius == 100.0));
+    let small = Record::new(Vec3::new(4.0, 0.0, 0.0), Vec3::Y, 1.0, Rgb::splat(1.0));
+    let (_, placed) = cache
+        .insert_with_radius(
+            small.with_gradients([Rgb::splat(0.0); 3], [Rgb::splat(0.0); 3]),
+            &inputs(0.25),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(placed.radius, 0.25);
+    for (k, r) in cache.records().iter().take(10).enumerate() {
+        let expected = 0.25 + (k as f32 - 4.0).abs();
+        assert_eq!(r.radius, expected, "record {k}");
+    }
+    // And a record inserted later, 2 beyond the line's end, is limited by the chain: the nearest
+    // record (x = 9, g = 5.25) allows 5.25 + 2.
+    let (_, late) = cache
+        .insert_with_radius(
+            Record::new(Vec3::new(11.0, 0.0, 0.0), Vec3::Y, 1.0, Rgb::splat(1.0)),
+            &inputs(100.0),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(late.radius, 7.25);
+}
+
+/// Item 4: neighbour clamping propagates the unclamped radius plus d, not the pixel-clamped R,
+/// and never pushes a record below its own minimum.
+#[test]
+fn clamping_propagates_the_geometric_radius_and_respects_minima() {
+    let mut cache = IrradianceCache::<Rgb, _>::new(tl());
+    // A record whose geometry allows 0.05 but whose pixel minimum raised R to 0.5.
+    let inputs = RadiusInputs {
+        distance: 0.05,
+        limits: RadiusLimits {
+            min: 0.5,
+            max: 10.0,
+        },
+        neighbour_clamping: true,
+    };
+    let (_, a) = cache
+        .insert_with_radius(
+            Record::new(Vec3::ZERO, Vec3::Y, 1.0, Rgb::splat(1.0)),
+            &inputs,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        (a.radius, a.unclamped_radius, a.min_radius),
+        (0.5, 0.05, 0.5)
+    );
+    // A neighbour at d = 1 with a large distance and no minimum: limited by 0.05 + 1, not 0.5 + 1.
+    let free = RadiusInputs {
+        distance: 50.0,
+        limits: RadiusLimits {
+            min: 0.0,
+            max: 10.0,
+        },
+        neighbour_clamping: true,
+    };
+    let (_, b) = cache
+        .insert_with_radius(Record::new(Vec3::X, Vec3::Y, 1.0, Rgb::splat(1.0)), &free)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(b.radius, (0.05f64 + 1.0) as f32);
+    // A new tiny record right next to the first lowers its g, but its R stays at its minimum.
+    let tiny = RadiusInputs {
+        distance: 0.001,
+        limits: RadiusLimits {
+            min: 0.0,
+            max: 10.0,
+        },
+        neighbour_clamping: true,
+    };
+    cache
+        .insert_with_radius(
+            Record::new(Vec3::new(0.01, 0.0, 0.0), Vec3::Y, 1.0, Rgb::splat(1.0)),
+            &tiny,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    let first = cache.records()[0];
+    assert_eq!(first.radius, 0.5);
+    assert!(first.unclamped_radius <= 0.011 + 1e-6, "{first:?}");
+}
+
+/// Item 3: a record forced to a large R by the minimum never extrapolates, anywhere within R, above
+/// 2E or below 0: the pipeline scaled its gradient so ‖∇ₜE‖·R ≤ E. Without the cap (before the
+/// fix) the gradient 10 over R = 1 extrapolates E = 1 to 11.
+#[test]
+fn the_gradient_cap_bounds_extrapolation_over_a_raised_radius() {
+    // κ = 0.5: the influence R/(2κ) is R itself, the widest the test needs.
+    let metric = TabellionLamorlette::new(0.5).unwrap_or_else(|e| panic!("{e}"));
+    let mut cache = IrradianceCache::<Rgb, _>::new(metric);
+    let e = Rgb::new(1.0, 2.0, 0.5);
+    let grad = [
+        Rgb::new(10.0, 0.0, -4.0),
+        Rgb::new(0.0, 0.0, 0.0),
+        Rgb::new(3.0, 1.0, 1.0),
+    ];
+    let rec = Record::new(Vec3::ZERO, Vec3::Y, 1.0, e).with_gradients(grad, [Rgb::splat(0.0); 3]);
+    let inputs = RadiusInputs {
+        distance: 0.01,
+        limits: RadiusLimits { min: 1.0, max: 2.0 },
+        neighbour_clamping: false,
+    };
+    let (_, placed) = cache
+        .insert_with_radius(rec, &inputs)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(placed.radius, 1.0);
+    // Tangent (x, z) gradients: red (10, 3), green (0, 1), blue (−4, 1): the limits
+    // E/‖·‖ are 1/√109, 2 and 0.5/√17; the smallest wins (f32 rounding: 1e-7 relative).
+    let expected = 1.0 / 109f64.sqrt();
+    assert!((f64::from(placed.gradient_limit) / expected - 1.0).abs() < 1e-6);
+    assert_eq!(placed.gradient_scale[1], 1.0);
+    // Sample the disc of radius R on the plane, and a ring just inside it.
+    for i in 0..64 {
+        for &rho in &[0.25f32, 0.5, 0.999] {
+            let phi = i as f32 / 64.0 * std::f32::consts::TAU;
+            let p = Vec3::new(rho * phi.cos(), 0.0, rho * phi.sin());
+            let v = cache
+                .interpolate(p, Vec3::Y)
+                .unwrap_or_else(|| panic!("miss at {p}"));
+            for c in 0..3 {
+                // One record: the value is E + d·∇ in f64, rounded to f32 once; the cap's scale
+                // is rounded down, so the bound 2E holds up to that last rounding (u₃₂).
+                let x = v.value.0[c];
+                assert!(
+                    x >= 0.0 && f64::from(x) <= 2.0 * f64::from(e.0[c]) * (1.0 + 2.0 * U32),
+                    "{p}: channel {c} = {x}"
+                );
+            }
+        }
+    }
+}
+
+/// The pipeline's steps in order, and open sky: a gather that hit nothing gets the maximum,
+/// never infinity; a NaN distance and bad limits are errors.
+#[test]
+fn radius_pipeline_order_and_open_sky() {
+    let mut cache = IrradianceCache::<Rgb, _>::new(tl());
+    let rec = |x: f32| Record::new(Vec3::new(x, 0.0, 0.0), Vec3::Y, 1.0, Rgb::splat(2.0));
+    let limits = RadiusLimits { min: 0.1, max: 4.0 };
+    let sky = RadiusInputs {
+        distance: f32::INFINITY,
+        limits,
+        neighbour_clamping: true,
+    };
+    let (_, p) = cache
+        .insert_with_radius(rec(0.0), &sky)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!((p.radius, p.unclamped_radius), (4.0, 4.0));
+    // The gradient limit comes before the clamps: E = 2, tangent gradient 4 → 0.5.
+    let steep = rec(100.0).with_gradients(
+        [Rgb::splat(4.0), Rgb::splat(0.0), Rgb::splat(0.0)],
+        [Rgb::splat(0.0); 3],
+    );
+    let (_, p) = cache
+        .insert_with_radius(
+            steep,
+            &RadiusInputs {
+                distance: 3.0,
+                ..sky
+            },
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!((p.radius, p.unclamped_radius), (0.5, 0.5));
+    assert_eq!(p.gradient_scale[0], 1.0);
+    // A gradient along the normal does not limit the radius.
+    let normal_only = rec(200.0).with_gradients(
+        [Rgb::splat(0.0), Rgb::splat(50.0), Rgb::splat(0.0)],
+        [Rgb::splat(0.0); 3],
+    );
+    let (_, p) = cache
+        .insert_with_radius(
+            normal_only,
+            &RadiusInputs {
+                distance: 3.0,
+                ..sky
+            },
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(p.radius, 3.0);
+    assert!(matches!(
+        cache.insert_with_radius(
+            rec(300.0),
+            &RadiusInputs {
+                distance: f32::NAN,
+                ..sky
+            }
+        ),
+        Err(InsertError::Distance(_))
+    ));
+    for (min, max) in [
+        (0.0, f32::INFINITY),
+        (2.0, 1.0),
+        (-1.0, 1.0),
+        (f32::NAN, 1.0),
+    ] {
+        let bad = RadiusInputs {
+            limits: RadiusLimits { min, max },
+            ..sky
+        };
+        assert!(matches!(
+            cache.insert_with_radius(rec(300.0), &bad),
+            Err(InsertError::Limits(..))
+        ));
+    }
+    assert_eq!(cache.len(), 3);
+}
+
+/// `covers` says exactly whether `interpolate` finds a record.
+#[test]
+fn covers_agrees_with_interpolate() {
+    let mut cache = IrradianceCache::<Rgb, _>::new(tl());
+    for i in 0..50 {
+        let f = i as f32;
+        let p = Vec3::new((f * 0.7).sin() * 3.0, 0.0, (f * 1.3).cos() * 3.0);
+        cache
+            .insert(Record::new(
+                p,
+                Vec3::Y,
+                0.3 + 0.2 * (f * 0.3).sin().abs(),
+                Rgb::splat(1.0),
+            ))
+            .unwrap_or_else(|e| panic!("{e}"));
+    }
+    let mut hits = 0;
+    for i in 0..2000 {
+        let f = i as f32;
+        let p = Vec3::new(
+            (f * 0.37).sin() * 3.5,
+            0.01 * (f * 0.1).sin(),
+            (f * 0.53).cos() * 3.5,
+        );
+        let n = if i % 7 == 0 { Vec3::X } else { Vec3::Y };
+        let hit = cache.interpolate(p, n).is_some();
+        hits += usize::from(hit);
+        assert_eq!(cache.covers(p, n), hit, "{p} {n}");
+    }
+    assert!(hits > 100 && hits < 1900, "{hits}");
+    assert!(!cache.covers(Vec3::NAN, Vec3::Y) && !cache.covers(Vec3::ZERO, Vec3::ZERO));
+}
+
+proptest! {
+    #![proptest_config(config(48))]
+
+    /// Item 5: a cache built with neighbour clamping, written and read back, interpolates to the
+    /// same bits everywhere (cells stay in index order, so the sums run in the same order).
+    /// Before the fix, refiled records went to the end of their cells and sums could reorder.
+    #[test]
+    fn round_trip_after_clamping_is_bit_for_bit(
+        records in prop::collection::vec((v3(-1.0..1.0), near(Vec3::Y, 20.0), -2.0f32..0.3, rgb(), prop::array::uniform3(rgb_signed(5.0))), 1..80),
+        queries in prop::collection::vec((v3(-1.2..1.2), near(Vec3::Y, 20.0)), 1..60),
+    ) {
+        let mut cache = IrradianceCache::<Rgb, _>::new(tl());
+        for (p, n, r, e, g) in records {
+            let inputs = RadiusInputs {
+                distance: 10f32.powf(r),
+                limits: RadiusLimits { min: 0.02, max: 1.0 },
+                neighbour_clamping: true,
+            };
+            let rec = Record::new(p, n, 1.0, e).with_gradients(g, [Rgb::splat(0.0); 3]);
+            cache.insert_with_radius(rec, &inputs).unwrap_or_else(|e| panic!("{e}"));
+        }
+        let bytes = bytes_of(&cache);
+        let back = IrradianceCache::<Rgb, _>::read_from(bytes.as_slice(), tl()).unwrap_or_else(|e| panic!("{e}"));
+        prop_assert_eq!(back.records(), cache.records());
+        for (q, n) in queries {
+            let (a, b) = (cache.interpolate(q, n), back.interpolate(q, n));
+            prop_assert_eq!(a.map(|x| x.value.0.map(f32::to_bits)), b.map(|x| x.value.0.map(f32::to_bits)));
+            prop_assert_eq!(a.map(|x| x.total_weight.to_bits()), b.map(|x| x.total_weight.to_bits()));
+            prop_assert_eq!(tree_in_range(&cache, q), brute_in_range(&cache, q));
+        }
+    }
 }
