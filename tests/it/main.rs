@@ -1,6 +1,7 @@
 //! Cross-crate integration tests for irr: one binary, a module per subject.
 
 mod bad_input;
+mod cache;
 mod geometry;
 mod render;
 mod sampling;

@@ -50,6 +50,16 @@ pub enum GatherError {
         /// The value given.
         value: f32,
     },
+    /// A sample's cos θ is NaN or outside [0, 1].
+    #[error("the cos theta of cell (j = {j}, k = {k}) is {value}: it must lie in [0, 1]")]
+    CosTheta {
+        /// The cell's index along θ.
+        j: u32,
+        /// The cell's index along φ.
+        k: u32,
+        /// The value given.
+        value: f32,
+    },
 }
 
 /// One stratified hemisphere gather: radiance and hit distance per cell, in the cells' order
@@ -63,6 +73,10 @@ pub struct GatherSamples<V> {
     strata: HemisphereStrata,
     radiance: Vec<V>,
     distance: Vec<f32>,
+    /// cos θ of each cell's actual sample direction, when the caller gave them
+    /// ([`GatherSamples::with_cos_theta`]); the distance statistics that skip near-horizon hits
+    /// use them.
+    cos_theta: Option<Vec<f32>>,
 }
 
 impl<V: GatherValue> GatherSamples<V> {
@@ -107,7 +121,48 @@ impl<V: GatherValue> GatherSamples<V> {
             strata,
             radiance,
             distance,
+            cos_theta: None,
         })
+    }
+
+    /// The same gather with cos θ of each cell's sample direction (local frame, by
+    /// [`Cell::index`]), for the distance statistics that skip hits near the horizon. Each value
+    /// must lie in [0, 1] (a NaN or a value outside is refused: [`GatherError::CosTheta`]).
+    pub fn with_cos_theta(self, cos_theta: Vec<f32>) -> Result<Self, GatherError> {
+        if cos_theta.len() != self.strata.len() {
+            return Err(GatherError::Length {
+                what: "cos theta",
+                got: cos_theta.len(),
+                expected: self.strata.len(),
+                m: self.strata.m(),
+                n: self.strata.n(),
+            });
+        }
+        if let Some(i) = cos_theta.iter().position(|c| !(0.0..=1.0).contains(c)) {
+            let n = self.strata.n() as usize;
+            return Err(GatherError::CosTheta {
+                j: (i / n) as u32,
+                k: (i % n) as u32,
+                value: cos_theta[i],
+            });
+        }
+        Ok(Self {
+            cos_theta: Some(cos_theta),
+            ..self
+        })
+    }
+
+    /// cos θ of the sample of cell `i`: the caller's value if given, else the cell's middle
+    /// elevation (sin² θ = (j + ½)/M, the warp's centre).
+    #[inline]
+    fn sample_cos_theta(&self, i: usize) -> f32 {
+        match &self.cos_theta {
+            Some(c) => c[i],
+            None => {
+                let j = (i / self.strata.n() as usize) as f32;
+                (1.0 - (j + 0.5) / self.strata.m() as f32).max(0.0).sqrt()
+            }
+        }
     }
 
     /// Builds a gather by asking `f` for (radiance, distance) of every cell, in index order.
@@ -170,23 +225,42 @@ impl<V: GatherValue> GatherSamples<V> {
         self.distance.iter().copied().fold(f32::INFINITY, f32::min)
     }
 
-    /// The smallest hit distance among the cells that lie entirely at cos θ ≥ `min_cos_theta`
-    /// (`f32::INFINITY` if none hit). Hits in the rows near the horizon are often the surface's
-    /// own neighbourhood (a wall meeting the floor) and would shrink every radius near a corner;
-    /// ignoring rays within ~10° of the horizon (`min_cos_theta` ≈ 0.17) is the usual remedy.
+    /// The smallest distance among the hits whose sample direction has cos θ > `min_cos_theta`
+    /// (`f32::INFINITY` if none). Hits grazing the horizon are often the surface's own
+    /// neighbourhood (a wall meeting the floor) and would shrink every radius near a corner;
+    /// ignoring rays within ~10° of the horizon (`min_cos_theta` = cos 80° ≈ 0.174, Mitsuba 0.6's
+    /// 0.173) is the usual remedy. The test is per sample direction ([`GatherSamples::with_cos_theta`];
+    /// the cell's middle elevation when none were given), so it does not depend on M: a whole
+    /// row's cells are not dropped because the row's lower edge dips under the cut.
     pub fn min_distance_above(&self, min_cos_theta: f32) -> f32 {
-        let n = self.strata.n() as usize;
         let mut best = f32::INFINITY;
-        for (j, row) in self.distance.chunks_exact(n).enumerate() {
-            // The cell's lowest elevation is at its upper θ bound: cos²θ_{j+1} = 1 − (j+1)/M.
-            let cos_low = (1.0 - self.strata.sin2_theta_bound(j as u32 + 1))
-                .max(0.0)
-                .sqrt();
-            if cos_low >= min_cos_theta {
-                best = row.iter().copied().fold(best, f32::min);
+        for (i, &r) in self.distance.iter().enumerate() {
+            if self.sample_cos_theta(i) > min_cos_theta {
+                best = best.min(r);
             }
         }
         best
+    }
+
+    /// The harmonic mean distance over the samples whose direction has cos θ > `min_cos_theta`
+    /// (as [`GatherSamples::min_distance_above`] selects them), misses counting as infinitely
+    /// far: R = count / Σ 1/rⱼₖ over those samples. `f32::INFINITY` when none of them hit.
+    /// Radiance's `ambcomp.c` and Mitsuba 0.6 skip the same near-horizon hits when they size a
+    /// record.
+    pub fn harmonic_mean_distance_above(&self, min_cos_theta: f32) -> f32 {
+        let mut count = 0usize;
+        let mut sum = 0.0f64;
+        for (i, &r) in self.distance.iter().enumerate() {
+            if self.sample_cos_theta(i) > min_cos_theta {
+                count += 1;
+                sum += 1.0 / f64::from(r);
+            }
+        }
+        if sum > 0.0 {
+            (count as f64 / sum) as f32
+        } else {
+            f32::INFINITY
+        }
     }
 }
 
@@ -265,7 +339,8 @@ mod tests {
         // 4 / (1 + ½ + 0 + 2) = 8/7: exact in binary to one rounding.
         assert!((g.harmonic_mean_distance() - 8.0 / 7.0).abs() <= f32::EPSILON);
         assert_eq!(g.min_distance(), 0.5);
-        // Only row 0 lies entirely above cos θ = √½ − ε.
+        // Without sample directions, the cells' middle elevations: row 0 at cos θ = √¾ ≈ 0.866,
+        // row 1 at √¼ = 0.5.
         assert_eq!(g.min_distance_above(0.7), 1.0);
         assert_eq!(g.min_distance_above(0.0), 0.5);
         assert_eq!(g.min_distance_above(0.9), f32::INFINITY);
@@ -273,6 +348,45 @@ mod tests {
             .unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(sky.harmonic_mean_distance(), f32::INFINITY);
         assert_eq!(sky.min_distance(), f32::INFINITY);
+    }
+
+    /// Issue 9, item 6: the near-horizon cut is per sample direction, independent of M. At
+    /// M = 8 the last row spans θ from 69.3° to 90° (cos 0.354 … 0): the old per-row test
+    /// dropped the whole row, so it ignored hits up to 20.7° above the horizon; a hit at
+    /// 15° above the horizon (cos θ = 0.259 > 0.174) must count, one at 5° must not, for every M.
+    #[test]
+    fn horizon_cut_is_per_sample_and_independent_of_m() {
+        let cut = 80f32.to_radians().cos();
+        for m in [2u32, 4, 8, 16, 64] {
+            let s = strata(m, 4);
+            let last = ((m - 1) * 4) as usize;
+            for (elevation, counts) in [(15f32, true), (5f32, false)] {
+                let cos = (90.0 - elevation).to_radians().cos();
+                // Every sample at the pole, far; one sample of the last row low, near.
+                let mut cos_theta = vec![1.0f32; s.len()];
+                cos_theta[last] = cos;
+                let mut distance = vec![100.0f32; s.len()];
+                distance[last] = 0.5;
+                let g = GatherSamples::new(s, vec![0.0f32; s.len()], distance)
+                    .and_then(|g| g.with_cos_theta(cos_theta))
+                    .unwrap_or_else(|e| panic!("{e}"));
+                let expected = if counts { 0.5 } else { 100.0 };
+                assert_eq!(g.min_distance_above(cut), expected, "M = {m}, {elevation}°");
+                let h = g.harmonic_mean_distance_above(cut);
+                assert_eq!(h < 100.0, counts, "M = {m}, {elevation}°: {h}");
+            }
+        }
+        let s = strata(2, 2);
+        let g =
+            GatherSamples::new(s, vec![0.0f32; 4], vec![1.0; 4]).unwrap_or_else(|e| panic!("{e}"));
+        assert!(matches!(
+            g.clone().with_cos_theta(vec![0.5; 3]),
+            Err(GatherError::Length { .. })
+        ));
+        assert!(matches!(
+            g.with_cos_theta(vec![0.5, 1.5, 0.5, 0.5]),
+            Err(GatherError::CosTheta { j: 0, k: 1, .. })
+        ));
     }
 
     proptest! {
