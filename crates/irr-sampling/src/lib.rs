@@ -9,6 +9,8 @@
 //! - [`warp`]: `sample_cosine_hemisphere(u)`, `cosine_hemisphere_pdf(cos_theta)`,
 //!   `invert_cosine_hemisphere(w)`, and the same for the uniform sphere and the uniform triangle.
 //! - [`Frame`]: an orthonormal basis around a normal (Duff et al. 2017), continuous and robust.
+//! - [`correlated_multi_jitter`]: Kensler's stratified pixel pattern for any sample count,
+//!   sample by sample (the film's sample positions).
 //! - [`HemisphereStrata`]: the M×N stratification in (θ, φ) with one cosine-distributed direction
 //!   per cell, and the cell bounds that the gradient estimator needs.
 //!
@@ -36,11 +38,13 @@
 //! assert_eq!(sum, 64.0);
 //! ```
 
+pub mod cmj;
 mod frame;
 pub mod rng;
 mod strata;
 pub mod warp;
 
+pub use cmj::correlated_multi_jitter;
 pub use frame::Frame;
 pub use rng::SampleKey;
 pub use strata::{Cell, HemisphereStrata, StrataError};

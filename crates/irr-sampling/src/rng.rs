@@ -122,6 +122,12 @@ impl Dimensions {
         v
     }
 
+    /// The key the cursor draws from.
+    #[inline]
+    pub fn key(&self) -> SampleKey {
+        self.key
+    }
+
     /// The dimension number the next draw will use.
     pub fn position(&self) -> u32 {
         self.next
