@@ -3,13 +3,14 @@
 //! # What a pixel's value means
 //! Pixel (x, y) (row 0 at the top) holds the radiance arriving at the camera through the pixel's
 //! square [x, x+1) × [y, y+1) of the image plane, averaged over that square with a **box
-//! filter**: each sample picks a uniformly distributed point of the square (dimension 0 of its
-//! [`SampleKey`]), traces the camera ray through it, and the pixel is the plain mean of its
+//! filter**: each sample picks a point of the square, uniformly distributed and stratified with
+//! the pixel's other samples ([`raster_position`]), traces the camera ray through it, and the pixel is the plain mean of its
 //! samples' radiance, in W·sr⁻¹·m⁻² per channel. No filter crosses pixel boundaries.
 //!
 //! # Determinism
 //! Sample `i` of pixel (x, y) uses only `SampleKey::pixel(seed, x, y, i)`: dimension 0 for the
-//! position in the pixel, the dimensions from 1 on for the integrator. Each pixel's samples are
+//! jitter of its position in the pixel (a correlated multi-jittered pattern over the pixel's spp
+//! samples, see [`raster_position`]), the dimensions from 1 on for the integrator. Each pixel's samples are
 //! summed in index order by one thread, in f64, so the image is the same bit for bit whatever
 //! the number of threads or the order in which tiles finish.
 
@@ -19,8 +20,8 @@ use crate::image::Image;
 use glam::{Vec2, Vec3};
 use irr_geometry::Ray;
 use irr_integrator::{Integrator, RayCounter, Scene};
-use irr_sampling::SampleKey;
 use irr_sampling::rng::Dimensions;
+use irr_sampling::{SampleKey, correlated_multi_jitter};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -163,6 +164,18 @@ pub struct RenderOutput {
     pub stats: RenderStats,
 }
 
+/// Where sample `index` of pixel (x, y) lies on the image plane: a correlated multi-jittered
+/// pattern over the pixel's `spp` samples (Kensler 2013; one point per cell of a √spp grid and one
+/// per stratum of each axis), the pattern chosen by (seed, x, y) and the jitter inside the cell by
+/// dimension 0 of the sample's key. Stratified, so pixels crossed by an edge converge faster than
+/// with independent positions, and still a function of (seed, pixel, index, spp) alone.
+pub fn raster_position(settings: &RenderSettings, x: u32, y: u32, index: u32) -> Vec2 {
+    let key = SampleKey::pixel(settings.seed, x, y, u64::from(index));
+    let pattern = SampleKey::pixel(settings.seed, x, y, u64::MAX).bits(0) as u32;
+    let u = correlated_multi_jitter(index, settings.spp, pattern, key.uniform_2d(0));
+    Vec2::new(x as f32, y as f32) + u
+}
+
 /// One sample of one pixel: the radiance along the camera ray through a uniformly chosen point
 /// of the pixel. Non-finite results are returned as they are (the caller counts them).
 fn sample(
@@ -175,7 +188,7 @@ fn sample(
 ) -> Vec3 {
     let key = SampleKey::pixel(settings.seed, x, y, u64::from(index));
     // Dimension 0: the point inside the pixel (box filter).
-    let raster = Vec2::new(x as f32, y as f32) + key.uniform_2d(0);
+    let raster = raster_position(settings, x, y, index);
     let r = camera.ray(raster, settings.width, settings.height);
     let ray = Ray {
         origin: r.origin,
@@ -257,7 +270,7 @@ fn progress_bar(tiles: usize, show: bool) -> indicatif::ProgressBar {
 
 /// Runs `work` on a pool of `threads` threads (0: rayon's global pool); returns its result and
 /// the number of threads it had.
-fn with_threads<T: Send>(
+pub(crate) fn with_threads<T: Send>(
     threads: usize,
     work: impl FnOnce() -> T + Send,
 ) -> Result<(T, usize), RenderError> {
