@@ -3,5 +3,6 @@
 mod bad_input;
 mod cache;
 mod geometry;
+mod ic;
 mod render;
 mod sampling;

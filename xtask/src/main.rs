@@ -3,6 +3,8 @@
 //!
 //! - `cargo xtask render`: renders a glTF scene (by default the Cornell box in assets/) to
 //!   `out/<scene>.exr` plus a PNG preview; `cargo xtask render --help` lists the options.
+//! - `cargo xtask compare`: the irradiance cache against the path tracer (speed and error) on a
+//!   scene; the report goes to target/compare/<scene>/.
 //! - `cargo xtask tidy`: checks the codebase's own rules (also run by `cargo test` through the
 //!   `#[test]`s in `tidy.rs`).
 //!
@@ -12,6 +14,7 @@ use clap::{Parser, Subcommand};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+mod compare;
 mod render;
 mod tidy;
 
@@ -27,6 +30,8 @@ struct Cli {
 enum Command {
     /// Render a glTF scene to OpenEXR (linear radiance) and a PNG preview.
     Render(render::RenderArgs),
+    /// Measure the irradiance cache's speed and error against the path tracer.
+    Compare(compare::CompareArgs),
     /// Check the codebase's own rules: crate docs, and the one-way dependency table.
     Tidy,
 }
@@ -41,6 +46,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render::run(args, &workspace_root()),
+        Command::Compare(args) => compare::run(args, &workspace_root()),
         Command::Tidy => tidy::run(&workspace_root()),
     };
     match result {

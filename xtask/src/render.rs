@@ -6,18 +6,170 @@
 
 use clap::{Args, ValueEnum};
 use irr_render::{
-    AmbientOcclusion, AoSettings, Integrator, PathSettings, PathTracer, RenderSettings,
-    check_output, load_scene, mean_of_samples, pixel_samples, render, write_exr_and_png,
+    AmbientOcclusion, AoSettings, BounceMode, CacheBuilder, CachedAmbientOcclusion, GradientMode,
+    IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard, MetricKind, PathSettings,
+    PathTracer, RenderSettings, build_cache, check_output, load_scene, mark_records,
+    mean_of_samples, pixel_samples, render, write_exr_and_png,
 };
 use std::path::{Path, PathBuf};
 
 /// Which integrator estimates the radiance.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum IntegratorChoice {
+    /// The irradiance cache: emission + direct light (NEE) + indirect light interpolated from
+    /// sparse hemisphere gathers. The default.
+    Ic,
     /// The unbiased path tracer (next-event estimation, Russian roulette): the reference.
     Path,
     /// Ambient occlusion (cosine-weighted, unbounded distance): grey, no emitters needed.
     Ao,
+    /// Ambient occlusion through the irradiance cache (scalar records).
+    IcAo,
+}
+
+/// The cache's error metric.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MetricChoice {
+    /// Tabellion & Lamorlette 2004: --error is κ (larger is stricter)
+    TabellionLamorlette,
+    /// Ward et al. 1988: --error is a (smaller is stricter)
+    Ward,
+}
+
+/// The records' translation gradient.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum GradientChoice {
+    /// No gradients
+    Off,
+    /// Ward & Heckbert 1992
+    WardHeckbert,
+    /// Křivánek et al. 2005
+    KrivanekGautron,
+}
+
+/// What a gather ray brings back beyond the direct light at its hit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BounceChoice {
+    /// A path-traced continuation (unbiased)
+    PathTraced,
+    /// The next bounce level's cache (Radiance's -ab)
+    Cached,
+}
+
+/// Options of the irradiance-cache integrators (`ic`, `ic-ao`); defaults from `IcSettings`.
+#[derive(Args, Debug, Clone)]
+pub struct IcArgs {
+    /// The error metric
+    #[arg(long, value_enum, default_value_t = MetricChoice::TabellionLamorlette)]
+    pub metric: MetricChoice,
+    /// The error parameter: κ for tabellion-lamorlette (> 0, larger is stricter), a for ward
+    /// (> 0, smaller is stricter)
+    #[arg(long, default_value_t = IcSettings::default().error, allow_negative_numbers = true)]
+    pub error: f32,
+    /// Hemisphere strata M×N of a gather (M along θ, N along φ)
+    #[arg(long, value_name = "MxN", default_value = "16x64", value_parser = parse_strata)]
+    pub strata: (u32, u32),
+    /// Record radius limits in pixels, MIN,MAX (the metric's distance scale on screen)
+    #[arg(long, value_name = "MIN,MAX", default_value = "1.5,10", value_parser = parse_pair)]
+    pub pixel_spacing: (f32, f32),
+    /// Largest record radius, as a fraction of the scene's bounding-box diagonal
+    #[arg(long, default_value_t = IcSettings::default().world_max, allow_negative_numbers = true)]
+    pub world_max: f32,
+    /// Smallest record radius, as a fraction of the scene's bounding-box diagonal
+    #[arg(long, default_value_t = IcSettings::default().world_min, allow_negative_numbers = true)]
+    pub world_min: f32,
+    /// The records' translation gradient
+    #[arg(long, value_enum, default_value_t = GradientChoice::WardHeckbert)]
+    pub gradients: GradientChoice,
+    /// Turn neighbour clamping (Křivánek et al. 2006) off
+    #[arg(long)]
+    pub no_neighbour_clamping: bool,
+    /// Turn the leak guard (a visibility test between query and record) off
+    #[arg(long)]
+    pub no_leak_guard: bool,
+    /// What a gather ray brings back beyond the direct light at its hit
+    #[arg(long, value_enum, default_value_t = BounceChoice::PathTraced)]
+    pub bounce_mode: BounceChoice,
+    /// With --bounce-mode cached: cache levels below the first (1 to 8)
+    #[arg(long, default_value_t = IcSettings::default().cached_bounces)]
+    pub bounces: u32,
+    /// Light samples per camera hit for the direct light (≥ 1)
+    #[arg(long, default_value_t = IcSettings::default().direct_samples)]
+    pub direct_samples: u32,
+    /// Also build records at every camera sample's own hit, not only at pixel centres
+    #[arg(long)]
+    pub fill_samples: bool,
+    /// Write a second image, <out stem>-records.exr/.png, with every record marked
+    #[arg(long)]
+    pub show_records: bool,
+}
+
+impl IcArgs {
+    /// The settings, checked (an error names the option).
+    pub fn settings(&self, max_depth: u32) -> Result<IcSettings, String> {
+        let s = IcSettings {
+            metric: match self.metric {
+                MetricChoice::TabellionLamorlette => MetricKind::TabellionLamorlette,
+                MetricChoice::Ward => MetricKind::Ward,
+            },
+            error: self.error,
+            strata_m: self.strata.0,
+            strata_n: self.strata.1,
+            pixel_min: self.pixel_spacing.0,
+            pixel_max: self.pixel_spacing.1,
+            world_max: self.world_max,
+            world_min: self.world_min,
+            gradients: match self.gradients {
+                GradientChoice::Off => GradientMode::Off,
+                GradientChoice::WardHeckbert => GradientMode::WardHeckbert,
+                GradientChoice::KrivanekGautron => GradientMode::KrivanekGautron,
+            },
+            neighbour_clamping: !self.no_neighbour_clamping,
+            leak_guard: if self.no_leak_guard {
+                LeakGuard::Off
+            } else {
+                LeakGuard::Visibility
+            },
+            bounce_mode: match self.bounce_mode {
+                BounceChoice::PathTraced => BounceMode::PathTraced,
+                BounceChoice::Cached => BounceMode::Cached,
+            },
+            cached_bounces: self.bounces,
+            direct_samples: self.direct_samples,
+            fill_samples: self.fill_samples,
+            path: PathSettings {
+                max_depth,
+                ..PathSettings::default()
+            },
+            ..IcSettings::default()
+        };
+        s.validate().map_err(|e| e.to_string())?;
+        Ok(s)
+    }
+}
+
+fn parse_strata(text: &str) -> Result<(u32, u32), String> {
+    let (m, n) = text
+        .split_once(['x', '×'])
+        .ok_or_else(|| format!("expected MxN, e.g. 16x64, got '{text}'"))?;
+    let parse = |s: &str| {
+        s.trim()
+            .parse::<u32>()
+            .map_err(|e| format!("'{s}' in '{text}': {e}"))
+    };
+    Ok((parse(m)?, parse(n)?))
+}
+
+fn parse_pair(text: &str) -> Result<(f32, f32), String> {
+    let (a, b) = text
+        .split_once(',')
+        .ok_or_else(|| format!("expected MIN,MAX, got '{text}'"))?;
+    let parse = |s: &str| {
+        s.trim()
+            .parse::<f32>()
+            .map_err(|e| format!("'{s}' in '{text}': {e}"))
+    };
+    Ok((parse(a)?, parse(b)?))
 }
 
 /// Render a glTF scene to OpenEXR (linear radiance) and a PNG preview beside it.
@@ -27,11 +179,12 @@ pub struct RenderArgs {
     #[arg(long)]
     pub scene: Option<PathBuf>,
     /// The integrator
-    #[arg(long, value_enum, default_value_t = IntegratorChoice::Path)]
+    #[arg(long, value_enum, default_value_t = IntegratorChoice::Ic)]
     pub integrator: IntegratorChoice,
-    /// Samples per pixel (≥ 1)
-    #[arg(long, default_value_t = RenderSettings::default().spp.into(), allow_negative_numbers = true)]
-    pub spp: i64,
+    /// Samples per pixel (≥ 1) [default: 256 for path and ao, 16 for ic and ic-ao: camera
+    /// samples for anti-aliasing and direct light; the cache makes the indirect light smooth]
+    #[arg(long, allow_negative_numbers = true)]
+    pub spp: Option<i64>,
     /// Image width in pixels (1 to 16384)
     #[arg(long, default_value_t = RenderSettings::default().width.into(), allow_negative_numbers = true)]
     pub width: i64,
@@ -58,7 +211,21 @@ pub struct RenderArgs {
     /// nothing
     #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
     pub debug_pixel: Option<(u32, u32)>,
+    /// The irradiance cache's options
+    #[command(flatten)]
+    pub ic: IcArgs,
 }
+
+/// The default samples per pixel of `choice`.
+pub fn default_spp(choice: IntegratorChoice) -> i64 {
+    match choice {
+        IntegratorChoice::Path | IntegratorChoice::Ao => RenderSettings::default().spp.into(),
+        IntegratorChoice::Ic | IntegratorChoice::IcAo => IC_DEFAULT_SPP,
+    }
+}
+
+/// Camera samples per pixel of the irradiance cache by default (see `default_spp`).
+pub const IC_DEFAULT_SPP: i64 = 16;
 
 fn parse_pixel(text: &str) -> Result<(u32, u32), String> {
     let (x, y) = text
@@ -74,9 +241,14 @@ fn parse_pixel(text: &str) -> Result<(u32, u32), String> {
 
 /// Runs `cargo xtask render`; the error is one line naming the file or option and the problem.
 pub fn run(args: RenderArgs, root: &Path) -> Result<(), String> {
+    let spp = args.spp.unwrap_or_else(|| default_spp(args.integrator));
     let settings =
-        RenderSettings::from_options(args.width, args.height, args.spp, args.seed, args.threads)
+        RenderSettings::from_options(args.width, args.height, spp, args.seed, args.threads)
             .map_err(|e| e.to_string())?;
+    let ic_settings = match args.integrator {
+        IntegratorChoice::Ic | IntegratorChoice::IcAo => Some(args.ic.settings(args.max_depth)?),
+        _ => None,
+    };
     let scene_path = args
         .scene
         .clone()
@@ -105,17 +277,44 @@ pub fn run(args: RenderArgs, root: &Path) -> Result<(), String> {
         );
     }
     let camera = loaded.camera_for(settings.width, settings.height);
-    let mut integrator: Box<dyn Integrator> = match args.integrator {
-        IntegratorChoice::Path => Box::new(PathTracer::new(PathSettings {
+    let mut builder: Option<Box<dyn CacheBuilder>> = match (args.integrator, ic_settings) {
+        (IntegratorChoice::Ic, Some(s)) => Some(Box::new(
+            IrradianceCacheIntegrator::new(s).map_err(|e| e.to_string())?,
+        )),
+        (IntegratorChoice::IcAo, Some(s)) => Some(Box::new(
+            CachedAmbientOcclusion::new(s, AoSettings::default().max_distance)
+                .map_err(|e| e.to_string())?,
+        )),
+        _ => None,
+    };
+    let mut plain: Box<dyn Integrator> = match args.integrator {
+        IntegratorChoice::Ao => Box::new(AmbientOcclusion::new(AoSettings::default())),
+        _ => Box::new(PathTracer::new(PathSettings {
             max_depth: args.max_depth,
             ..PathSettings::default()
         })),
-        IntegratorChoice::Ao => Box::new(AmbientOcclusion::new(AoSettings::default())),
     };
-    integrator.preprocess(&loaded.scene);
+    plain.preprocess(&loaded.scene);
+    if let Some(b) = builder.as_mut() {
+        b.preprocess(&loaded.scene);
+        let stats = build_cache(
+            &loaded.scene,
+            &camera,
+            &mut **b,
+            &settings,
+            ic_settings.is_some_and(|s| s.fill_samples),
+            args.debug_pixel.is_none(),
+        )
+        .map_err(|e| e.to_string())?;
+        eprintln!("{}", stats.summary());
+    }
+    let integrator: &dyn Integrator = match &builder {
+        Some(b) => &**b,
+        None => &*plain,
+    };
 
     if let Some((x, y)) = args.debug_pixel {
-        let samples = pixel_samples(&loaded.scene, &camera, &*integrator, &settings, x, y)
+        let samples = pixel_samples(&loaded.scene, &camera, integrator, &settings, x, y)
             .map_err(|e| e.to_string())?;
         for (i, l) in samples.iter().enumerate() {
             println!("sample {i}: {} {} {}", l.x, l.y, l.z);
@@ -129,8 +328,19 @@ pub fn run(args: RenderArgs, root: &Path) -> Result<(), String> {
     }
 
     let output =
-        render(&loaded.scene, &camera, &*integrator, &settings, true).map_err(|e| e.to_string())?;
+        render(&loaded.scene, &camera, integrator, &settings, true).map_err(|e| e.to_string())?;
     eprintln!("{}", output.stats.summary());
+    let mean = output.image.mean();
+    eprintln!("image mean radiance: {} {} {}", mean.x, mean.y, mean.z);
+    if let Some(b) = &builder {
+        let misses = b.fallback_gathers();
+        let samples =
+            u64::from(settings.width) * u64::from(settings.height) * u64::from(settings.spp);
+        eprintln!(
+            "cache queries: {:.2} % of camera samples found no record and gathered for themselves ({misses})",
+            100.0 * misses as f64 / samples.max(1) as f64
+        );
+    }
     if output.stats.non_finite_samples > 0 {
         eprintln!(
             "warning: {} samples were NaN or infinite and counted as black; replay one with --debug-pixel",
@@ -140,6 +350,20 @@ pub fn run(args: RenderArgs, root: &Path) -> Result<(), String> {
     let (exr, png) =
         write_exr_and_png(&output.image, &out, args.exposure).map_err(|e| e.to_string())?;
     println!("wrote {} and {}", exr.display(), png.display());
+    if let (true, Some(b)) = (args.ic.show_records, &builder) {
+        let view = mark_records(&output.image, &camera, &b.records_for_display());
+        let stem = out
+            .file_stem()
+            .map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
+        let path = out.with_file_name(format!("{stem}-records.exr"));
+        let (exr, png) =
+            write_exr_and_png(&view, &path, args.exposure).map_err(|e| e.to_string())?;
+        println!(
+            "wrote {} and {} (records marked)",
+            exr.display(),
+            png.display()
+        );
+    }
     Ok(())
 }
 
@@ -159,9 +383,14 @@ mod tests {
         let cli = Cli::try_parse_from(["render"]).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(
             (cli.args.width, cli.args.height, cli.args.spp),
-            (256, 256, 256)
+            (256, 256, None)
         );
-        assert_eq!(cli.args.integrator, IntegratorChoice::Path);
+        assert_eq!(cli.args.integrator, IntegratorChoice::Ic);
+        assert_eq!(default_spp(IntegratorChoice::Path), 256);
+        assert_eq!(
+            cli.args.ic.settings(cli.args.max_depth),
+            Ok(IcSettings::default())
+        );
         // Negative sizes reach the library's range check, which names the option.
         let cli = Cli::try_parse_from(["render", "--width", "-5", "--debug-pixel", "3,4"])
             .unwrap_or_else(|e| panic!("{e}"));

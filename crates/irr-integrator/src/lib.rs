@@ -45,12 +45,17 @@
 //! ```
 
 mod ao;
+pub mod ic;
 mod integrator;
 mod light;
 pub mod path;
 mod scene;
 
 pub use ao::{AmbientOcclusion, AoSettings};
+pub use ic::{
+    BounceMode, CacheBuilder, CachedAmbientOcclusion, Candidate, CommitStats, GradientMode,
+    IcMetric, IcSettings, IcSettingsError, IrradianceCacheIntegrator, LeakGuard, MetricKind, Probe,
+};
 pub use integrator::{Integrator, RayCounter};
 pub use light::{LightSample, LightSampler};
 pub use path::{PathSettings, PathTracer, Radiance};

@@ -10,6 +10,9 @@
 //! - [`render`] and [`RenderSettings`]: the film (box filter, row 0 at the top), tiles on a
 //!   rayon pool, the progress bar and the summary ([`RenderStats`]); [`pixel_samples`] replays
 //!   one pixel.
+//! - [`build_cache`]: the deterministic parallel passes that build an irradiance cache through an
+//!   integrator's [`CacheBuilder`] (the pixel order and the threads are irr-render's; the
+//!   records and their commit are the integrator's).
 //! - [`write_exr_and_png`]: linear f32 OpenEXR and an sRGB PNG preview, both written to
 //!   temporary files and renamed into place; [`Image`] with [`Image::read_exr`].
 //!
@@ -51,6 +54,7 @@ mod glb;
 mod image;
 mod load;
 mod output;
+mod passes;
 mod render;
 #[cfg(test)]
 mod testutil;
@@ -60,13 +64,16 @@ pub use camera::{Camera, CameraRay};
 pub use error::RenderError;
 pub use image::Image;
 pub use irr_integrator::{
-    AmbientOcclusion, AoSettings, Integrator, Material, PathSettings, PathTracer, RayCounter, Scene,
+    AmbientOcclusion, AoSettings, BounceMode, CacheBuilder, CachedAmbientOcclusion, GradientMode,
+    IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard, Material, MetricKind,
+    PathSettings, PathTracer, RayCounter, Scene,
 };
 pub use load::{MAX_COORDINATE, SceneData, Warning, load_gltf};
 pub use output::{check_output, png_path_for, tone_map, write_exr_and_png};
+pub use passes::{CacheBuildStats, PassStats, build_cache, mark_records, pixel_spread};
 pub use render::{
     MAX_DIMENSION, MAX_THREADS, RenderOutput, RenderSettings, RenderStats, TILE_SIZE,
-    mean_of_samples, pixel_samples, render,
+    mean_of_samples, pixel_samples, raster_position, render,
 };
 
 use glam::Vec3;

@@ -1,0 +1,388 @@
+//! Deterministic parallel construction of an irradiance cache: the pixel passes that drive an
+//! integrator's [`CacheBuilder`].
+//!
+//! # The passes
+//! Each cache level is built from the deepest (its records are read by the gathers of the level
+//! above) to level 0. A level is built in passes over a coarse-to-fine grid of pixels: stride
+//! 16, then the pixels of stride 8 not already visited, and so on down to stride 1 (level 0) or
+//! 4 (deeper levels, whose records are larger and fewer). In a pass:
+//! 1. the cache is read-only; every pixel of the pass asks [`CacheBuilder::candidate`] for a
+//!    candidate record at its camera ray's hit (through the pixel's centre; for a deeper level,
+//!    the end of a random bounce path from there), in parallel on the rayon pool;
+//! 2. the candidates are committed in pixel order (row-major), each dropped if an earlier one
+//!    of the same pass already covers it.
+//!
+//! A candidate depends only on the cache before its pass and on its own [`SampleKey`]
+//! (seed, level stream, pixel), and commits run in a fixed order, so the cache is the same bit
+//! for bit whatever the number of threads. With [`irr_integrator::IcSettings::fill_samples`],
+//! one more pass visits every camera sample's own jittered ray. The coarse passes spread the
+//! records over the image before the fine ones fill the gaps, so few candidates of a pass cover
+//! each other (the dropped share is reported: the wasted gather work).
+
+use crate::camera::Camera;
+use crate::error::RenderError;
+use crate::render::RenderSettings;
+use glam::Vec2;
+use irr_geometry::Ray;
+use irr_integrator::{CacheBuilder, Candidate, CommitStats, Probe, RayCounter, Scene};
+use irr_sampling::SampleKey;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// The first stride of the pixel passes (pixels 16 apart).
+pub const FIRST_STRIDE: u32 = 16;
+
+/// The finest stride of the passes of levels below the first.
+pub const DEEP_LEVEL_STRIDE: u32 = 4;
+
+/// The stream of the construction passes' keys: level L uses `CACHE_STREAM + L`, and the pass
+/// over every camera sample `CACHE_STREAM + 0xff`.
+pub const CACHE_STREAM: u64 = 0x1c_0000;
+
+/// One construction pass.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PassStats {
+    /// The cache level.
+    pub level: u32,
+    /// The pixel stride (0 for the pass over every sample).
+    pub stride: u32,
+    /// Camera rays (pixels or samples) visited.
+    pub visited: u64,
+    /// Points no record covered (each probed with a coarse distance-only gather).
+    pub probes: u64,
+    /// Candidates computed (the probes selected for a full gather).
+    pub candidates: u64,
+    /// What the commit did.
+    pub commit: CommitStats,
+    /// Rays traced while computing candidates.
+    pub rays: RayCounter,
+    /// Wall-clock seconds of the pass (candidates and commit).
+    pub seconds: f64,
+}
+
+/// What building the cache cost.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CacheBuildStats {
+    /// Every pass, in order.
+    pub passes: Vec<PassStats>,
+    /// Wall-clock seconds of all passes.
+    pub seconds: f64,
+    /// Records per level after construction.
+    pub records: Vec<usize>,
+}
+
+impl CacheBuildStats {
+    /// All rays traced during construction.
+    pub fn rays(&self) -> RayCounter {
+        let mut r = RayCounter::default();
+        for p in &self.passes {
+            r += p.rays;
+            r.shadow += p.commit.guard_rays;
+        }
+        r
+    }
+
+    /// The share of candidate rays spent on candidates that were dropped at commit.
+    pub fn wasted_share(&self) -> f64 {
+        let dropped: u64 = self.passes.iter().map(|p| p.commit.dropped_rays).sum();
+        let all = self.rays().total();
+        if all == 0 {
+            0.0
+        } else {
+            dropped as f64 / all as f64
+        }
+    }
+
+    /// One line: records, passes, time, rays, waste.
+    pub fn summary(&self) -> String {
+        let inserted: u64 = self.passes.iter().map(|p| p.commit.inserted).sum();
+        let dropped: u64 = self.passes.iter().map(|p| p.commit.dropped).sum();
+        format!(
+            "cache: {} records ({}) in {} passes, {:.2} s, {:.1} M rays; {} candidates dropped as covered ({:.1} % of construction rays wasted)",
+            inserted,
+            self.records
+                .iter()
+                .enumerate()
+                .map(|(l, n)| format!("level {l}: {n}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            self.passes.len(),
+            self.seconds,
+            self.rays().total() as f64 / 1e6,
+            dropped,
+            100.0 * self.wasted_share()
+        )
+    }
+}
+
+/// The pixel footprint per unit distance along a camera ray of unit direction `direction`: the
+/// pixel's height on the plane at depth z is 2·tan(yfov/2)·z/H, and z = t·(direction·forward).
+pub fn pixel_spread(camera: &Camera, height: u32, direction: glam::Vec3) -> f32 {
+    let per_depth = 2.0 * (0.5 * camera.yfov).tan() / height.max(1) as f32;
+    per_depth * direction.dot(camera.forward).max(0.0)
+}
+
+/// The passes of stride `stride`: for the first stride, its whole grid; for a finer one, the
+/// three sub-lattices of its grid that the coarser grid does not hold ((s, 0), (0, s) and (s, s)
+/// modulo 2s), each its own pass so that a pass's pixels lie at least 2s apart. Each in
+/// row-major order.
+fn pass_lattices(width: u32, height: u32, stride: u32) -> Vec<Vec<(u32, u32)>> {
+    let grid = |ox: u32, oy: u32, step: u32| -> Vec<(u32, u32)> {
+        (oy..height)
+            .step_by(step as usize)
+            .flat_map(|y| (ox..width).step_by(step as usize).map(move |x| (x, y)))
+            .collect()
+    };
+    if stride >= FIRST_STRIDE {
+        return vec![grid(0, 0, stride)];
+    }
+    let coarse = 2 * stride;
+    [(stride, 0), (0, stride), (stride, stride)]
+        .into_iter()
+        .map(|(ox, oy)| grid(ox, oy, coarse))
+        .filter(|p| !p.is_empty())
+        .collect()
+}
+
+/// How many times the finest pass is repeated after construction (see `build_cache`).
+pub const REPAIR_PASSES: u32 = 3;
+
+/// A camera ray through raster point `raster`.
+fn camera_ray(camera: &Camera, settings: &RenderSettings, raster: Vec2) -> Ray {
+    let r = camera.ray(raster, settings.width, settings.height);
+    Ray {
+        origin: r.origin,
+        direction: r.direction,
+        t_max: r.t_max,
+    }
+}
+
+/// Runs one pass: probes in parallel, the ordered selection, the selected probes' full gathers
+/// in parallel, then the ordered commit.
+fn run_pass(
+    scene: &Scene,
+    builder: &mut dyn CacheBuilder,
+    level: u32,
+    stride: u32,
+    jobs: &[(Ray, f32, SampleKey)],
+) -> PassStats {
+    let start = Instant::now();
+    let shared: &dyn CacheBuilder = builder;
+    // Chunks keep the per-task overhead small; collect() keeps the jobs' order.
+    let probed: Vec<(Vec<Probe>, RayCounter)> = jobs
+        .par_chunks(64)
+        .map(|chunk| {
+            let mut rays = RayCounter::default();
+            let found = chunk
+                .iter()
+                .filter_map(|(ray, spread, key)| {
+                    shared.probe(scene, level, ray, *spread, *key, &mut rays)
+                })
+                .collect();
+            (found, rays)
+        })
+        .collect();
+    let mut rays = RayCounter::default();
+    let mut probes = Vec::new();
+    for (found, r) in probed {
+        rays += r;
+        probes.extend(found);
+    }
+    let probe_count = probes.len() as u64;
+    let selected = shared.select(probes);
+    let completed: Vec<(Option<Candidate>, RayCounter)> = selected
+        .par_iter()
+        .with_max_len(1)
+        .map(|probe| {
+            let mut r = RayCounter::default();
+            (shared.complete(scene, probe, &mut r), r)
+        })
+        .collect();
+    let mut candidates = Vec::with_capacity(completed.len());
+    for (c, r) in completed {
+        rays += r;
+        candidates.extend(c);
+    }
+    let count = candidates.len() as u64;
+    let commit = builder.commit(scene, candidates);
+    PassStats {
+        level,
+        stride,
+        visited: jobs.len() as u64,
+        probes: probe_count,
+        candidates: count,
+        commit,
+        rays,
+        seconds: start.elapsed().as_secs_f64(),
+    }
+}
+
+/// Builds every level of `builder`'s cache in deterministic parallel passes (see the module
+/// docs), on `settings.threads` threads, with a progress bar when `progress` is true.
+pub fn build_cache(
+    scene: &Scene,
+    camera: &Camera,
+    builder: &mut dyn CacheBuilder,
+    settings: &RenderSettings,
+    fill_samples: bool,
+    progress: bool,
+) -> Result<CacheBuildStats, RenderError> {
+    settings.validate()?;
+    let start = Instant::now();
+    let mut stats = CacheBuildStats::default();
+    let levels = builder.levels();
+    let bar = if progress {
+        let bar = indicatif::ProgressBar::new_spinner();
+        bar.set_message("building the irradiance cache");
+        bar.enable_steady_tick(std::time::Duration::from_millis(200));
+        bar
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let (w, h) = (settings.width, settings.height);
+    crate::render::with_threads(settings.threads, || {
+        let centre_jobs = |level: u32, pixels: &[(u32, u32)]| -> Vec<(Ray, f32, SampleKey)> {
+            pixels
+                .iter()
+                .map(|&(x, y)| {
+                    let ray =
+                        camera_ray(camera, settings, Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+                    let spread = pixel_spread(camera, h, ray.direction);
+                    let key = SampleKey::new(
+                        settings.seed,
+                        CACHE_STREAM + u64::from(level),
+                        u64::from(y) * u64::from(w) + u64::from(x),
+                    );
+                    (ray, spread, key)
+                })
+                .collect()
+        };
+        for level in (0..levels).rev() {
+            let finest = if level == 0 { 1 } else { DEEP_LEVEL_STRIDE };
+            let mut stride = FIRST_STRIDE;
+            while stride >= finest {
+                for lattice in pass_lattices(w, h, stride) {
+                    let jobs = centre_jobs(level, &lattice);
+                    bar.set_message(format!(
+                        "building the irradiance cache: level {level}, stride {stride}, {} pixels",
+                        jobs.len()
+                    ));
+                    stats
+                        .passes
+                        .push(run_pass(scene, builder, level, stride, &jobs));
+                }
+                stride /= 2;
+            }
+        }
+        if fill_samples {
+            // Every camera sample's own ray, as the final pass will trace it: one pass per
+            // sample index, so that a pixel's later samples find its earlier ones' records.
+            for i in 0..settings.spp {
+                let mut jobs = Vec::with_capacity((w * h) as usize);
+                for y in 0..h {
+                    for x in 0..w {
+                        let raster = crate::render::raster_position(settings, x, y, i);
+                        let ray = camera_ray(camera, settings, raster);
+                        let spread = pixel_spread(camera, h, ray.direction);
+                        let index = (u64::from(y) * u64::from(w) + u64::from(x))
+                            * u64::from(settings.spp)
+                            + u64::from(i);
+                        let key = SampleKey::new(settings.seed, CACHE_STREAM + 0xff, index);
+                        jobs.push((ray, spread, key));
+                    }
+                }
+                bar.set_message(format!("building the irradiance cache: camera samples {i}"));
+                stats.passes.push(run_pass(scene, builder, 0, 0, &jobs));
+            }
+        }
+        // Neighbour clamping shrinks earlier records as later ones arrive, which can uncover
+        // pixels the earlier passes saw covered: repeat the finest pass until none is left (at
+        // most REPAIR_PASSES times; the final pass gathers for any point still uncovered).
+        let all: Vec<(u32, u32)> = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).collect();
+        for _ in 0..REPAIR_PASSES {
+            let jobs = centre_jobs(0, &all);
+            bar.set_message("building the irradiance cache: repair pass");
+            let pass = run_pass(scene, builder, 0, 1, &jobs);
+            let done = pass.probes == 0;
+            stats.passes.push(pass);
+            if done {
+                break;
+            }
+        }
+    })?;
+    bar.finish_and_clear();
+    stats.seconds = start.elapsed().as_secs_f64();
+    stats.records = builder.record_counts();
+    Ok(stats)
+}
+
+/// The debug view of a cache (`--show-records`): a copy of `image` with each record at its
+/// projected position marked by a bright dot, and its sphere of influence by a ring of its
+/// projected radius, in the colour of the record's level-0 normal (|n|, so walls of different
+/// orientation differ). Records behind the camera or off the image are skipped.
+pub fn mark_records(
+    image: &crate::image::Image,
+    camera: &Camera,
+    records: &[(glam::Vec3, glam::Vec3, f32)],
+) -> crate::image::Image {
+    let (w, h) = (image.width(), image.height());
+    let mut out = image.clone();
+    let tan = (0.5 * camera.yfov).tan();
+    let aspect = w as f32 / h.max(1) as f32;
+    let bright = image
+        .pixels()
+        .iter()
+        .map(|p| p.max_element())
+        .fold(0.0f32, f32::max)
+        .max(1.0);
+    let mut plot = |x: f32, y: f32, c: glam::Vec3| {
+        if x >= 0.0 && y >= 0.0 && (x as u32) < w && (y as u32) < h {
+            out.set(x as u32, y as u32, c);
+        }
+    };
+    for &(p, n, influence) in records {
+        let d = p - camera.position;
+        let depth = d.dot(camera.forward);
+        if depth.is_nan() || depth <= 0.0 {
+            continue;
+        }
+        let ndc_x = d.dot(camera.right) / (depth * tan * aspect);
+        let ndc_y = d.dot(camera.up) / (depth * tan);
+        let x = (ndc_x + 1.0) * 0.5 * w as f32;
+        let y = (1.0 - ndc_y) * 0.5 * h as f32;
+        let colour = n.abs() * bright;
+        // The ring: the influence radius in pixels at that depth.
+        let radius = influence / (depth * 2.0 * tan / h as f32);
+        let steps = (radius * 6.3).clamp(8.0, 512.0) as u32;
+        for i in 0..steps {
+            let a = i as f32 / steps as f32 * std::f32::consts::TAU;
+            plot(x + radius * a.cos(), y + radius * a.sin(), colour * 0.5);
+        }
+        plot(x, y, glam::Vec3::splat(bright));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The passes visit every pixel exactly once, coarse grid first.
+    #[test]
+    fn passes_partition_the_image() {
+        for (w, h) in [(1, 1), (17, 5), (64, 33), (100, 100)] {
+            let mut seen = vec![0u8; (w * h) as usize];
+            let mut stride = FIRST_STRIDE;
+            while stride >= 1 {
+                for lattice in pass_lattices(w, h, stride) {
+                    for (x, y) in lattice {
+                        assert!(x % stride == 0 && y % stride == 0);
+                        seen[(y * w + x) as usize] += 1;
+                    }
+                }
+                stride /= 2;
+            }
+            assert!(seen.iter().all(|&s| s == 1), "{w}×{h}");
+        }
+    }
+}
