@@ -45,6 +45,19 @@ pub struct CompareArgs {
     /// Worker threads; 0 means one per core
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
+    /// Camera samples per pixel of the irradiance-cache runs
+    #[arg(long, default_value_t = 16)]
+    pub ic_spp: u32,
+    /// Light samples per camera hit of the irradiance-cache runs
+    #[arg(long, default_value_t = 1)]
+    pub direct_samples: u32,
+    /// Run only the irradiance-cache settings whose label contains this text and no path
+    /// tracer, or (with `path`) only the path tracer
+    #[arg(long)]
+    pub only: Option<String>,
+    /// More irradiance-cache settings to run, as KAPPA:MxN[:cached], comma-separated
+    #[arg(long, value_delimiter = ',')]
+    pub extra: Vec<String>,
 }
 
 /// The errors of an image against a reference, over pixels and channels.
@@ -284,6 +297,36 @@ fn ic_sweep(quick: bool) -> Vec<(String, IcSettings)> {
     out
 }
 
+/// An extra setting KAPPA:MxN[:cached].
+fn parse_extra(text: &str) -> Result<IcSettings, String> {
+    let parts: Vec<&str> = text.split(':').collect();
+    let bad = || format!("--extra: expected KAPPA:MxN[:cached], got '{text}'");
+    let kappa: f32 = parts.first().and_then(|k| k.parse().ok()).ok_or_else(bad)?;
+    let (m, n) = parts
+        .get(1)
+        .and_then(|s| s.split_once('x'))
+        .and_then(|(m, n)| Some((m.parse().ok()?, n.parse().ok()?)))
+        .ok_or_else(bad)?;
+    let cached = match parts.get(2) {
+        None => false,
+        Some(&"cached") => true,
+        Some(_) => return Err(bad()),
+    };
+    let s = IcSettings {
+        error: kappa,
+        strata_m: m,
+        strata_n: n,
+        bounce_mode: if cached {
+            BounceMode::Cached
+        } else {
+            BounceMode::PathTraced
+        },
+        ..IcSettings::default()
+    };
+    s.validate().map_err(|e| format!("--extra {text}: {e}"))?;
+    Ok(s)
+}
+
 /// Runs `cargo xtask compare`.
 pub fn run(args: CompareArgs, root: &Path) -> Result<(), String> {
     let scene_path = args
@@ -330,10 +373,8 @@ pub fn run(args: CompareArgs, root: &Path) -> Result<(), String> {
     } else {
         &[16, 64, 256, 1024]
     };
-    for &spp in pt_spps
-        .iter()
-        .filter(|_| std::env::var("IRR_COMPARE_NO_PT").is_err())
-    {
+    let path_runs = args.only.as_deref().is_none_or(|o| o == "path");
+    for &spp in pt_spps.iter().filter(|_| path_runs) {
         let s = RenderSettings { spp, ..settings };
         let (image, seconds, rays) = path_render(&loaded, &s)?;
         let m = metrics(&image, &reference);
@@ -350,25 +391,20 @@ pub fn run(args: CompareArgs, root: &Path) -> Result<(), String> {
             metrics: m,
         });
     }
-    let only = std::env::var("IRR_COMPARE_ONLY").ok();
-    let extra_direct: u32 = std::env::var("IRR_COMPARE_DIRECT")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(1);
-    let camera_spp: u32 = std::env::var("IRR_COMPARE_SPP")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(16);
     let settings = RenderSettings {
-        spp: camera_spp,
+        spp: args.ic_spp,
         ..settings
     };
-    for (label, ic) in ic_sweep(args.quick) {
-        if only.as_deref().is_some_and(|o| !label.contains(o)) {
+    let mut sweep = ic_sweep(args.quick);
+    for extra in &args.extra {
+        sweep.push((format!("extra {extra}"), parse_extra(extra)?));
+    }
+    for (label, ic) in sweep {
+        if args.only.as_deref().is_some_and(|o| !label.contains(o)) {
             continue;
         }
         let ic = IcSettings {
-            direct_samples: extra_direct,
+            direct_samples: args.direct_samples,
             ..ic
         };
         let (image, seconds, rays, records) = ic_render(&loaded, &settings, ic)?;

@@ -8,8 +8,8 @@ use clap::{Args, ValueEnum};
 use irr_render::{
     AmbientOcclusion, AoSettings, BounceMode, CacheBuilder, CachedAmbientOcclusion, GradientMode,
     IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard, MetricKind, PathSettings,
-    PathTracer, RenderSettings, build_cache, check_output, load_scene, mark_records,
-    mean_of_samples, pixel_samples, render, write_exr_and_png,
+    PathTracer, RenderSettings, build_cache, check_output, fingerprint, load_scene, mark_records,
+    mean_of_samples, pixel_samples, read_cache_file, render, write_cache_file, write_exr_and_png,
 };
 use std::path::{Path, PathBuf};
 
@@ -67,7 +67,7 @@ pub struct IcArgs {
     #[arg(long, default_value_t = IcSettings::default().error, allow_negative_numbers = true)]
     pub error: f32,
     /// Hemisphere strata M×N of a gather (M along θ, N along φ)
-    #[arg(long, value_name = "MxN", default_value = "16x64", value_parser = parse_strata)]
+    #[arg(long, value_name = "MxN", default_value = "12x48", value_parser = parse_strata)]
     pub strata: (u32, u32),
     /// Record radius limits in pixels, MIN,MAX (the metric's distance scale on screen)
     #[arg(long, value_name = "MIN,MAX", default_value = "1.5,10", value_parser = parse_pair)]
@@ -96,12 +96,18 @@ pub struct IcArgs {
     /// Light samples per camera hit for the direct light (≥ 1)
     #[arg(long, default_value_t = IcSettings::default().direct_samples)]
     pub direct_samples: u32,
-    /// Also build records at every camera sample's own hit, not only at pixel centres
+    /// Also build records at every camera sample's own hit, not only at pixel centres (the final
+    /// pass then almost never gathers for itself)
     #[arg(long)]
     pub fill_samples: bool,
     /// Write a second image, <out stem>-records.exr/.png, with every record marked
     #[arg(long)]
     pub show_records: bool,
+    /// A persistent cache (--integrator ic): read the records from FILE if it exists (it must
+    /// have been written for the same scene, camera, image size and cache settings), and write
+    /// them there after the render
+    #[arg(long, value_name = "FILE")]
+    pub cache: Option<PathBuf>,
 }
 
 impl IcArgs {
@@ -181,7 +187,7 @@ pub struct RenderArgs {
     /// The integrator
     #[arg(long, value_enum, default_value_t = IntegratorChoice::Ic)]
     pub integrator: IntegratorChoice,
-    /// Samples per pixel (≥ 1) [default: 256 for path and ao, 16 for ic and ic-ao: camera
+    /// Samples per pixel (≥ 1) [default: 256 for path and ao, 64 for ic and ic-ao: camera
     /// samples for anti-aliasing and direct light; the cache makes the indirect light smooth]
     #[arg(long, allow_negative_numbers = true)]
     pub spp: Option<i64>,
@@ -224,8 +230,12 @@ pub fn default_spp(choice: IntegratorChoice) -> i64 {
     }
 }
 
+/// The largest persistent cache file read (10⁸ records of 120 bytes would be 12 GB; a cache
+/// file beyond 4 GiB is refused rather than read).
+pub const MAX_CACHE_FILE_BYTES: u64 = 4 << 30;
+
 /// Camera samples per pixel of the irradiance cache by default (see `default_spp`).
-pub const IC_DEFAULT_SPP: i64 = 16;
+pub const IC_DEFAULT_SPP: i64 = 64;
 
 fn parse_pixel(text: &str) -> Result<(u32, u32), String> {
     let (x, y) = text
@@ -277,14 +287,47 @@ pub fn run(args: RenderArgs, root: &Path) -> Result<(), String> {
         );
     }
     let camera = loaded.camera_for(settings.width, settings.height);
-    let mut builder: Option<Box<dyn CacheBuilder>> = match (args.integrator, ic_settings) {
-        (IntegratorChoice::Ic, Some(s)) => Some(Box::new(
-            IrradianceCacheIntegrator::new(s).map_err(|e| e.to_string())?,
-        )),
-        (IntegratorChoice::IcAo, Some(s)) => Some(Box::new(
+    if args.ic.cache.is_some() && args.integrator != IntegratorChoice::Ic {
+        return Err("--cache: a persistent cache works with --integrator ic only".into());
+    }
+    // What a persistent cache must match: the scene file's bytes, the image, the camera and
+    // the cache's settings (their Debug text: every field, floats to the last bit).
+    let cache_fingerprint = match (&args.ic.cache, ic_settings) {
+        (Some(_), Some(s)) => {
+            let scene_bytes = std::fs::read(&scene_path)
+                .map_err(|e| format!("{}: cannot read: {e}", scene_path.display()))?;
+            let camera_text = format!("{camera:?} {}x{}", settings.width, settings.height);
+            let settings_text = format!("{s:?}");
+            Some(fingerprint(&[
+                &scene_bytes,
+                camera_text.as_bytes(),
+                settings_text.as_bytes(),
+            ]))
+        }
+        _ => None,
+    };
+    let mut ic_integrator = match (args.integrator, ic_settings) {
+        (IntegratorChoice::Ic, Some(s)) => {
+            let mut ic = IrradianceCacheIntegrator::new(s).map_err(|e| e.to_string())?;
+            if let (Some(path), Some(fp)) = (&args.ic.cache, cache_fingerprint)
+                && path.exists()
+            {
+                let metric = s.metric_at(0).map_err(|e| e.to_string())?;
+                let (cache, occluders) = read_cache_file(path, fp, metric, MAX_CACHE_FILE_BYTES)
+                    .map_err(|e| e.to_string())?;
+                eprintln!("read {} records from {}", cache.len(), path.display());
+                ic.load_records(cache, occluders)
+                    .map_err(|e| e.to_string())?;
+            }
+            Some(ic)
+        }
+        _ => None,
+    };
+    let mut ao_integrator = match (args.integrator, ic_settings) {
+        (IntegratorChoice::IcAo, Some(s)) => Some(
             CachedAmbientOcclusion::new(s, AoSettings::default().max_distance)
                 .map_err(|e| e.to_string())?,
-        )),
+        ),
         _ => None,
     };
     let mut plain: Box<dyn Integrator> = match args.integrator {
@@ -295,12 +338,18 @@ pub fn run(args: RenderArgs, root: &Path) -> Result<(), String> {
         })),
     };
     plain.preprocess(&loaded.scene);
-    if let Some(b) = builder.as_mut() {
+    let mut builder: Option<&mut dyn CacheBuilder> = match (&mut ic_integrator, &mut ao_integrator)
+    {
+        (Some(ic), _) => Some(ic),
+        (_, Some(ao)) => Some(ao),
+        _ => None,
+    };
+    if let Some(b) = builder.as_deref_mut() {
         b.preprocess(&loaded.scene);
         let stats = build_cache(
             &loaded.scene,
             &camera,
-            &mut **b,
+            b,
             &settings,
             ic_settings.is_some_and(|s| s.fill_samples),
             args.debug_pixel.is_none(),
@@ -308,8 +357,9 @@ pub fn run(args: RenderArgs, root: &Path) -> Result<(), String> {
         .map_err(|e| e.to_string())?;
         eprintln!("{}", stats.summary());
     }
-    let integrator: &dyn Integrator = match &builder {
-        Some(b) => &**b,
+    let builder: Option<&dyn CacheBuilder> = builder.map(|b| &*b);
+    let integrator: &dyn Integrator = match builder {
+        Some(b) => b,
         None => &*plain,
     };
 
@@ -332,7 +382,7 @@ pub fn run(args: RenderArgs, root: &Path) -> Result<(), String> {
     eprintln!("{}", output.stats.summary());
     let mean = output.image.mean();
     eprintln!("image mean radiance: {} {} {}", mean.x, mean.y, mean.z);
-    if let Some(b) = &builder {
+    if let Some(b) = builder {
         let misses = b.fallback_gathers();
         let samples =
             u64::from(settings.width) * u64::from(settings.height) * u64::from(settings.spp);
@@ -350,7 +400,7 @@ pub fn run(args: RenderArgs, root: &Path) -> Result<(), String> {
     let (exr, png) =
         write_exr_and_png(&output.image, &out, args.exposure).map_err(|e| e.to_string())?;
     println!("wrote {} and {}", exr.display(), png.display());
-    if let (true, Some(b)) = (args.ic.show_records, &builder) {
+    if let (true, Some(b)) = (args.ic.show_records, builder) {
         let view = mark_records(&output.image, &camera, &b.records_for_display());
         let stem = out
             .file_stem()
@@ -363,6 +413,10 @@ pub fn run(args: RenderArgs, root: &Path) -> Result<(), String> {
             exr.display(),
             png.display()
         );
+    }
+    if let (Some(path), Some(fp), Some(ic)) = (&args.ic.cache, cache_fingerprint, &ic_integrator) {
+        write_cache_file(path, fp, ic).map_err(|e| e.to_string())?;
+        println!("wrote the cache's records to {}", path.display());
     }
     Ok(())
 }

@@ -145,9 +145,15 @@ pub struct IcSettings {
     /// The error parameter: κ for Tabellion & Lamorlette (larger is stricter; default 1, range
     /// (0, ∞)), or a for Ward (smaller is stricter; typical 0.1–0.3).
     pub error: f32,
-    /// M, strata along θ of a first-level gather. Default: 16. Range: ≥ 1 (M·N ≤ 2²⁰).
+    /// M, strata along θ of a first-level gather. Default: 12. Range: ≥ 1 (M·N ≤ 2²⁰).
+    ///
+    /// The defaults (κ = 1, 12×48, with 64 camera samples per pixel in `cargo xtask render`)
+    /// were chosen by `cargo xtask compare` on the Cornell box at 128×128 against a 4096-spp
+    /// path-traced reference: relMSE 3.2e-4 in 5.2 s (2 loaded cores), where 8×32 gave 4.8e-4
+    /// in 3.7 s, and the path tracer needs about 670 spp (≈ 22 s) for 3.2e-4. See the closing
+    /// note of the integrator issue and docs/compare.md.
     pub strata_m: u32,
-    /// N, strata along φ. Default: 64. Range: ≥ 1.
+    /// N, strata along φ. Default: 48. Range: ≥ 1.
     pub strata_n: u32,
     /// Smallest record radius scale on screen, in pixels (see irr-cache's `PixelRange`).
     /// Default: 1.5. Range: (0, `pixel_max`].
@@ -177,8 +183,10 @@ pub struct IcSettings {
     /// Light samples (NEE) per camera hit for the direct light. Default: 1. Range: ≥ 1.
     pub direct_samples: u32,
     /// Construction also checks every camera sample's own hit (not only pixel centres), so the
-    /// final pass almost never gathers for itself. Default: off (measured: slower for the few
-    /// misses it avoids; see the closing note).
+    /// final pass almost never gathers for itself. Default: off. Measured on the Cornell box at
+    /// 128×128, 64 spp: 4.25 s and relMSE 3.24e-4 with it (1988 records), 3.77 s and 3.28e-4
+    /// without (1015 records), the final pass's own gathers (1 % of samples, at a quarter of the
+    /// strata each way) costing less than checking every sample during construction.
     pub fill_samples: bool,
     /// The path tracer of continuations and of the fallback.
     pub path: PathSettings,
@@ -189,8 +197,8 @@ impl Default for IcSettings {
         Self {
             metric: MetricKind::TabellionLamorlette,
             error: 1.0,
-            strata_m: 16,
-            strata_n: 64,
+            strata_m: 12,
+            strata_n: 48,
             pixel_min: 1.5,
             pixel_max: 10.0,
             world_max: 0.25,
@@ -484,6 +492,10 @@ struct Core<V: IcValue> {
     levels: Vec<Level<V>>,
     /// The scene's bounding-box diagonal (world units), set by `preprocess`.
     diagonal: f32,
+    /// The strata of the final pass's own gathers (where no record covers a shading point): a
+    /// quarter of the first level's in each direction, at least 4×8. Its estimate of E is as
+    /// unbiased as a record's, only noisier, and it is used for one sample, not interpolated.
+    fallback_strata: HemisphereStrata,
     fallbacks: AtomicU64,
 }
 
@@ -500,6 +512,7 @@ impl<V: IcValue> Core<V> {
             })
             .collect::<Result<Vec<_>, IcSettingsError>>()?;
         Ok(Self {
+            fallback_strata: settings.strata_at(2)?,
             settings,
             levels,
             diagonal: 1.0,
@@ -585,13 +598,12 @@ impl<V: IcValue> Core<V> {
     fn gather(
         &self,
         scene: &Scene,
-        level: usize,
+        strata: HemisphereStrata,
         x: &ShadingPoint,
         key: SampleKey,
         rays: &mut RayCounter,
         mut value: impl FnMut(Option<&SurfacePoint>, Vec3, SampleKey, &mut RayCounter) -> V::Gathered,
     ) -> Option<(GatherSamples<V::Gathered>, Frame)> {
-        let strata = self.levels[level].strata;
         let frame = Frame::from_normal(x.ns);
         let cells = strata.len();
         let mut radiance = Vec::with_capacity(cells);
@@ -1060,9 +1072,14 @@ impl IrradianceCacheIntegrator {
         rays: &mut RayCounter,
     ) -> Option<GatherSamples<Vec3>> {
         self.core
-            .gather(scene, level, x, key, rays, |hit, w, k, rays| {
-                self.gather_radiance(scene, level, hit, w, k, rays)
-            })
+            .gather(
+                scene,
+                self.core.fallback_strata,
+                x,
+                key,
+                rays,
+                |hit, w, k, rays| self.gather_radiance(scene, level, hit, w, k, rays),
+            )
             .map(|(g, _)| g)
     }
 }
@@ -1107,7 +1124,7 @@ impl CacheBuilder for IrradianceCacheIntegrator {
         let mut spent = RayCounter::default();
         let (samples, frame) = self.core.gather(
             scene,
-            li,
+            self.core.levels[li].strata,
             &probe.x,
             probe.key,
             &mut spent,
@@ -1191,13 +1208,14 @@ impl CachedAmbientOcclusion {
     fn occlusion_gather(
         &self,
         scene: &Scene,
+        strata: HemisphereStrata,
         x: &ShadingPoint,
         key: SampleKey,
         rays: &mut RayCounter,
     ) -> Option<(GatherSamples<f32>, Frame)> {
         let max = self.max_distance;
         self.core
-            .gather(scene, 0, x, key, rays, |hit, _, _, _| match hit {
+            .gather(scene, strata, x, key, rays, |hit, _, _, _| match hit {
                 Some(s) if (s.position - x.position).length() < max => 0.0,
                 _ => FRAC_1_PI,
             })
@@ -1225,7 +1243,7 @@ impl Integrator for CachedAmbientOcclusion {
             None => {
                 self.core.fallbacks.fetch_add(1, Ordering::Relaxed);
                 let key = SampleKey::new(dims.key().bits(dims.position()), FALLBACK_STREAM, 0);
-                self.occlusion_gather(scene, &x, key, rays)
+                self.occlusion_gather(scene, self.core.fallback_strata, &x, key, rays)
                     .map(|(g, _)| g.irradiance())
                     .unwrap_or(0.0)
             }
@@ -1260,7 +1278,9 @@ impl CacheBuilder for CachedAmbientOcclusion {
 
     fn complete(&self, scene: &Scene, probe: &Probe, rays: &mut RayCounter) -> Option<Candidate> {
         let mut spent = RayCounter::default();
-        let (samples, frame) = self.occlusion_gather(scene, &probe.x, probe.key, &mut spent)?;
+        let strata = self.core.levels.first()?.strata;
+        let (samples, frame) =
+            self.occlusion_gather(scene, strata, &probe.x, probe.key, &mut spent)?;
         *rays += spent;
         let (record, inputs, occluder) =
             self.core

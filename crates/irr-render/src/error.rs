@@ -52,6 +52,15 @@ pub enum RenderError {
         /// What is wrong, on one line.
         problem: String,
     },
+    /// A persistent irradiance cache (`--cache`) could not be used: unreadable, foreign,
+    /// corrupt, or made for another scene, camera or settings.
+    #[error("{}: {problem}", .path.display())]
+    CacheFile {
+        /// The cache file.
+        path: PathBuf,
+        /// What is wrong, on one line.
+        problem: String,
+    },
     /// An image file could not be read back (tests and tools read EXRs).
     #[error("{}: cannot read image: {problem}", .path.display())]
     ReadImage {

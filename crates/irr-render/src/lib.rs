@@ -48,6 +48,7 @@
 //! ```
 
 mod accessor;
+mod cachefile;
 mod camera;
 mod error;
 mod glb;
@@ -60,6 +61,7 @@ mod render;
 mod testutil;
 mod uri;
 
+pub use cachefile::{fingerprint, read_cache_file, write_cache_file};
 pub use camera::{Camera, CameraRay};
 pub use error::RenderError;
 pub use image::Image;
