@@ -626,3 +626,74 @@ fn the_cache_converges_to_the_path_tracer() {
         "bias did not shrink: {errors:?}"
     );
 }
+
+/// A persistent cache: written after one render and read back for another, the image is the same
+/// bit for bit and nothing is rebuilt; a file for another scene or setting (another fingerprint),
+/// or a corrupt one, is refused with an error naming the file.
+#[test]
+fn a_cache_file_round_trips_and_refuses_strangers() {
+    let loaded = cornell();
+    let settings = RenderSettings {
+        width: 16,
+        height: 16,
+        spp: 2,
+        seed: 4,
+        threads: 0,
+    };
+    let camera = loaded.camera_for(16, 16);
+    let ic = small();
+    let mut first = IrradianceCacheIntegrator::new(ic).unwrap_or_else(|e| panic!("{e}"));
+    first.preprocess(&loaded.scene);
+    build_cache(&loaded.scene, &camera, &mut first, &settings, false, false)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let a = render(&loaded.scene, &camera, &first, &settings, false)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .image;
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let path = dir.path().join("cornell.irrc");
+    irr_render::write_cache_file(&path, 42, &first).unwrap_or_else(|e| panic!("{e}"));
+
+    let metric = ic.metric_at(0).unwrap_or_else(|e| panic!("{e}"));
+    let (cache, occluders) =
+        irr_render::read_cache_file(&path, 42, metric, 1 << 30).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(cache.len(), first.cache(0).map_or(0, |c| c.len()));
+    let mut second = IrradianceCacheIntegrator::new(ic).unwrap_or_else(|e| panic!("{e}"));
+    second.preprocess(&loaded.scene);
+    second
+        .load_records(cache, occluders)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let stats = build_cache(&loaded.scene, &camera, &mut second, &settings, false, false)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let inserted: u64 = stats.passes.iter().map(|p| p.commit.inserted).sum();
+    assert_eq!(
+        inserted, 0,
+        "a complete cache read back needs no new record"
+    );
+    let b = render(&loaded.scene, &camera, &second, &settings, false)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .image;
+    assert!(
+        a.pixels()
+            .iter()
+            .zip(b.pixels())
+            .all(|(x, y)| x.to_array().map(f32::to_bits) == y.to_array().map(f32::to_bits))
+    );
+
+    let e = irr_render::read_cache_file(&path, 43, metric, 1 << 30)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(
+        e.contains("cornell.irrc") && e.contains("another scene"),
+        "{e}"
+    );
+    let mut bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{e}"));
+    let last = bytes.len() - 20;
+    bytes[last] ^= 0x40;
+    std::fs::write(&path, &bytes).unwrap_or_else(|e| panic!("{e}"));
+    let e = irr_render::read_cache_file(&path, 42, metric, 1 << 30)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(e.contains("cornell.irrc") && e.contains("checksum"), "{e}");
+}

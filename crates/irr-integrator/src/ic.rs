@@ -1310,3 +1310,119 @@ impl CacheBuilder for CachedAmbientOcclusion {
         display(&self.core)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Nonsense settings are refused with an error naming the option.
+    #[test]
+    fn nonsense_settings_name_the_option() {
+        let base = IcSettings::default();
+        assert!(base.validate().is_ok());
+        let cases: [(IcSettings, &str); 10] = [
+            (IcSettings { error: 0.0, ..base }, "--error"),
+            (
+                IcSettings {
+                    error: -1.0,
+                    ..base
+                },
+                "--error",
+            ),
+            (
+                IcSettings {
+                    error: f32::NAN,
+                    ..base
+                },
+                "--error",
+            ),
+            (
+                IcSettings {
+                    strata_m: 0,
+                    ..base
+                },
+                "--strata",
+            ),
+            (
+                IcSettings {
+                    strata_n: 0,
+                    ..base
+                },
+                "--strata",
+            ),
+            (
+                IcSettings {
+                    strata_m: 2048,
+                    strata_n: 2048,
+                    ..base
+                },
+                "--strata",
+            ),
+            (
+                IcSettings {
+                    pixel_min: 5.0,
+                    pixel_max: 1.0,
+                    ..base
+                },
+                "--pixel-spacing",
+            ),
+            (
+                IcSettings {
+                    world_max: f32::INFINITY,
+                    ..base
+                },
+                "--world-max",
+            ),
+            (
+                IcSettings {
+                    world_min: 1.0,
+                    world_max: 0.5,
+                    ..base
+                },
+                "--world-min",
+            ),
+            (
+                IcSettings {
+                    direct_samples: 0,
+                    ..base
+                },
+                "--direct-samples",
+            ),
+        ];
+        for (s, option) in cases {
+            let e = s
+                .validate()
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default();
+            assert!(e.starts_with(option), "{option}: {e}");
+        }
+        let cached = IcSettings {
+            bounce_mode: BounceMode::Cached,
+            cached_bounces: 0,
+            ..base
+        };
+        assert!(cached.validate().is_err());
+        assert!(IrradianceCacheIntegrator::new(IcSettings { error: 0.0, ..base }).is_err());
+    }
+
+    /// The strata of deeper levels halve per level down to 4×8, and the metric loosens.
+    #[test]
+    fn levels_loosen() {
+        let s = IcSettings {
+            bounce_mode: BounceMode::Cached,
+            cached_bounces: 3,
+            ..IcSettings::default()
+        };
+        let sizes: Vec<(u32, u32)> = (0..4)
+            .map(|l| s.strata_at(l).map(|st| (st.m(), st.n())).unwrap_or((0, 0)))
+            .collect();
+        assert_eq!(sizes, vec![(12, 48), (6, 24), (4, 12), (4, 8)]);
+        match (s.metric_at(0), s.metric_at(2)) {
+            (Ok(IcMetric::TabellionLamorlette(a)), Ok(IcMetric::TabellionLamorlette(b))) => {
+                assert_eq!((a.kappa(), b.kappa()), (1.0, 0.25));
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}
