@@ -2,6 +2,7 @@
 
 mod bad_input;
 mod cache;
+mod extremes;
 mod geometry;
 mod ic;
 mod render;
