@@ -205,3 +205,69 @@ fn degenerate_triangles_make_no_nan() {
     assert!(image.pixels().iter().all(|p| p.is_finite()));
     let _ = image.mean();
 }
+
+/// A very bright, very small emitter: a square of side 1 mm (area 1e-6 of the 1 m² floor's
+/// scale) and radiance 1e6, 1 m above a diffuse floor (ρ = 0.5), facing down. On the floor right
+/// below it the irradiance is L·A·cos θ·cos θ'/d² = 1e6·1e-6·1·1/1 = 1 (to 1e-6: the square
+/// subtends 1e-6 sr), so the radiance leaving the floor towards the camera is ρ/π = 0.159. The
+/// cache's direct light (NEE) must give that in the pixel looking straight down, finite; the
+/// indirect part is 0 (nothing else reflects: the floor sees only the emitter's back, black).
+/// Tolerance: NEE picks a point on the square and the pixel's samples land within 1 mm of the
+/// point below it: d² and the two cosines vary by at most 1e-6 relative each over those, and the
+/// f32 arithmetic (a few dozen roundings of 6e-8) adds below 3e-6: 1e-5 relative in all.
+#[test]
+fn a_tiny_bright_emitter_gives_the_known_direct_light() {
+    let s = 5e-4f32;
+    let light = TriangleMesh {
+        positions: vec![
+            Vec3::new(-s, 1.0, -s),
+            Vec3::new(s, 1.0, -s),
+            Vec3::new(s, 1.0, s),
+            Vec3::new(-s, 1.0, s),
+        ],
+        // Counter-clockwise seen from below: the winding normal points down.
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        normals: None,
+        material_ids: vec![1, 1],
+    };
+    let floor = TriangleMesh {
+        positions: vec![
+            Vec3::new(-5.0, 0.0, -5.0),
+            Vec3::new(5.0, 0.0, -5.0),
+            Vec3::new(5.0, 0.0, 5.0),
+            Vec3::new(-5.0, 0.0, 5.0),
+        ],
+        indices: vec![[0, 2, 1], [0, 3, 2]],
+        normals: None,
+        material_ids: vec![0, 0],
+    };
+    let geometry = Geometry::build(&[floor, light]).unwrap_or_else(|e| panic!("{e}"));
+    let materials = vec![
+        irr_integrator::Material::diffuse(Vec3::splat(0.5)),
+        irr_integrator::Material {
+            albedo: Vec3::ZERO,
+            emission: Vec3::splat(1e6),
+            two_sided: false,
+        },
+    ];
+    let scene = Scene::new(geometry, materials).unwrap_or_else(|e| panic!("{e}"));
+    // Looking straight down from 0.5 m (below the emitter) at the floor, a narrow field of view:
+    // the middle pixel sees the floor within 1 mm of the point below the light.
+    let camera = Camera::look_at(Vec3::new(0.0, 0.5, 0.0), Vec3::ZERO, Vec3::Z, 0.01)
+        .unwrap_or_else(|| panic!("camera"));
+    let settings = RenderSettings {
+        width: 9,
+        height: 9,
+        spp: 4,
+        seed: 2,
+        threads: 0,
+    };
+    let image = ic_render(&scene, &camera, &settings);
+    assert!(image.pixels().iter().all(|p| p.is_finite()));
+    let centre = image.get(4, 4);
+    let expected = 0.5 / std::f32::consts::PI;
+    assert!(
+        (centre - Vec3::splat(expected)).abs().max_element() <= 1e-5 * expected,
+        "{centre} vs {expected}"
+    );
+}
