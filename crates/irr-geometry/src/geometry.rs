@@ -14,6 +14,7 @@ use crate::intersect::{
     intersect_triangle, octant_inv4,
 };
 use crate::mesh::cross_f64;
+use crate::wide::WideBvh;
 use crate::{BuildReport, GeometryError, Ray, Triangle, TriangleMesh};
 
 /// A closest hit: the distance along the ray, the triangle, and the barycentrics of its
@@ -74,6 +75,12 @@ pub enum BvhLayout {
     /// node), tested with two 4-wide slab tests. The fastest on the CPU, so the default.
     #[default]
     Bvh8,
+    /// 4-wide BVH (one 4-wide slab test per node) whose leaves are packets of up to four
+    /// triangles tested at once, ordered traversal; 128-byte nodes.
+    Wide4,
+    /// 8-wide BVH (two 4-wide slab tests per node) with the same four-triangle packets;
+    /// 256-byte nodes.
+    Wide8,
 }
 
 /// The BVH nodes, in the chosen layout; leaves index `Geometry::bvh_triangles`.
@@ -83,11 +90,14 @@ enum Nodes {
     Cwbvh(Vec<CwBvhNode>),
     /// The CWBVH nodes (topology) and each node's exact child boxes as floats.
     Bvh8(Vec<CwBvhNode>, Vec<Planes8>),
+    Wide4(WideBvh<1>),
+    Wide8(WideBvh<2>),
 }
 
 /// Traversal stack sizes kept on the call stack (the smallest that fits is used); a deeper BVH
 /// (only pathological inputs build one) traverses with a heap stack instead.
 const SMALL_STACK: usize = 32;
+const MEDIUM_STACK: usize = 64;
 const LARGE_STACK: usize = 128;
 
 /// The built BVH over all kept triangles. `Send + Sync`: trace from any number of threads.
@@ -206,6 +216,18 @@ impl Geometry {
                 let planes = bvh8_planes(&cw, &aabbs);
                 (Nodes::Bvh8(cw.nodes, planes), cw.primitive_indices, depth)
             }
+            BvhLayout::Wide4 | BvhLayout::Wide8 => {
+                let soa: Vec<TriSoa> = triangles.iter().map(|t| TriSoa::new(t.p)).collect();
+                if layout == BvhLayout::Wide4 {
+                    let w = WideBvh::<1>::new(&bvh, &soa);
+                    let depth = w.stack_len();
+                    (Nodes::Wide4(w), Vec::new(), depth)
+                } else {
+                    let w = WideBvh::<2>::new(&bvh, &soa);
+                    let depth = w.stack_len();
+                    (Nodes::Wide8(w), Vec::new(), depth)
+                }
+            }
         };
         let bvh_triangles = bvh_ids
             .iter()
@@ -297,6 +319,8 @@ impl Geometry {
             (Nodes::Bvh8(n, p), _) => {
                 self.with_stack(|s| self.cwbvh_closest::<2, true>(n, p, &r, s))
             }
+            (Nodes::Wide4(w), _) => return wide_closest(w, &r, self),
+            (Nodes::Wide8(w), _) => return wide_closest(w, &r, self),
         };
         found.map(|(i, h)| Hit {
             t: h.t,
@@ -323,6 +347,8 @@ impl Geometry {
             (Nodes::Bvh8(n, p), 0) => self.with_stack(|s| self.cwbvh_any::<0, true>(n, p, &r, s)),
             (Nodes::Bvh8(n, p), 1) => self.with_stack(|s| self.cwbvh_any::<1, true>(n, p, &r, s)),
             (Nodes::Bvh8(n, p), _) => self.with_stack(|s| self.cwbvh_any::<2, true>(n, p, &r, s)),
+            (Nodes::Wide4(w), _) => wide_any(w, &r, self),
+            (Nodes::Wide8(w), _) => wide_any(w, &r, self),
         }
     }
 
@@ -410,6 +436,8 @@ impl Geometry {
             Nodes::Bvh2(n) => n.len(),
             Nodes::Cwbvh(n) => n.len(),
             Nodes::Bvh8(n, _) => n.len(),
+            Nodes::Wide4(w) => w.node_count(),
+            Nodes::Wide8(w) => w.node_count(),
         }
     }
 
@@ -420,6 +448,8 @@ impl Geometry {
             Nodes::Bvh2(_) => BvhLayout::Bvh2,
             Nodes::Cwbvh(_) => BvhLayout::Cwbvh,
             Nodes::Bvh8(..) => BvhLayout::Bvh8,
+            Nodes::Wide4(_) => BvhLayout::Wide4,
+            Nodes::Wide8(_) => BvhLayout::Wide8,
         }
     }
 
@@ -430,6 +460,8 @@ impl Geometry {
     fn with_stack<T: Copy + Default, R>(&self, f: impl FnOnce(&mut [T]) -> R) -> R {
         if self.stack_len <= SMALL_STACK {
             f(&mut [T::default(); SMALL_STACK])
+        } else if self.stack_len <= MEDIUM_STACK {
+            f(&mut [T::default(); MEDIUM_STACK])
         } else if self.stack_len <= LARGE_STACK {
             f(&mut [T::default(); LARGE_STACK])
         } else {
@@ -673,6 +705,32 @@ impl Geometry {
     }
 }
 
+/// Closest hit on a wide BVH, dispatched on the ray's permutation.
+#[inline(always)]
+fn wide_closest<const G: usize>(w: &WideBvh<G>, r: &PreparedRay, g: &Geometry) -> Option<Hit> {
+    let found = match r.kz {
+        0 => g.with_stack(|s| w.closest::<0>(r, s)),
+        1 => g.with_stack(|s| w.closest::<1>(r, s)),
+        _ => g.with_stack(|s| w.closest::<2>(r, s)),
+    };
+    found.map(|(p, lane, h)| Hit {
+        t: h.t,
+        triangle: w.id(p, lane),
+        b1: h.b1,
+        b2: h.b2,
+    })
+}
+
+/// Any hit on a wide BVH, dispatched on the ray's permutation.
+#[inline(always)]
+fn wide_any<const G: usize>(w: &WideBvh<G>, r: &PreparedRay, g: &Geometry) -> bool {
+    match r.kz {
+        0 => g.with_stack(|s| w.any::<0>(r, s)),
+        1 => g.with_stack(|s| w.any::<1>(r, s)),
+        _ => g.with_stack(|s| w.any::<2>(r, s)),
+    }
+}
+
 /// Takes the next child to visit out of a node group (the highest set bit of its high byte),
 /// pushes the rest of the group if any remains, and returns the child node's index.
 #[inline(always)]
@@ -738,7 +796,10 @@ fn build_bvh2(aabbs: &[Aabb], layout: BvhLayout) -> Bvh2 {
     );
     let mut reinsertion = ReinsertionOptimizer::default();
     reinsertion.run(&mut bvh, 0.05, None);
-    if layout == BvhLayout::Bvh2 {
+    if matches!(
+        layout,
+        BvhLayout::Bvh2 | BvhLayout::Wide4 | BvhLayout::Wide8
+    ) {
         collapse(&mut bvh, 4, 3.0);
         reinsertion.run(&mut bvh, 0.1, None);
     }
@@ -864,7 +925,13 @@ mod tests {
         let mut m = quad(0.0, 1);
         m.indices.truncate(1);
         m.material_ids.truncate(1);
-        for layout in [BvhLayout::Bvh2, BvhLayout::Cwbvh, BvhLayout::Bvh8] {
+        for layout in [
+            BvhLayout::Bvh2,
+            BvhLayout::Cwbvh,
+            BvhLayout::Bvh8,
+            BvhLayout::Wide4,
+            BvhLayout::Wide8,
+        ] {
             let g = Geometry::build_with_layout(std::slice::from_ref(&m), layout)
                 .unwrap_or_else(|e| panic!("{e}"));
             assert_eq!(g.layout(), layout);

@@ -79,6 +79,7 @@ mod geometry;
 mod intersect;
 mod mesh;
 mod ray;
+mod wide;
 
 pub use error::GeometryError;
 pub use geometry::{BvhLayout, Geometry, Hit, SurfacePoint};
