@@ -26,10 +26,91 @@ use glam::Vec3;
 use irr_geometry::{BvhLayout, Geometry, Ray, TriangleMesh};
 
 fn main() {
+    if let Ok(spec) = std::env::var("IRR_BUILD") {
+        return build_time(&spec);
+    }
     match std::env::var("IRR_PROFILE") {
         Ok(spec) => profile(&spec),
         Err(_) => divan::main(),
     }
+}
+
+/// `n` nested triangles sharing one centroid (and one box centre: the origin), each 1.0001
+/// times the size of the previous one (1.00001 beyond 10⁵ triangles, so that the largest stays
+/// finite): the input of issue 12, item 5.
+fn same_centroid(n: usize) -> Vec<TriangleMesh> {
+    let factor: f32 = if n <= 100_000 { 1.0001 } else { 1.00001 };
+    let shape = [
+        Vec3::new(-1.0, -1.0, -1.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(0.0, 1.0, 0.0),
+    ];
+    let mut mesh = TriangleMesh::default();
+    let mut scale = 1.0f32;
+    for k in 0..n as u32 {
+        mesh.positions.extend(shape.map(|p| p * scale));
+        mesh.indices.push([3 * k, 3 * k + 1, 3 * k + 2]);
+        scale *= factor;
+    }
+    mesh.material_ids = vec![0; n];
+    vec![mesh]
+}
+
+/// `IRR_BUILD=<n>[:ploc]`: the time to build `n` same-centroid triangles, with
+/// `Geometry::build` or (`:ploc`) with the obvhs recipe irr-geometry used before it detected
+/// such clusters (PLOC with search radius 14, then reinsertion).
+fn build_time(spec: &str) {
+    let (n, ploc) = match spec.split_once(':') {
+        Some((n, _)) => (n, true),
+        None => (spec, false),
+    };
+    let n: usize = n
+        .parse()
+        .unwrap_or_else(|_| panic!("IRR_BUILD={spec}: not a count"));
+    let meshes = same_centroid(n);
+    let start = Instant::now();
+    if ploc {
+        use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
+        let aabbs: Vec<obvhs::aabb::Aabb> = meshes[0]
+            .indices
+            .iter()
+            .map(|t| {
+                let p = t.map(|i| meshes[0].positions[i as usize]);
+                obvhs::aabb::Aabb::new(
+                    p[0].min(p[1]).min(p[2]).into(),
+                    p[0].max(p[1]).max(p[2]).into(),
+                )
+            })
+            .collect();
+        let mut bvh = PlocBuilder::with_capacity(n).build(
+            PlocSearchDistance::Medium,
+            &aabbs,
+            (0..n as u32).collect(),
+            SortPrecision::U64,
+            3,
+        );
+        obvhs::bvh2::reinsertion::ReinsertionOptimizer::default().run(&mut bvh, 0.05, None);
+        divan::black_box(bvh);
+    } else {
+        divan::black_box(Geometry::build(&meshes).unwrap_or_else(|e| panic!("{e}")));
+    }
+    println!(
+        "{n} same-centroid triangles ({}): built in {:.3} s",
+        if ploc {
+            "obvhs PLOC + reinsertion"
+        } else {
+            "Geometry::build"
+        },
+        start.elapsed().as_secs_f64()
+    );
+}
+
+/// Build time of `n` nested triangles sharing one centroid (see `same_centroid`); 10⁶ with
+/// `IRR_BUILD=1000000` (it takes a few seconds).
+#[divan::bench(args = [10_000, 100_000], sample_count = 3)]
+fn build_same_centroid(bencher: Bencher, n: usize) {
+    let meshes = same_centroid(n);
+    bencher.bench(|| Geometry::build(divan::black_box(&meshes)));
 }
 
 /// Traces one case's rays once (see the module docs).

@@ -6,11 +6,11 @@ use obvhs::{
     aabb::Aabb,
     bvh2::{Bvh2, leaf_collapser::collapse, node::Bvh2Node, reinsertion::ReinsertionOptimizer},
     cwbvh::{CwBvh, bvh2_to_cwbvh::bvh2_to_cwbvh, node::CwBvhNode},
-    ploc::{PlocBuilder, PlocSearchDistance, SortPrecision},
 };
 
+use crate::build;
 use crate::intersect::{
-    Planes8, PreparedRay, TriHit, TriSoa, box_entry, bvh8_node_hits, cwbvh_node_hits,
+    Planes8, PreparedRay, RayPacket, TriHit, TriSoa, box_entry, bvh8_node_hits, cwbvh_node_hits,
     intersect_triangle, octant_inv4,
 };
 use crate::mesh::cross_f64;
@@ -328,6 +328,76 @@ impl Geometry {
             b1: h.b1,
             b2: h.b2,
         })
+    }
+
+    /// The closest hits of many rays: `hits[i]` is what [`Geometry::intersect`] returns for
+    /// `rays[i]` (up to a tie between hits whose distances differ by less than their rounding
+    /// error bound, as between BVH layouts).
+    ///
+    /// Made for a gather's rays, which share their origin: with a wide layout
+    /// ([`BvhLayout::Wide4`], [`BvhLayout::Wide8`]), consecutive rays with one origin are
+    /// sorted by octant and dominant axis and traced in packets of four that go down the BVH
+    /// together, each box and triangle fetched once per packet and the origin's translation of
+    /// the node planes and triangle vertices computed once for all four rays. Other rays, and
+    /// the other layouts, are traced one by one.
+    ///
+    /// # Panics
+    /// If `rays` and `hits` differ in length.
+    pub fn intersect_many(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
+        let mut start = 0;
+        while start < rays.len() {
+            // The run of rays sharing this ray's origin.
+            let origin = rays[start].origin;
+            let mut end = start + 1;
+            while end < rays.len() && rays[end].origin == origin {
+                end += 1;
+            }
+            let (run, out) = (&rays[start..end], &mut hits[start..end]);
+            match &self.nodes {
+                Nodes::Wide4(w) if run.len() > 1 => self.gather(w, run, out),
+                Nodes::Wide8(w) if run.len() > 1 => self.gather(w, run, out),
+                _ => {
+                    for (ray, hit) in run.iter().zip(out) {
+                        *hit = self.intersect(ray);
+                    }
+                }
+            }
+            start = end;
+        }
+    }
+
+    /// [`Geometry::intersect_many`] for rays with one origin, on a wide BVH.
+    fn gather<const G: usize>(&self, w: &WideBvh<G>, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        // Prepare every ray; bucket the valid ones by (octant, kz), keeping their order.
+        let mut prepared: Vec<(u8, u32, PreparedRay)> = Vec::with_capacity(rays.len());
+        for (i, ray) in rays.iter().enumerate() {
+            hits[i] = None;
+            if let Some(r) = PreparedRay::new(ray) {
+                let octant = (octant_inv4(&r) & 7) as u8;
+                prepared.push((octant * 3 + r.kz as u8, i as u32, r));
+            }
+        }
+        prepared.sort_by_key(|&(key, i, _)| (key, i));
+        for class in prepared.chunk_by(|a, b| a.0 == b.0) {
+            for chunk in class.chunks(4) {
+                let lanes: Vec<PreparedRay> = chunk.iter().map(|c| c.2).collect();
+                let packet = RayPacket::new(&lanes);
+                let found = match lanes[0].kz {
+                    0 => self.with_stack(|s| w.closest_packet::<0>(&packet, s)),
+                    1 => self.with_stack(|s| w.closest_packet::<1>(&packet, s)),
+                    _ => self.with_stack(|s| w.closest_packet::<2>(&packet, s)),
+                };
+                for (c, f) in chunk.iter().zip(found) {
+                    hits[c.1 as usize] = f.map(|(p, lane, h)| Hit {
+                        t: h.t,
+                        triangle: w.id(p, lane),
+                        b1: h.b1,
+                        b2: h.b2,
+                    });
+                }
+            }
+        }
     }
 
     /// Whether anything is hit with `t` in `(0, ray.t_max)` (with the same error margins as
@@ -780,28 +850,21 @@ fn validate_mesh(m: usize, mesh: &TriangleMesh) -> Result<(), GeometryError> {
     Ok(())
 }
 
-/// Builds the BVH2 with obvhs: PLOC (Meister & Bittner 2018) with a search radius of 14, then
-/// reinsertion (Meister & Bittner 2017) — obvhs's `medium_build` recipe. For the BVH2 layout the
-/// leaves are then collapsed by SAH to at most 4 triangles and a second, short reinsertion pass
-/// follows; the CWBVH conversion (both 8-wide layouts) makes its own leaves (at most 3
-/// triangles).
+/// Builds the BVH2 (see `build.rs`: obvhs's PLOC + reinsertion, or the top-down build for
+/// scenes with a large cluster of shared centroids). For the BVH2 and wide layouts the leaves
+/// are then collapsed by SAH to at most 4 triangles and, after PLOC, a second, short
+/// reinsertion pass follows; the CWBVH conversion (`Cwbvh`, `Bvh8`) makes its own leaves (at
+/// most 3 triangles).
 fn build_bvh2(aabbs: &[Aabb], layout: BvhLayout) -> Bvh2 {
-    let n = aabbs.len();
-    let mut bvh = PlocBuilder::with_capacity(n).build(
-        PlocSearchDistance::Medium,
-        aabbs,
-        (0..n as u32).collect(),
-        SortPrecision::U64,
-        3,
-    );
-    let mut reinsertion = ReinsertionOptimizer::default();
-    reinsertion.run(&mut bvh, 0.05, None);
+    let (mut bvh, builder) = build::build_bvh2(aabbs);
     if matches!(
         layout,
         BvhLayout::Bvh2 | BvhLayout::Wide4 | BvhLayout::Wide8
     ) {
         collapse(&mut bvh, 4, 3.0);
-        reinsertion.run(&mut bvh, 0.1, None);
+        if builder == build::Builder::Ploc {
+            ReinsertionOptimizer::default().run(&mut bvh, 0.1, None);
+        }
     }
     bvh
 }
@@ -986,6 +1049,89 @@ mod tests {
             .intersect(&ray)
             .unwrap_or_else(|| panic!("escaped: {ray:?}"));
         assert_eq!(g.triangle(hit.triangle).material_id, 4, "{hit:?}");
+    }
+
+    /// `n` coplanar triangles nested about one centroid (also their boxes' centre), each
+    /// 1.001 times the previous: the input that stalled PLOC.
+    fn nested(n: u32) -> TriangleMesh {
+        let shape = [
+            Vec3::new(-1.0, -1.0, -1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ];
+        let mut mesh = TriangleMesh::default();
+        let mut scale = 1.0f32;
+        for k in 0..n {
+            mesh.positions.extend(shape.map(|p| p * scale));
+            mesh.indices.push([3 * k, 3 * k + 1, 3 * k + 2]);
+            scale *= 1.001;
+        }
+        mesh.material_ids = vec![0; n as usize];
+        mesh
+    }
+
+    #[test]
+    fn nested_same_centroid_triangles_build_top_down_and_trace_like_brute_force() {
+        let n = 3 * build::CLUSTER_LIMIT as u32;
+        let mesh = nested(n);
+        let aabbs: Vec<Aabb> = mesh
+            .indices
+            .iter()
+            .map(|t| {
+                let p = t.map(|i| mesh.positions[i as usize]);
+                Aabb::new(
+                    p[0].min(p[1]).min(p[2]).into(),
+                    p[0].max(p[1]).max(p[2]).into(),
+                )
+            })
+            .collect();
+        assert_eq!(build::build_bvh2(&aabbs).1, build::Builder::TopDown);
+        // An ordinary scene (two quads) keeps PLOC.
+        let quads: Vec<Aabb> = aabbs[..4].to_vec();
+        assert_eq!(build::build_bvh2(&quads).1, build::Builder::Ploc);
+
+        let mut seed = 0x1234_5678_u32;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            seed as f32 / u32::MAX as f32 * 2.0 - 1.0
+        };
+        for layout in [
+            BvhLayout::Bvh2,
+            BvhLayout::Bvh8,
+            BvhLayout::Wide4,
+            BvhLayout::Wide8,
+        ] {
+            let g = Geometry::build_with_layout(std::slice::from_ref(&mesh), layout)
+                .unwrap_or_else(|e| panic!("{e}"));
+            for _ in 0..300 {
+                let o = Vec3::new(next(), next(), next()) * 40.0;
+                let d = (Vec3::new(next(), next(), next()) * 15.0 - o).normalize();
+                let ray = Ray::new(o, d);
+                let (a, b) = (g.intersect(&ray), g.intersect_brute_force(&ray));
+                assert_eq!(
+                    a.is_some(),
+                    b.is_some(),
+                    "{layout:?} {ray:?}: {a:?} vs {b:?}"
+                );
+                if let (Some(a), Some(b)) = (a, b) {
+                    // The triangles are coplanar up to the rounding of their vertices
+                    // (≤ u·37 ≈ 2.2e-6 off the plane at the largest scale, 1.001³⁰⁷² ≈ 22),
+                    // so the closest hit is a tie between all those the ray passes, and
+                    // each computed t is within its bound δt of the exact distance. With
+                    // |d| = 1, |o| ≤ 70 and vertices within 37 of the origin, |p0 − o| ≤ 110
+                    // and t ≤ 110: δt ≤ (γ₇ + γ₆)·110/|d·n| + γ₂·110 < 1e-4/|d·n|. Two
+                    // answers differ by at most 2δt plus the vertices' 2 × 2.2e-6/|d·n|.
+                    let cos = f64::from(d.dot(g.triangle(a.triangle).normal()).abs());
+                    assert!(
+                        f64::from((a.t - b.t).abs()) <= 4e-4 / cos,
+                        "{layout:?} {ray:?}: {a:?} vs {b:?}"
+                    );
+                }
+                assert_eq!(g.occluded(&ray), b.is_some(), "{layout:?} {ray:?}");
+            }
+        }
     }
 
     #[test]

@@ -93,8 +93,8 @@ pub(crate) struct PreparedRay {
     ox: Vec3A,
     oy: Vec3A,
     oz: Vec3A,
-    sx: f32,
-    sy: f32,
+    pub(crate) sx: f32,
+    pub(crate) sy: f32,
     /// The axis of the largest direction component, which the triangle test maps to z.
     pub(crate) kz: usize,
     /// The caller's `t_max`.
@@ -601,6 +601,155 @@ pub(crate) fn intersect_tri4<const KZ: usize>(
         b1,
         b2,
         mask: ok.bitmask() & inside,
+    }
+}
+
+/// Up to four rays that share their origin, their octant and their permutation axis `kz`,
+/// prepared for tests with one ray per lane. Each lane holds exactly the values of its
+/// [`PreparedRay`], so every lane's answers are bit for bit the single-ray tests' answers. A
+/// packet of fewer than four rays repeats its last ray in the spare lanes.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct RayPacket {
+    pub(crate) rays: [PreparedRay; 4],
+    /// The lanes that hold rays of their own (not repeats).
+    pub(crate) active: u32,
+    /// The shared origin.
+    origin: [f32; 3],
+    d: [Vec4; 3],
+    inv: [Vec4; 3],
+    inv_far: [Vec4; 3],
+    sx: Vec4,
+    sy: Vec4,
+    pub(crate) t_max: Vec4,
+    /// Per axis the index of the near plane (shared: one octant).
+    near: [usize; 3],
+}
+
+impl RayPacket {
+    /// `rays` (one to four) must share origin, octant and `kz`.
+    pub(crate) fn new(rays: &[PreparedRay]) -> RayPacket {
+        let lanes: [PreparedRay; 4] = std::array::from_fn(|l| rays[l.min(rays.len() - 1)]);
+        let lane4 = |f: &dyn Fn(&PreparedRay) -> f32| {
+            Vec4::new(f(&lanes[0]), f(&lanes[1]), f(&lanes[2]), f(&lanes[3]))
+        };
+        let first = &lanes[0];
+        RayPacket {
+            active: (1 << rays.len().min(4)) - 1,
+            origin: [first.origin.x, first.origin.y, first.origin.z],
+            d: [0, 1, 2].map(|a| lane4(&|r| r.dir[a])),
+            inv: [0, 1, 2].map(|a| lane4(&|r| r.inv4[a].x)),
+            inv_far: [0, 1, 2].map(|a| lane4(&|r| r.inv_far4[a].x)),
+            sx: lane4(&|r| r.sx),
+            sy: lane4(&|r| r.sy),
+            t_max: lane4(&|r| r.t_max),
+            near: first.near,
+            rays: lanes,
+        }
+    }
+
+    /// The lanes that enter each of four boxes (given by their planes as in
+    /// [`PreparedRay::hits4`], lane = box) within `[0, t_best]`, and per box the smallest entry
+    /// distance of those lanes. The slab distances are those of `hits4`, per lane: the
+    /// translation `plane − origin` is shared by the lanes, and computed once.
+    #[inline(always)]
+    pub(crate) fn hits4(&self, planes: &[Vec4; 6], t_best: Vec4, lanes: u32) -> [(u32, f32); 4] {
+        let o = self.origin;
+        let mut out = [(0, 0.0); 4];
+        let near = [0, 1, 2].map(|a| planes[self.near[a]] - Vec4::splat(o[a]));
+        let far = [0, 1, 2].map(|a| planes[(self.near[a] + 3) % 6] - Vec4::splat(o[a]));
+        for (b, slot) in out.iter_mut().enumerate() {
+            let mut t_near = Vec4::ZERO;
+            let mut t_far = t_best;
+            for a in 0..3 {
+                t_near = t_near.max(Vec4::splat(near[a][b]) * self.inv[a]);
+                t_far = t_far.min(Vec4::splat(far[a][b]) * self.inv_far[a]);
+            }
+            let m = t_near.cmple(t_far).bitmask() & lanes;
+            if m != 0 {
+                let t = Vec4::select(
+                    glam::BVec4A::new(m & 1 != 0, m & 2 != 0, m & 4 != 0, m & 8 != 0),
+                    t_near,
+                    Vec4::INFINITY,
+                );
+                *slot = (m, t.min_element());
+            }
+        }
+        out
+    }
+}
+
+/// [`intersect_triangle`] on one triangle and the four rays of a packet (lane = ray), with the
+/// same operations in the same order on each lane: the parts that depend only on the triangle
+/// and the shared origin (the translated vertices, the filter's `R`, the numerator `(p0 − o)·n`
+/// of the distance and its error term) are computed once, as scalars.
+#[inline(always)]
+pub(crate) fn intersect_tri_packet<const KZ: usize>(
+    tri: &TriSoa,
+    p: &RayPacket,
+    t_best: Vec4,
+) -> Tri4Hits {
+    let o = &p.rays[0];
+    // Translate the vertices so the rays start at the origin (index = vertex).
+    let x = tri.xs - o.ox;
+    let y = tri.ys - o.oy;
+    let z = tri.zs - o.oz;
+    let (px, py, pz) = match KZ {
+        0 => (y, z, x),
+        1 => (z, x, y),
+        _ => (x, y, z),
+    };
+    // Shear, per lane.
+    let xt = [0, 1, 2].map(|v| Vec4::splat(px[v]) + p.sx * Vec4::splat(pz[v]));
+    let yt = [0, 1, 2].map(|v| Vec4::splat(py[v]) + p.sy * Vec4::splat(pz[v]));
+    let e0 = xt[1] * yt[2] - xt[2] * yt[1];
+    let e1 = xt[2] * yt[0] - xt[0] * yt[2];
+    let e2 = xt[0] * yt[1] - xt[1] * yt[0];
+    // The filter bound of `edge_error`: R is shared, X and Y are per lane.
+    let r = x.abs().max(y.abs()).max(z.abs()).max_element();
+    let xm = xt[0].abs().max(xt[1].abs()).max(xt[2].abs());
+    let ym = yt[0].abs().max(yt[1].abs()).max(yt[2].abs());
+    let e = 2.0 * gamma(5) * r;
+    let delta_e = Vec4::splat(2.0 * gamma(3)) * xm * ym
+        + Vec4::splat(2.0 * e) * (xm + ym)
+        + Vec4::splat(2.0 * e * e)
+        + Vec4::splat(f32::MIN_POSITIVE);
+    let near =
+        (e0.abs().cmple(delta_e) | e1.abs().cmple(delta_e) | e2.abs().cmple(delta_e)).bitmask();
+    let zero = Vec4::ZERO;
+    let neg = e0.cmplt(zero) | e1.cmplt(zero) | e2.cmplt(zero);
+    let pos = e0.cmpgt(zero) | e1.cmpgt(zero) | e2.cmpgt(zero);
+    let mut inside = !(neg & pos).bitmask() & 0xf & !near;
+    let inv_det = Vec4::ONE / (e0 + e1 + e2);
+    let mut b1 = e1 * inv_det;
+    let mut b2 = e2 * inv_det;
+    let mut m = near & p.active;
+    while m != 0 {
+        let l = m.trailing_zeros() as usize;
+        m &= m - 1;
+        if let Some((c1, c2)) = edge_test_f64::<KZ>(tri, &p.rays[l]) {
+            inside |= 1 << l;
+            b1[l] = c1;
+            b2[l] = c2;
+        }
+    }
+    // Distance to the plane through p0: the numerator and its error term are shared.
+    let a = Vec3A::new(x.x, y.x, z.x);
+    let an = a * tri.n;
+    let num = sum3(an);
+    let num_err = gamma(7) * sum3(an.abs());
+    let n = tri.n;
+    let den = (p.d[0] * n.x + p.d[1] * n.y) + p.d[2] * n.z;
+    let t = Vec4::splat(num) / den;
+    let t_abs = t.abs();
+    let dn = (p.d[0] * n.x).abs() + (p.d[1] * n.y).abs() + (p.d[2] * n.z).abs();
+    let delta_t = (Vec4::splat(num_err) + Vec4::splat(gamma(6)) * t_abs * dn) / den.abs()
+        + Vec4::splat(gamma(2)) * t_abs;
+    let ok = t.cmple(t_best) & t.cmpgt(delta_t) & (t + delta_t).cmplt(p.t_max);
+    Tri4Hits {
+        t,
+        b1,
+        b2,
+        mask: ok.bitmask() & inside & p.active,
     }
 }
 
