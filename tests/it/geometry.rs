@@ -715,6 +715,16 @@ proptest! {
                         prop_assert_eq!(ray.origin, origin);
                         rays.push(ray);
                     }
+                    // Rays that hit nothing (zero, NaN direction; a zero t_max), in the
+                    // gather's run and its packets' classes: they must not disturb the rest.
+                    let k = rng.below(rays.len());
+                    let invalid = [Vec3::ZERO, Vec3::NAN, side];
+                    let which = rng.below(3);
+                    let mut bad = Ray::new(origin, invalid[which]);
+                    if which == 2 {
+                        bad.t_max = 0.0;
+                    }
+                    rays.insert(rays.len() - k % 64, bad);
                 }
                 let o = Vec3::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), rng.range(-2.0, 2.0))
                     * scale

@@ -129,7 +129,22 @@ fn profile(spec: &str) {
     let (meshes, camera, light) = setup(name);
     let s = scene(name, &meshes, layout, &camera, light);
     let occlusion = query == "occluded";
-    let rays = if occlusion { &s.shadow } else { &s.closest };
+    // `gather<M>x<N>` traces gathers one ray at a time, `gather<M>x<N>many` with
+    // `intersect_many`.
+    let gather = query.strip_prefix("gather").map(|g| {
+        let many = g.ends_with("many");
+        let (m, n) = g
+            .trim_end_matches("many")
+            .split_once('x')
+            .unwrap_or(("16", "64"));
+        let (m, n) = (m.parse().unwrap_or(16), n.parse().unwrap_or(64));
+        (gather_rays(&s.geometry, &camera, m, n), many)
+    });
+    let rays = match &gather {
+        Some((g, _)) => g,
+        None if occlusion => &s.shadow,
+        None => &s.closest,
+    };
     let repeats: usize = std::env::var("IRR_PROFILE_REPEATS")
         .ok()
         .and_then(|r| r.parse().ok())
@@ -138,7 +153,10 @@ fn profile(spec: &str) {
     let mut hits = 0;
     for _ in 0..repeats {
         let start = Instant::now();
-        hits = trace(&s.geometry, rays, occlusion, 1);
+        hits = match &gather {
+            Some((g, many)) => trace_gathers(&s.geometry, g, 1 << 12, *many),
+            None => trace(&s.geometry, rays, occlusion, 1),
+        };
         best = best.min(start.elapsed().as_secs_f64());
     }
     println!(
@@ -500,6 +518,91 @@ fn trace(g: &Geometry, rays: &[Ray], occlusion: bool, threads: usize) -> usize {
             })
             .sum()
     })
+}
+
+/// 2¹⁶ gather rays of an irradiance-cache record's kind, in the Cornell box or another
+/// scene: records at the camera's primary hits, each with `m × n` stratified cosine-weighted
+/// directions (cell (j, k) of (cos²θ, φ), jittered, in that order) around the normal facing
+/// the camera, all leaving from the record's one spawned origin.
+fn gather_rays(g: &Geometry, camera: &Camera, m: usize, n: usize) -> Vec<Ray> {
+    let mut rng = Rng(0x6A7E);
+    let mut rays = Vec::with_capacity(RAYS);
+    while rays.len() < RAYS {
+        let primary = camera.ray(&mut rng);
+        let Some(hit) = g.intersect(&primary) else {
+            continue;
+        };
+        let s = g.surface(&primary, &hit);
+        let nrm = if s.geometric_normal.dot(primary.direction) < 0.0 {
+            s.geometric_normal
+        } else {
+            -s.geometric_normal
+        };
+        let t = nrm.any_orthonormal_vector();
+        let b = nrm.cross(t);
+        for j in 0..m {
+            for k in 0..n {
+                let u = (j as f32 + rng.f32()) / m as f32;
+                let phi = std::f32::consts::TAU * (k as f32 + rng.f32()) / n as f32;
+                let (sin, cos) = (u.sqrt(), (1.0 - u).max(0.0).sqrt());
+                let d = (t * (sin * phi.cos()) + b * (sin * phi.sin()) + nrm * cos).normalize();
+                rays.push(Ray::spawn(s.position, nrm, d));
+            }
+        }
+    }
+    rays.truncate(RAYS);
+    rays
+}
+
+/// Traces gathers of `per_record` rays one ray at a time, or each with one `intersect_many`
+/// call; returns the number of hits.
+#[inline(never)]
+fn trace_gathers(g: &Geometry, rays: &[Ray], per_record: usize, many: bool) -> usize {
+    let mut hits = vec![None; per_record];
+    let mut count = 0;
+    for record in rays.chunks(per_record) {
+        let out = &mut hits[..record.len()];
+        if many {
+            g.intersect_many(record, out);
+        } else {
+            for (ray, h) in record.iter().zip(out.iter_mut()) {
+                *h = g.intersect(ray);
+            }
+        }
+        count += out.iter().filter(|h| h.is_some()).count();
+    }
+    count
+}
+
+/// The gather sizes the gather benchmarks trace: M × N rays per record.
+const GATHERS: [(usize, usize); 2] = [(16, 64), (32, 128)];
+
+static CORNELL_GATHERS: LazyLock<[Vec<Ray>; 2]> = LazyLock::new(|| {
+    let camera = setup("cornell").1;
+    let s = get("cornell", BvhLayout::default());
+    GATHERS.map(|(m, n)| gather_rays(&s.geometry, &camera, m, n))
+});
+
+fn run_gather(bencher: Bencher, size: usize, many: bool) {
+    let s = get("cornell", BvhLayout::default());
+    let rays = &CORNELL_GATHERS[size];
+    let (m, n) = GATHERS[size];
+    bencher
+        .counter(ItemsCount::new(rays.len()))
+        .bench(|| trace_gathers(&s.geometry, divan::black_box(rays), m * n, many));
+}
+
+/// Cornell-box gathers (16 × 64 and 32 × 128 rays per record) on the default layout, one ray
+/// at a time with `intersect`.
+#[divan::bench(args = [0, 1], sample_count = 20)]
+fn gather_one_by_one(bencher: Bencher, size: usize) {
+    run_gather(bencher, size, false);
+}
+
+/// The same gathers with one `intersect_many` call per record.
+#[divan::bench(args = [0, 1], sample_count = 20)]
+fn gather_intersect_many(bencher: Bencher, size: usize) {
+    run_gather(bencher, size, true);
 }
 
 fn threads_all() -> usize {

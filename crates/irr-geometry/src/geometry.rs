@@ -14,7 +14,7 @@ use crate::intersect::{
     intersect_triangle, octant_inv4,
 };
 use crate::mesh::cross_f64;
-use crate::wide::WideBvh;
+use crate::wide::{Entry, PacketEntry, WideBvh};
 use crate::{BuildReport, GeometryError, Ray, Triangle, TriangleMesh};
 
 /// A closest hit: the distance along the ray, the triangle, and the barycentrics of its
@@ -100,6 +100,27 @@ const SMALL_STACK: usize = 32;
 const MEDIUM_STACK: usize = 64;
 const LARGE_STACK: usize = 128;
 
+/// Runs `$body` with `$s` bound to a zeroed traversal stack of at least `$len` entries of type
+/// `$t`: an array on the call stack (the smaller of two sizes that fits), or a heap vector for a
+/// pathologically deep tree. A macro rather than a closure, so that the body is compiled inside
+/// its caller: a closure is one function whatever pulp's dispatch selected, compiled for the
+/// baseline instruction set.
+macro_rules! on_stack {
+    ($len:expr, $t:ty, |$s:ident| $body:expr) => {{
+        let len: usize = $len;
+        if len <= SMALL_STACK {
+            let $s: &mut [$t] = &mut [<$t>::default(); SMALL_STACK];
+            $body
+        } else if len <= LARGE_STACK {
+            let $s: &mut [$t] = &mut [<$t>::default(); LARGE_STACK];
+            $body
+        } else {
+            let $s: &mut [$t] = &mut vec![<$t>::default(); len];
+            $body
+        }
+    }};
+}
+
 /// The built BVH over all kept triangles. `Send + Sync`: trace from any number of threads.
 #[derive(Debug, Clone)]
 pub struct Geometry {
@@ -119,6 +140,10 @@ pub struct Geometry {
     bvh_ids: Vec<u32>,
     report: BuildReport,
     bounds: (Vec3, Vec3),
+    /// The instruction set the wide traversals are compiled for, detected at build time:
+    /// x86-64-v3 (AVX2) where the CPU has it, else the baseline. Both run the same operations
+    /// (no fused multiply-adds: Rust never contracts), so the answers are the same bits.
+    arch: pulp::Arch,
 }
 
 impl Geometry {
@@ -244,6 +269,7 @@ impl Geometry {
             bvh_ids,
             report,
             bounds: (min, max),
+            arch: pulp::Arch::new(),
         })
     }
 
@@ -319,8 +345,28 @@ impl Geometry {
             (Nodes::Bvh8(n, p), _) => {
                 self.with_stack(|s| self.cwbvh_closest::<2, true>(n, p, &r, s))
             }
-            (Nodes::Wide4(w), _) => return wide_closest(w, &r, self),
-            (Nodes::Wide8(w), _) => return wide_closest(w, &r, self),
+            (Nodes::Wide4(w), _) => {
+                return self
+                    .arch
+                    .dispatch(WideQuery {
+                        w,
+                        r: &r,
+                        g: self,
+                        any: false,
+                    })
+                    .0;
+            }
+            (Nodes::Wide8(w), _) => {
+                return self
+                    .arch
+                    .dispatch(WideQuery {
+                        w,
+                        r: &r,
+                        g: self,
+                        any: false,
+                    })
+                    .0;
+            }
         };
         found.map(|(i, h)| Hit {
             t: h.t,
@@ -355,8 +401,18 @@ impl Geometry {
             }
             let (run, out) = (&rays[start..end], &mut hits[start..end]);
             match &self.nodes {
-                Nodes::Wide4(w) if run.len() > 1 => self.gather(w, run, out),
-                Nodes::Wide8(w) if run.len() > 1 => self.gather(w, run, out),
+                Nodes::Wide4(w) if run.len() > 1 => self.arch.dispatch(Gather {
+                    w,
+                    rays: run,
+                    hits: out,
+                    g: self,
+                }),
+                Nodes::Wide8(w) if run.len() > 1 => self.arch.dispatch(Gather {
+                    w,
+                    rays: run,
+                    hits: out,
+                    g: self,
+                }),
                 _ => {
                     for (ray, hit) in run.iter().zip(out) {
                         *hit = self.intersect(ray);
@@ -368,35 +424,79 @@ impl Geometry {
     }
 
     /// [`Geometry::intersect_many`] for rays with one origin, on a wide BVH.
+    #[inline(always)]
     fn gather<const G: usize>(&self, w: &WideBvh<G>, rays: &[Ray], hits: &mut [Option<Hit>]) {
-        // Prepare every ray; bucket the valid ones by (octant, kz), keeping their order.
-        let mut prepared: Vec<(u8, u32, PreparedRay)> = Vec::with_capacity(rays.len());
-        for (i, ray) in rays.iter().enumerate() {
-            hits[i] = None;
-            if let Some(r) = PreparedRay::new(ray) {
-                let octant = (octant_inv4(&r) & 7) as u8;
-                prepared.push((octant * 3 + r.kz as u8, i as u32, r));
-            }
-        }
-        prepared.sort_by_key(|&(key, i, _)| (key, i));
-        for class in prepared.chunk_by(|a, b| a.0 == b.0) {
-            for chunk in class.chunks(4) {
-                let lanes: Vec<PreparedRay> = chunk.iter().map(|c| c.2).collect();
-                let packet = RayPacket::new(&lanes);
-                let found = match lanes[0].kz {
-                    0 => self.with_stack(|s| w.closest_packet::<0>(&packet, s)),
-                    1 => self.with_stack(|s| w.closest_packet::<1>(&packet, s)),
-                    _ => self.with_stack(|s| w.closest_packet::<2>(&packet, s)),
+        // Bucket the rays by (octant, kz) as `PreparedRay` computes them, keeping their order.
+        let mut order: Vec<(u8, u32)> = rays
+            .iter()
+            .enumerate()
+            .map(|(i, ray)| {
+                let d = ray.direction;
+                let a = d.abs();
+                let kz = if a.x > a.y && a.x > a.z {
+                    0
+                } else if a.y > a.z {
+                    1
+                } else {
+                    2
                 };
-                for (c, f) in chunk.iter().zip(found) {
-                    hits[c.1 as usize] = f.map(|(p, lane, h)| Hit {
-                        t: h.t,
-                        triangle: w.id(p, lane),
-                        b1: h.b1,
-                        b2: h.b2,
-                    });
+                // The sign of 1/d, which picks the near planes (−0 counts as negative).
+                let octant = u8::from(d.x.is_sign_negative())
+                    | u8::from(d.y.is_sign_negative()) << 1
+                    | u8::from(d.z.is_sign_negative()) << 2;
+                (octant * 3 + kz, i as u32)
+            })
+            .collect();
+        order.sort_unstable();
+        for class in order.chunk_by(|a, b| a.0 == b.0) {
+            // (packet, lanes filled, the rays' indices, kz).
+            let mut packet: Option<(RayPacket, usize, [u32; 4], usize)> = None;
+            for &(_, i) in class {
+                hits[i as usize] = None;
+                let Some(r) = PreparedRay::new(&rays[i as usize]) else {
+                    continue;
+                };
+                match &mut packet {
+                    None => packet = Some((RayPacket::new(&r), 1, [i, 0, 0, 0], r.kz)),
+                    Some((p, n, ids, _)) => {
+                        p.set_lane(*n, &r);
+                        ids[*n] = i;
+                        *n += 1;
+                    }
+                }
+                if let Some((p, 4, ids, kz)) = &packet {
+                    self.trace_packet(w, p, *kz, ids, hits);
+                    packet = None;
                 }
             }
+            if let Some((p, n, ids, kz)) = &packet {
+                self.trace_packet(w, p, *kz, &ids[..*n], hits);
+            }
+        }
+    }
+
+    /// Traces one packet and writes its lanes' hits to `hits[ids[lane]]`.
+    #[inline(always)]
+    fn trace_packet<const G: usize>(
+        &self,
+        w: &WideBvh<G>,
+        p: &RayPacket,
+        kz: usize,
+        ids: &[u32],
+        hits: &mut [Option<Hit>],
+    ) {
+        let found = on_stack!(self.stack_len, PacketEntry, |s| match kz {
+            0 => w.closest_packet::<0>(p, s),
+            1 => w.closest_packet::<1>(p, s),
+            _ => w.closest_packet::<2>(p, s),
+        });
+        for (&i, f) in ids.iter().zip(found) {
+            hits[i as usize] = f.map(|(k, lane, h)| Hit {
+                t: h.t,
+                triangle: w.id(k, lane),
+                b1: h.b1,
+                b2: h.b2,
+            });
         }
     }
 
@@ -417,8 +517,26 @@ impl Geometry {
             (Nodes::Bvh8(n, p), 0) => self.with_stack(|s| self.cwbvh_any::<0, true>(n, p, &r, s)),
             (Nodes::Bvh8(n, p), 1) => self.with_stack(|s| self.cwbvh_any::<1, true>(n, p, &r, s)),
             (Nodes::Bvh8(n, p), _) => self.with_stack(|s| self.cwbvh_any::<2, true>(n, p, &r, s)),
-            (Nodes::Wide4(w), _) => wide_any(w, &r, self),
-            (Nodes::Wide8(w), _) => wide_any(w, &r, self),
+            (Nodes::Wide4(w), _) => {
+                self.arch
+                    .dispatch(WideQuery {
+                        w,
+                        r: &r,
+                        g: self,
+                        any: true,
+                    })
+                    .1
+            }
+            (Nodes::Wide8(w), _) => {
+                self.arch
+                    .dispatch(WideQuery {
+                        w,
+                        r: &r,
+                        g: self,
+                        any: true,
+                    })
+                    .1
+            }
         }
     }
 
@@ -775,14 +893,56 @@ impl Geometry {
     }
 }
 
+/// A closest-hit (`any: false`) or occlusion (`any: true`) query on a wide BVH, as a pulp
+/// operation: `with_simd` is inlined into pulp's function compiled for the detected
+/// instruction set, and the traversal (all `#[inline(always)]`) into it. (A closure would be
+/// compiled once, for the baseline, and only called from there.)
+struct WideQuery<'a, const G: usize> {
+    w: &'a WideBvh<G>,
+    r: &'a PreparedRay,
+    g: &'a Geometry,
+    any: bool,
+}
+
+impl<const G: usize> pulp::WithSimd for WideQuery<'_, G> {
+    type Output = (Option<Hit>, bool);
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) -> (Option<Hit>, bool) {
+        if self.any {
+            (None, wide_any(self.w, self.r, self.g))
+        } else {
+            (wide_closest(self.w, self.r, self.g), false)
+        }
+    }
+}
+
+/// [`Geometry::intersect_many`]'s shared-origin packets, as a pulp operation (see
+/// [`WideQuery`]).
+struct Gather<'a, const G: usize> {
+    w: &'a WideBvh<G>,
+    rays: &'a [Ray],
+    hits: &'a mut [Option<Hit>],
+    g: &'a Geometry,
+}
+
+impl<const G: usize> pulp::WithSimd for Gather<'_, G> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        self.g.gather(self.w, self.rays, self.hits);
+    }
+}
+
 /// Closest hit on a wide BVH, dispatched on the ray's permutation.
 #[inline(always)]
 fn wide_closest<const G: usize>(w: &WideBvh<G>, r: &PreparedRay, g: &Geometry) -> Option<Hit> {
-    let found = match r.kz {
-        0 => g.with_stack(|s| w.closest::<0>(r, s)),
-        1 => g.with_stack(|s| w.closest::<1>(r, s)),
-        _ => g.with_stack(|s| w.closest::<2>(r, s)),
-    };
+    let found = on_stack!(g.stack_len, Entry, |s| match r.kz {
+        0 => w.closest::<0>(r, s),
+        1 => w.closest::<1>(r, s),
+        _ => w.closest::<2>(r, s),
+    });
     found.map(|(p, lane, h)| Hit {
         t: h.t,
         triangle: w.id(p, lane),
@@ -794,11 +954,11 @@ fn wide_closest<const G: usize>(w: &WideBvh<G>, r: &PreparedRay, g: &Geometry) -
 /// Any hit on a wide BVH, dispatched on the ray's permutation.
 #[inline(always)]
 fn wide_any<const G: usize>(w: &WideBvh<G>, r: &PreparedRay, g: &Geometry) -> bool {
-    match r.kz {
-        0 => g.with_stack(|s| w.any::<0>(r, s)),
-        1 => g.with_stack(|s| w.any::<1>(r, s)),
-        _ => g.with_stack(|s| w.any::<2>(r, s)),
-    }
+    on_stack!(g.stack_len, Entry, |s| match r.kz {
+        0 => w.any::<0>(r, s),
+        1 => w.any::<1>(r, s),
+        _ => w.any::<2>(r, s),
+    })
 }
 
 /// Takes the next child to visit out of a node group (the highest set bit of its high byte),

@@ -360,7 +360,7 @@ pub(crate) fn intersect_triangle<const KZ: usize>(
     // times smaller.
     let delta_e = edge_error(x, y, z, xt, yt);
     let (b1, b2) = if e.abs().cmple(Vec3A::splat(delta_e)).any() {
-        edge_test_f64::<KZ>(tri, ray)?
+        edge_test_f64::<KZ>(tri, ray.origin, ray.sx, ray.sy)?
     } else {
         // The ray passes the triangle only if all three edge functions have the same sign.
         if e.cmplt(Vec3A::ZERO).any() && e.cmpgt(Vec3A::ZERO).any() {
@@ -573,7 +573,7 @@ pub(crate) fn intersect_tri4<const KZ: usize>(
         while m != 0 {
             let l = m.trailing_zeros() as usize;
             m &= m - 1;
-            if let Some((c1, c2)) = edge_test_f64::<KZ>(&tri.lane(l), ray) {
+            if let Some((c1, c2)) = edge_test_f64::<KZ>(&tri.lane(l), ray.origin, ray.sx, ray.sy) {
                 inside |= 1 << l;
                 b1[l] = c1;
                 b2[l] = c2;
@@ -610,11 +610,13 @@ pub(crate) fn intersect_tri4<const KZ: usize>(
 /// packet of fewer than four rays repeats its last ray in the spare lanes.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct RayPacket {
-    pub(crate) rays: [PreparedRay; 4],
     /// The lanes that hold rays of their own (not repeats).
     pub(crate) active: u32,
-    /// The shared origin.
-    origin: [f32; 3],
+    /// The shared origin, and its coordinates splatted (as the scalar test translates).
+    origin: Vec3A,
+    ox: Vec3A,
+    oy: Vec3A,
+    oz: Vec3A,
     d: [Vec4; 3],
     inv: [Vec4; 3],
     inv_far: [Vec4; 3],
@@ -626,25 +628,39 @@ pub(crate) struct RayPacket {
 }
 
 impl RayPacket {
-    /// `rays` (one to four) must share origin, octant and `kz`.
-    pub(crate) fn new(rays: &[PreparedRay]) -> RayPacket {
-        let lanes: [PreparedRay; 4] = std::array::from_fn(|l| rays[l.min(rays.len() - 1)]);
-        let lane4 = |f: &dyn Fn(&PreparedRay) -> f32| {
-            Vec4::new(f(&lanes[0]), f(&lanes[1]), f(&lanes[2]), f(&lanes[3]))
-        };
-        let first = &lanes[0];
+    /// A packet holding `r` in every lane, lane 0 active.
+    #[inline(always)]
+    pub(crate) fn new(r: &PreparedRay) -> RayPacket {
+        let o = r.origin;
         RayPacket {
-            active: (1 << rays.len().min(4)) - 1,
-            origin: [first.origin.x, first.origin.y, first.origin.z],
-            d: [0, 1, 2].map(|a| lane4(&|r| r.dir[a])),
-            inv: [0, 1, 2].map(|a| lane4(&|r| r.inv4[a].x)),
-            inv_far: [0, 1, 2].map(|a| lane4(&|r| r.inv_far4[a].x)),
-            sx: lane4(&|r| r.sx),
-            sy: lane4(&|r| r.sy),
-            t_max: lane4(&|r| r.t_max),
-            near: first.near,
-            rays: lanes,
+            active: 1,
+            origin: o,
+            ox: Vec3A::splat(o.x),
+            oy: Vec3A::splat(o.y),
+            oz: Vec3A::splat(o.z),
+            d: r.d4,
+            inv: r.inv4,
+            inv_far: r.inv_far4,
+            sx: Vec4::splat(r.sx),
+            sy: Vec4::splat(r.sy),
+            t_max: Vec4::splat(r.t_max),
+            near: r.near,
         }
+    }
+
+    /// Puts `r` in `lane` (1 to 3) and makes it active; `r` must share the origin, octant and
+    /// `kz` of the packet's first ray.
+    #[inline(always)]
+    pub(crate) fn set_lane(&mut self, lane: usize, r: &PreparedRay) {
+        for a in 0..3 {
+            self.d[a][lane] = r.dir[a];
+            self.inv[a][lane] = r.inv_dir[a];
+            self.inv_far[a][lane] = r.inv_far4[a].x;
+        }
+        self.sx[lane] = r.sx;
+        self.sy[lane] = r.sy;
+        self.t_max[lane] = r.t_max;
+        self.active |= 1 << lane;
     }
 
     /// The lanes that enter each of four boxes (given by their planes as in
@@ -688,11 +704,10 @@ pub(crate) fn intersect_tri_packet<const KZ: usize>(
     p: &RayPacket,
     t_best: Vec4,
 ) -> Tri4Hits {
-    let o = &p.rays[0];
     // Translate the vertices so the rays start at the origin (index = vertex).
-    let x = tri.xs - o.ox;
-    let y = tri.ys - o.oy;
-    let z = tri.zs - o.oz;
+    let x = tri.xs - p.ox;
+    let y = tri.ys - p.oy;
+    let z = tri.zs - p.oz;
     let (px, py, pz) = match KZ {
         0 => (y, z, x),
         1 => (z, x, y),
@@ -726,7 +741,7 @@ pub(crate) fn intersect_tri_packet<const KZ: usize>(
     while m != 0 {
         let l = m.trailing_zeros() as usize;
         m &= m - 1;
-        if let Some((c1, c2)) = edge_test_f64::<KZ>(tri, &p.rays[l]) {
+        if let Some((c1, c2)) = edge_test_f64::<KZ>(tri, p.origin, p.sx[l], p.sy[l]) {
             inside |= 1 << l;
             b1[l] = c1;
             b2[l] = c2;
@@ -761,17 +776,22 @@ pub(crate) fn intersect_tri_packet<const KZ: usize>(
 /// Returns the barycentrics `(b1, b2)` if the ray passes the triangle.
 #[cold]
 #[inline(never)]
-fn edge_test_f64<const KZ: usize>(tri: &TriSoa, ray: &PreparedRay) -> Option<(f32, f32)> {
-    let x = tri.xs.as_dvec3() - DVec3::splat(f64::from(ray.ox.x));
-    let y = tri.ys.as_dvec3() - DVec3::splat(f64::from(ray.oy.x));
-    let z = tri.zs.as_dvec3() - DVec3::splat(f64::from(ray.oz.x));
+fn edge_test_f64<const KZ: usize>(
+    tri: &TriSoa,
+    origin: Vec3A,
+    sx: f32,
+    sy: f32,
+) -> Option<(f32, f32)> {
+    let x = tri.xs.as_dvec3() - DVec3::splat(f64::from(origin.x));
+    let y = tri.ys.as_dvec3() - DVec3::splat(f64::from(origin.y));
+    let z = tri.zs.as_dvec3() - DVec3::splat(f64::from(origin.z));
     let (px, py, pz) = match KZ {
         0 => (y, z, x),
         1 => (z, x, y),
         _ => (x, y, z),
     };
-    let xt = px + f64::from(ray.sx) * pz;
-    let yt = py + f64::from(ray.sy) * pz;
+    let xt = px + f64::from(sx) * pz;
+    let yt = py + f64::from(sy) * pz;
     let e = DVec3::new(
         xt.y * yt.z - xt.z * yt.y,
         xt.z * yt.x - xt.x * yt.z,
