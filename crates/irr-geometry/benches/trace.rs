@@ -14,7 +14,7 @@
 //! The scenes are built once per process, outside the timings.
 //!
 //! Run with `cargo bench -p irr-geometry`. For a profile, set
-//! `IRR_PROFILE=<cornell|million>:<bvh2|cwbvh|bvh8|wide4|wide8>:<closest|occluded>` and run the bench binary under
+//! `IRR_PROFILE=<cornell|million>:<bvh2|wide4|wide8>:<closest|occluded>` and run the bench binary under
 //! `valgrind --tool=callgrind`: it then traces that case's rays once (or `IRR_PROFILE_REPEATS`
 //! times, printing the best rate), outside divan, and exits.
 
@@ -120,11 +120,9 @@ fn profile(spec: &str) {
         panic!("IRR_PROFILE={spec}: expected <scene>:<layout>:<query>");
     };
     let layout = match layout {
-        "cwbvh" => BvhLayout::Cwbvh,
-        "bvh8" => BvhLayout::Bvh8,
+        "bvh2" => BvhLayout::Bvh2,
         "wide4" => BvhLayout::Wide4,
-        "wide8" => BvhLayout::Wide8,
-        _ => BvhLayout::Bvh2,
+        _ => BvhLayout::Wide8,
     };
     let (meshes, camera, light) = setup(name);
     let s = scene(name, &meshes, layout, &camera, light);
@@ -469,13 +467,13 @@ fn setup(name: &str) -> (Vec<TriangleMesh>, Camera, u32) {
     }
 }
 
-fn all_layouts(name: &str) -> [Scene; 5] {
+fn all_layouts(name: &str) -> [Scene; 3] {
     let (m, camera, light) = setup(name);
     LAYOUTS.map(|layout| scene(name, &m, layout, &camera, light))
 }
 
-static CORNELL: LazyLock<[Scene; 5]> = LazyLock::new(|| all_layouts("cornell"));
-static MILLION: LazyLock<[Scene; 5]> = LazyLock::new(|| all_layouts("million"));
+static CORNELL: LazyLock<[Scene; 3]> = LazyLock::new(|| all_layouts("cornell"));
+static MILLION: LazyLock<[Scene; 3]> = LazyLock::new(|| all_layouts("million"));
 
 fn get(name: &str, layout: BvhLayout) -> &'static Scene {
     let scenes = if name == "cornell" {
@@ -610,15 +608,9 @@ fn threads_all() -> usize {
 }
 
 const SCENES: [&str; 2] = ["cornell", "million"];
-/// The layouts, as the benchmarks' const argument numbers them: 0 BVH2, 1 CWBVH, 2 BVH8 (the
-/// CWBVH tree with float boxes, the default).
-const LAYOUTS: [BvhLayout; 5] = [
-    BvhLayout::Bvh2,
-    BvhLayout::Cwbvh,
-    BvhLayout::Bvh8,
-    BvhLayout::Wide4,
-    BvhLayout::Wide8,
-];
+/// The layouts, as the benchmarks' const argument numbers them: 0 BVH2 (the scalar oracle),
+/// 1 Wide4, 2 Wide8 (the default).
+const LAYOUTS: [BvhLayout; 3] = [BvhLayout::Bvh2, BvhLayout::Wide4, BvhLayout::Wide8];
 
 fn run(bencher: Bencher, name: &str, layout: BvhLayout, occlusion: bool, threads: usize) {
     let s = get(name, layout);
@@ -628,22 +620,22 @@ fn run(bencher: Bencher, name: &str, layout: BvhLayout, occlusion: bool, threads
         .bench(|| trace(&s.geometry, divan::black_box(rays), occlusion, threads));
 }
 
-#[divan::bench(args = SCENES, consts = [0, 1, 2, 3, 4], sample_count = 20)]
+#[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
 fn closest_1_thread<const LAYOUT: usize>(bencher: Bencher, name: &str) {
     run(bencher, name, LAYOUTS[LAYOUT], false, 1);
 }
 
-#[divan::bench(args = SCENES, consts = [0, 1, 2, 3, 4], sample_count = 20)]
+#[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
 fn closest_all_threads<const LAYOUT: usize>(bencher: Bencher, name: &str) {
     run(bencher, name, LAYOUTS[LAYOUT], false, threads_all());
 }
 
-#[divan::bench(args = SCENES, consts = [0, 1, 2, 3, 4], sample_count = 20)]
+#[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
 fn occluded_1_thread<const LAYOUT: usize>(bencher: Bencher, name: &str) {
     run(bencher, name, LAYOUTS[LAYOUT], true, 1);
 }
 
-#[divan::bench(args = SCENES, consts = [0, 1, 2, 3, 4], sample_count = 20)]
+#[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
 fn occluded_all_threads<const LAYOUT: usize>(bencher: Bencher, name: &str) {
     run(bencher, name, LAYOUTS[LAYOUT], true, threads_all());
 }

@@ -43,8 +43,6 @@
 //! `1 + 2γ₃` and a box that the exact ray touches is never rejected.
 
 use glam::{DVec3, Vec3, Vec3A, Vec3Swizzles, Vec4};
-use obvhs::aabb::Aabb;
-use obvhs::cwbvh::node::{CwBvhNode, extract_byte64};
 
 use crate::Ray;
 use crate::mesh::cross_f64;
@@ -99,10 +97,13 @@ pub(crate) struct PreparedRay {
     pub(crate) kz: usize,
     /// The caller's `t_max`.
     pub(crate) t_max: f32,
-    /// For the 4-wide box tests: the origin and inverse direction per axis, splatted; the
-    /// inverse direction scaled by Ize's `1 + 2γ₃` for far distances (one more rounding of at
-    /// most u, which the factor's margin of γ₃ − u covers); and per axis the index of the near
+    /// For the 4-wide box tests: the inverse direction scaled by Ize's `1 + 2γ₃` for far
+    /// distances (one more rounding of at most u, which the factor's margin of γ₃ − u covers);
+    /// the origin, direction and inverse directions per axis, splatted (splatting them where
+    /// they are used, in the traversal loop, costs the closest-hit traversal ~25% more
+    /// instructions: they do not all stay in registers); and per axis the index of the near
     /// plane among (min x, min y, min z, max x, max y, max z).
+    pub(crate) inv_far: Vec3A,
     pub(crate) o4: [Vec4; 3],
     pub(crate) d4: [Vec4; 3],
     pub(crate) inv4: [Vec4; 3],
@@ -133,8 +134,7 @@ impl PreparedRay {
             (2, -d.x / d.z, -d.y / d.z)
         };
         // 1/d, clamped to ±2⁶⁴ so that a zero component gives a large finite value instead of
-        // ±∞ (∞·0 is NaN when the origin lies on a slab plane, and the CWBVH node test multiplies
-        // it by node extents, which must not overflow for coordinates below ~1e18). The clamp
+        // ±∞ (∞·0 is NaN when the origin lies on a slab plane). The clamp
         // only changes components below 5.4e-20 (relative to the others: the ray is then
         // parallel to that axis to within 5e-20 rad).
         let inv_dir = (Vec3A::ONE / d).clamp(-INV_DIR_LIMIT, INV_DIR_LIMIT);
@@ -150,6 +150,7 @@ impl PreparedRay {
             sy,
             kz,
             t_max: ray.t_max,
+            inv_far,
             o4: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
             d4: [Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z)],
             inv4: [
@@ -201,123 +202,6 @@ pub(crate) fn box_entry(min: Vec3A, max: Vec3A, ray: &PreparedRay, t_best: f32) 
     } else {
         f32::INFINITY
     }
-}
-
-/// The ray's octant as obvhs's CWBVH child ordering expects it: per byte, bit 2 set for
-/// x ≥ 0, bit 1 for y ≥ 0, bit 0 for z ≥ 0 (the slots are visited in an order that is near to
-/// far along the ray).
-#[inline(always)]
-pub(crate) fn octant_inv4(ray: &PreparedRay) -> u32 {
-    let d = ray.dir;
-    (if d.x < 0.0 { 0 } else { 0x0404_0404 })
-        | (if d.y < 0.0 { 0 } else { 0x0202_0202 })
-        | (if d.z < 0.0 { 0 } else { 0x0101_0101 })
-}
-
-/// The children of a CWBVH node (Ylitie et al. 2017) that the ray enters with an entry
-/// distance in `[0, t_best]`, as the hit mask obvhs's traversal expects (high byte: internal
-/// children in traversal order; low 24 bits: the triangles of hit leaves).
-///
-/// The child boxes are `p + q·e` with 8-bit `q` and a power-of-two `e` per axis, so a slab
-/// distance is `q·(e/d) + (p − o)/d`. Unlike the exact boxes of the BVH2, this sum can cancel
-/// (an origin inside the node), so Ize's relative correction does not apply; instead every
-/// distance is widened by an absolute bound, `γ₄·(255·|e/d| + |(p − o)/d|)` per axis (the
-/// product, the translation, the inverse and the sum each round once). It also covers the
-/// quantisation, which obvhs rounds outward up to one rounding of `min − p` (≤ u·255·e).
-#[inline(always)]
-pub(crate) fn cwbvh_node_hits(node: &CwBvhNode, ray: &PreparedRay, t_best: f32, oct: u32) -> u32 {
-    let adj_inv = node.compute_extent() * ray.inv_dir;
-    let adj_o = (Vec3A::from(node.p) - ray.origin) * ray.inv_dir;
-    let slack = gamma(4) * (adj_inv.abs() * 255.0 + adj_o.abs()).max_element();
-    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct);
-    let neg = ray.inv_dir.cmplt(Vec3A::ZERO);
-    let (nx, fx) = near_far(&node.child_min_x, &node.child_max_x, neg.test(0));
-    let (ny, fy) = near_far(&node.child_min_y, &node.child_max_y, neg.test(1));
-    let (nz, fz) = near_far(&node.child_min_z, &node.child_max_z, neg.test(2));
-    let mut hit_mask = 0;
-    for g in 0..2 {
-        let t_near = (q4(nx, g) * adj_inv.x + Vec4::splat(adj_o.x))
-            .max(q4(ny, g) * adj_inv.y + Vec4::splat(adj_o.y))
-            .max(q4(nz, g) * adj_inv.z + Vec4::splat(adj_o.z))
-            - Vec4::splat(slack);
-        let t_far = (q4(fx, g) * adj_inv.x + Vec4::splat(adj_o.x))
-            .min(q4(fy, g) * adj_inv.y + Vec4::splat(adj_o.y))
-            .min(q4(fz, g) * adj_inv.z + Vec4::splat(adj_o.z))
-            + Vec4::splat(slack);
-        let hit = t_near
-            .max(Vec4::ZERO)
-            .cmple(t_far.min(Vec4::splat(t_best)))
-            .bitmask();
-        for j in 0..4 {
-            if hit & (1 << j) != 0 {
-                let child = 4 * g + j;
-                hit_mask |= extract_byte64(child_bits8, child) << extract_byte64(bit_index8, child);
-            }
-        }
-    }
-    hit_mask
-}
-
-/// A BVH8 node's eight child boxes as floats, in two groups of four children: per group the
-/// min x, y, z and max x, y, z planes (lane = child). Empty slots hold the empty box.
-#[derive(Debug, Clone, Copy)]
-#[repr(C, align(64))]
-pub(crate) struct Planes8 {
-    g: [[Vec4; 6]; 2],
-}
-
-impl Planes8 {
-    pub(crate) fn new(boxes: &[Aabb; 8]) -> Planes8 {
-        let mut g = [[Vec4::ZERO; 6]; 2];
-        for (child, b) in boxes.iter().enumerate() {
-            for axis in 0..3 {
-                g[child / 4][axis][child % 4] = b.min[axis];
-                g[child / 4][3 + axis][child % 4] = b.max[axis];
-            }
-        }
-        Planes8 { g }
-    }
-}
-
-/// [`cwbvh_node_hits`] for a node whose child boxes are exact floats ([`Planes8`]): two 4-wide
-/// slab tests, conservative by Ize's factor on the far distances (the boxes are exact, so the
-/// relative bound applies).
-#[inline(always)]
-pub(crate) fn bvh8_node_hits(
-    planes: &Planes8,
-    node: &CwBvhNode,
-    ray: &PreparedRay,
-    t_best: f32,
-    oct: u32,
-) -> u32 {
-    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct);
-    let mut hit_mask = 0;
-    for (g, p) in planes.g.iter().enumerate() {
-        let (_, mut hit) = ray.hits4(p, t_best);
-        while hit != 0 {
-            let child = 4 * g + hit.trailing_zeros() as usize;
-            hit &= hit - 1;
-            hit_mask |= extract_byte64(child_bits8, child) << extract_byte64(bit_index8, child);
-        }
-    }
-    hit_mask
-}
-
-/// The near and far quantised planes of an axis, by the sign of the ray's direction.
-#[inline(always)]
-fn near_far<'a>(lo: &'a [u8; 8], hi: &'a [u8; 8], negative: bool) -> (&'a [u8; 8], &'a [u8; 8]) {
-    if negative { (hi, lo) } else { (lo, hi) }
-}
-
-/// Children `4g..4g + 4` of a quantised plane, as floats.
-#[inline(always)]
-fn q4(q: &[u8; 8], g: usize) -> Vec4 {
-    Vec4::new(
-        f32::from(q[4 * g]),
-        f32::from(q[4 * g + 1]),
-        f32::from(q[4 * g + 2]),
-        f32::from(q[4 * g + 3]),
-    )
 }
 
 /// A triangle hit: distance and the barycentrics of vertices 1 and 2.
@@ -638,9 +522,9 @@ impl RayPacket {
             ox: Vec3A::splat(o.x),
             oy: Vec3A::splat(o.y),
             oz: Vec3A::splat(o.z),
-            d: r.d4,
-            inv: r.inv4,
-            inv_far: r.inv_far4,
+            d: [0, 1, 2].map(|a| Vec4::splat(r.dir[a])),
+            inv: [0, 1, 2].map(|a| Vec4::splat(r.inv_dir[a])),
+            inv_far: [0, 1, 2].map(|a| Vec4::splat(r.inv_far[a])),
             sx: Vec4::splat(r.sx),
             sy: Vec4::splat(r.sy),
             t_max: Vec4::splat(r.t_max),
@@ -655,7 +539,7 @@ impl RayPacket {
         for a in 0..3 {
             self.d[a][lane] = r.dir[a];
             self.inv[a][lane] = r.inv_dir[a];
-            self.inv_far[a][lane] = r.inv_far4[a].x;
+            self.inv_far[a][lane] = r.inv_far[a];
         }
         self.sx[lane] = r.sx;
         self.sy[lane] = r.sy;
