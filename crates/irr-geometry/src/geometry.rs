@@ -8,9 +8,9 @@ use obvhs::{
 };
 
 use crate::build;
-use crate::intersect::{PreparedRay, RayPacket, TriHit, TriSoa, box_entry, intersect_triangle};
+use crate::intersect::{PreparedRay, TriHit, TriSoa, box_entry, intersect_triangle};
 use crate::mesh::cross_f64;
-use crate::wide::{Entry, PacketEntry, WideBvh};
+use crate::wide::{Entry, WideBvh};
 use crate::{BuildReport, GeometryError, Ray, Triangle, TriangleMesh};
 
 /// A closest hit: the distance along the ray, the triangle, and the barycentrics of its
@@ -329,127 +329,38 @@ impl Geometry {
         }
     }
 
-    /// The closest hits of many rays: `hits[i]` is what [`Geometry::intersect`] returns for
-    /// `rays[i]` (up to a tie between hits whose distances differ by less than their rounding
-    /// error bound, as between BVH layouts).
+    /// The closest hits of many rays: `hits[i]` is exactly what [`Geometry::intersect`]
+    /// returns for `rays[i]`.
     ///
-    /// Made for a gather's rays, which share their origin: with a wide layout
-    /// ([`BvhLayout::Wide4`], [`BvhLayout::Wide8`]), consecutive rays with one origin are
-    /// sorted by octant and dominant axis and traced in packets of four that go down the BVH
-    /// together, each box and triangle fetched once per packet and the origin's translation of
-    /// the node planes and triangle vertices computed once for all four rays. Other rays, and
-    /// the other layouts, are traced one by one.
+    /// Made for a gather's rays: on the wide layouts they are traced one after the other
+    /// within one run-time dispatch, whose setup is then paid once, and in the caller's order
+    /// (a stratified gather's consecutive rays are neighbours, so they visit mostly the same
+    /// nodes while those are in cache). Two ways to make more of their coherence were
+    /// measured and lost (see `BvhLayout`'s notes): packets of four shared-origin rays
+    /// traversing together, and grouping the rays by octant and dominant axis first.
     ///
     /// # Panics
     /// If `rays` and `hits` differ in length.
     pub fn intersect_many(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
-        let mut start = 0;
-        while start < rays.len() {
-            // The run of rays sharing this ray's origin.
-            let origin = rays[start].origin;
-            let mut end = start + 1;
-            while end < rays.len() && rays[end].origin == origin {
-                end += 1;
-            }
-            let (run, out) = (&rays[start..end], &mut hits[start..end]);
-            match &self.nodes {
-                Nodes::Wide4(w) if run.len() > 1 => self.arch.dispatch(Gather {
-                    w,
-                    rays: run,
-                    hits: out,
-                    g: self,
-                }),
-                Nodes::Wide8(w) if run.len() > 1 => self.arch.dispatch(Gather {
-                    w,
-                    rays: run,
-                    hits: out,
-                    g: self,
-                }),
-                _ => {
-                    for (ray, hit) in run.iter().zip(out) {
-                        *hit = self.intersect(ray);
-                    }
+        match &self.nodes {
+            Nodes::Wide4(w) => self.arch.dispatch(Gather {
+                w,
+                rays,
+                hits,
+                g: self,
+            }),
+            Nodes::Wide8(w) => self.arch.dispatch(Gather {
+                w,
+                rays,
+                hits,
+                g: self,
+            }),
+            Nodes::Bvh2(_) => {
+                for (ray, hit) in rays.iter().zip(hits) {
+                    *hit = self.intersect(ray);
                 }
             }
-            start = end;
-        }
-    }
-
-    /// [`Geometry::intersect_many`] for rays with one origin, on a wide BVH.
-    #[inline(always)]
-    fn gather<const G: usize>(&self, w: &WideBvh<G>, rays: &[Ray], hits: &mut [Option<Hit>]) {
-        // Bucket the rays by (octant, kz) as `PreparedRay` computes them, keeping their order.
-        let mut order: Vec<(u8, u32)> = rays
-            .iter()
-            .enumerate()
-            .map(|(i, ray)| {
-                let d = ray.direction;
-                let a = d.abs();
-                let kz = if a.x > a.y && a.x > a.z {
-                    0
-                } else if a.y > a.z {
-                    1
-                } else {
-                    2
-                };
-                // The sign of 1/d, which picks the near planes (−0 counts as negative).
-                let octant = u8::from(d.x.is_sign_negative())
-                    | u8::from(d.y.is_sign_negative()) << 1
-                    | u8::from(d.z.is_sign_negative()) << 2;
-                (octant * 3 + kz, i as u32)
-            })
-            .collect();
-        order.sort_unstable();
-        for class in order.chunk_by(|a, b| a.0 == b.0) {
-            // (packet, lanes filled, the rays' indices, kz).
-            let mut packet: Option<(RayPacket, usize, [u32; 4], usize)> = None;
-            for &(_, i) in class {
-                hits[i as usize] = None;
-                let Some(r) = PreparedRay::new(&rays[i as usize]) else {
-                    continue;
-                };
-                match &mut packet {
-                    None => packet = Some((RayPacket::new(&r), 1, [i, 0, 0, 0], r.kz)),
-                    Some((p, n, ids, _)) => {
-                        p.set_lane(*n, &r);
-                        ids[*n] = i;
-                        *n += 1;
-                    }
-                }
-                if let Some((p, 4, ids, kz)) = &packet {
-                    self.trace_packet(w, p, *kz, ids, hits);
-                    packet = None;
-                }
-            }
-            if let Some((p, n, ids, kz)) = &packet {
-                self.trace_packet(w, p, *kz, &ids[..*n], hits);
-            }
-        }
-    }
-
-    /// Traces one packet and writes its lanes' hits to `hits[ids[lane]]`.
-    #[inline(always)]
-    fn trace_packet<const G: usize>(
-        &self,
-        w: &WideBvh<G>,
-        p: &RayPacket,
-        kz: usize,
-        ids: &[u32],
-        hits: &mut [Option<Hit>],
-    ) {
-        let found = on_stack!(self.stack_len, PacketEntry, |s| match kz {
-            0 => w.closest_packet::<0>(p, s),
-            1 => w.closest_packet::<1>(p, s),
-            _ => w.closest_packet::<2>(p, s),
-        });
-        for (&i, f) in ids.iter().zip(found) {
-            hits[i as usize] = f.map(|(k, lane, h)| Hit {
-                t: h.t,
-                triangle: w.id(k, lane),
-                b1: h.b1,
-                b2: h.b2,
-            });
         }
     }
 
@@ -757,8 +668,7 @@ impl<const G: usize> pulp::WithSimd for WideQuery<'_, G> {
     }
 }
 
-/// [`Geometry::intersect_many`]'s shared-origin packets, as a pulp operation (see
-/// [`WideQuery`]).
+/// [`Geometry::intersect_many`] on a wide BVH, as a pulp operation (see [`WideQuery`]).
 struct Gather<'a, const G: usize> {
     w: &'a WideBvh<G>,
     rays: &'a [Ray],
@@ -771,7 +681,13 @@ impl<const G: usize> pulp::WithSimd for Gather<'_, G> {
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _: S) {
-        self.g.gather(self.w, self.rays, self.hits);
+        for (ray, hit) in self.rays.iter().zip(self.hits.iter_mut()) {
+            // No closure here: it would be compiled outside the dispatched instruction set.
+            *hit = match PreparedRay::new(ray) {
+                Some(r) => wide_closest(self.w, &r, self.g),
+                None => None,
+            };
+        }
     }
 }
 

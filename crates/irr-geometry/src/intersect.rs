@@ -97,13 +97,12 @@ pub(crate) struct PreparedRay {
     pub(crate) kz: usize,
     /// The caller's `t_max`.
     pub(crate) t_max: f32,
-    /// For the 4-wide box tests: the inverse direction scaled by Ize's `1 + 2γ₃` for far
-    /// distances (one more rounding of at most u, which the factor's margin of γ₃ − u covers);
-    /// the origin, direction and inverse directions per axis, splatted (splatting them where
-    /// they are used, in the traversal loop, costs the closest-hit traversal ~25% more
-    /// instructions: they do not all stay in registers); and per axis the index of the near
-    /// plane among (min x, min y, min z, max x, max y, max z).
-    pub(crate) inv_far: Vec3A,
+    /// For the 4-wide tests: the origin, direction and inverse direction per axis, splatted,
+    /// and the inverse direction scaled by Ize's `1 + 2γ₃` for far distances (one more
+    /// rounding of at most u, which the factor's margin of γ₃ − u covers). Splatting them where
+    /// they are used instead cost the closest-hit traversal ~25% more instructions (they do not
+    /// all stay in registers). Per axis, the index of the near plane among (min x, min y,
+    /// min z, max x, max y, max z).
     pub(crate) o4: [Vec4; 3],
     pub(crate) d4: [Vec4; 3],
     pub(crate) inv4: [Vec4; 3],
@@ -150,7 +149,6 @@ impl PreparedRay {
             sy,
             kz,
             t_max: ray.t_max,
-            inv_far,
             o4: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
             d4: [Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z)],
             inv4: [
@@ -485,170 +483,6 @@ pub(crate) fn intersect_tri4<const KZ: usize>(
         b1,
         b2,
         mask: ok.bitmask() & inside,
-    }
-}
-
-/// Up to four rays that share their origin, their octant and their permutation axis `kz`,
-/// prepared for tests with one ray per lane. Each lane holds exactly the values of its
-/// [`PreparedRay`], so every lane's answers are bit for bit the single-ray tests' answers. A
-/// packet of fewer than four rays repeats its last ray in the spare lanes.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct RayPacket {
-    /// The lanes that hold rays of their own (not repeats).
-    pub(crate) active: u32,
-    /// The shared origin, and its coordinates splatted (as the scalar test translates).
-    origin: Vec3A,
-    ox: Vec3A,
-    oy: Vec3A,
-    oz: Vec3A,
-    d: [Vec4; 3],
-    inv: [Vec4; 3],
-    inv_far: [Vec4; 3],
-    sx: Vec4,
-    sy: Vec4,
-    pub(crate) t_max: Vec4,
-    /// Per axis the index of the near plane (shared: one octant).
-    near: [usize; 3],
-}
-
-impl RayPacket {
-    /// A packet holding `r` in every lane, lane 0 active.
-    #[inline(always)]
-    pub(crate) fn new(r: &PreparedRay) -> RayPacket {
-        let o = r.origin;
-        RayPacket {
-            active: 1,
-            origin: o,
-            ox: Vec3A::splat(o.x),
-            oy: Vec3A::splat(o.y),
-            oz: Vec3A::splat(o.z),
-            d: [0, 1, 2].map(|a| Vec4::splat(r.dir[a])),
-            inv: [0, 1, 2].map(|a| Vec4::splat(r.inv_dir[a])),
-            inv_far: [0, 1, 2].map(|a| Vec4::splat(r.inv_far[a])),
-            sx: Vec4::splat(r.sx),
-            sy: Vec4::splat(r.sy),
-            t_max: Vec4::splat(r.t_max),
-            near: r.near,
-        }
-    }
-
-    /// Puts `r` in `lane` (1 to 3) and makes it active; `r` must share the origin, octant and
-    /// `kz` of the packet's first ray.
-    #[inline(always)]
-    pub(crate) fn set_lane(&mut self, lane: usize, r: &PreparedRay) {
-        for a in 0..3 {
-            self.d[a][lane] = r.dir[a];
-            self.inv[a][lane] = r.inv_dir[a];
-            self.inv_far[a][lane] = r.inv_far[a];
-        }
-        self.sx[lane] = r.sx;
-        self.sy[lane] = r.sy;
-        self.t_max[lane] = r.t_max;
-        self.active |= 1 << lane;
-    }
-
-    /// The lanes that enter each of four boxes (given by their planes as in
-    /// [`PreparedRay::hits4`], lane = box) within `[0, t_best]`, and per box the smallest entry
-    /// distance of those lanes. The slab distances are those of `hits4`, per lane: the
-    /// translation `plane − origin` is shared by the lanes, and computed once.
-    #[inline(always)]
-    pub(crate) fn hits4(&self, planes: &[Vec4; 6], t_best: Vec4, lanes: u32) -> [(u32, f32); 4] {
-        let o = self.origin;
-        let mut out = [(0, 0.0); 4];
-        let near = [0, 1, 2].map(|a| planes[self.near[a]] - Vec4::splat(o[a]));
-        let far = [0, 1, 2].map(|a| planes[(self.near[a] + 3) % 6] - Vec4::splat(o[a]));
-        for (b, slot) in out.iter_mut().enumerate() {
-            let mut t_near = Vec4::ZERO;
-            let mut t_far = t_best;
-            for a in 0..3 {
-                t_near = t_near.max(Vec4::splat(near[a][b]) * self.inv[a]);
-                t_far = t_far.min(Vec4::splat(far[a][b]) * self.inv_far[a]);
-            }
-            let m = t_near.cmple(t_far).bitmask() & lanes;
-            if m != 0 {
-                let t = Vec4::select(
-                    glam::BVec4A::new(m & 1 != 0, m & 2 != 0, m & 4 != 0, m & 8 != 0),
-                    t_near,
-                    Vec4::INFINITY,
-                );
-                *slot = (m, t.min_element());
-            }
-        }
-        out
-    }
-}
-
-/// [`intersect_triangle`] on one triangle and the four rays of a packet (lane = ray), with the
-/// same operations in the same order on each lane: the parts that depend only on the triangle
-/// and the shared origin (the translated vertices, the filter's `R`, the numerator `(p0 − o)·n`
-/// of the distance and its error term) are computed once, as scalars.
-#[inline(always)]
-pub(crate) fn intersect_tri_packet<const KZ: usize>(
-    tri: &TriSoa,
-    p: &RayPacket,
-    t_best: Vec4,
-) -> Tri4Hits {
-    // Translate the vertices so the rays start at the origin (index = vertex).
-    let x = tri.xs - p.ox;
-    let y = tri.ys - p.oy;
-    let z = tri.zs - p.oz;
-    let (px, py, pz) = match KZ {
-        0 => (y, z, x),
-        1 => (z, x, y),
-        _ => (x, y, z),
-    };
-    // Shear, per lane.
-    let xt = [0, 1, 2].map(|v| Vec4::splat(px[v]) + p.sx * Vec4::splat(pz[v]));
-    let yt = [0, 1, 2].map(|v| Vec4::splat(py[v]) + p.sy * Vec4::splat(pz[v]));
-    let e0 = xt[1] * yt[2] - xt[2] * yt[1];
-    let e1 = xt[2] * yt[0] - xt[0] * yt[2];
-    let e2 = xt[0] * yt[1] - xt[1] * yt[0];
-    // The filter bound of `edge_error`: R is shared, X and Y are per lane.
-    let r = x.abs().max(y.abs()).max(z.abs()).max_element();
-    let xm = xt[0].abs().max(xt[1].abs()).max(xt[2].abs());
-    let ym = yt[0].abs().max(yt[1].abs()).max(yt[2].abs());
-    let e = 2.0 * gamma(5) * r;
-    let delta_e = Vec4::splat(2.0 * gamma(3)) * xm * ym
-        + Vec4::splat(2.0 * e) * (xm + ym)
-        + Vec4::splat(2.0 * e * e)
-        + Vec4::splat(f32::MIN_POSITIVE);
-    let near =
-        (e0.abs().cmple(delta_e) | e1.abs().cmple(delta_e) | e2.abs().cmple(delta_e)).bitmask();
-    let zero = Vec4::ZERO;
-    let neg = e0.cmplt(zero) | e1.cmplt(zero) | e2.cmplt(zero);
-    let pos = e0.cmpgt(zero) | e1.cmpgt(zero) | e2.cmpgt(zero);
-    let mut inside = !(neg & pos).bitmask() & 0xf & !near;
-    let inv_det = Vec4::ONE / (e0 + e1 + e2);
-    let mut b1 = e1 * inv_det;
-    let mut b2 = e2 * inv_det;
-    let mut m = near & p.active;
-    while m != 0 {
-        let l = m.trailing_zeros() as usize;
-        m &= m - 1;
-        if let Some((c1, c2)) = edge_test_f64::<KZ>(tri, p.origin, p.sx[l], p.sy[l]) {
-            inside |= 1 << l;
-            b1[l] = c1;
-            b2[l] = c2;
-        }
-    }
-    // Distance to the plane through p0: the numerator and its error term are shared.
-    let a = Vec3A::new(x.x, y.x, z.x);
-    let an = a * tri.n;
-    let num = sum3(an);
-    let num_err = gamma(7) * sum3(an.abs());
-    let n = tri.n;
-    let den = (p.d[0] * n.x + p.d[1] * n.y) + p.d[2] * n.z;
-    let t = Vec4::splat(num) / den;
-    let t_abs = t.abs();
-    let dn = (p.d[0] * n.x).abs() + (p.d[1] * n.y).abs() + (p.d[2] * n.z).abs();
-    let delta_t = (Vec4::splat(num_err) + Vec4::splat(gamma(6)) * t_abs * dn) / den.abs()
-        + Vec4::splat(gamma(2)) * t_abs;
-    let ok = t.cmple(t_best) & t.cmpgt(delta_t) & (t + delta_t).cmplt(p.t_max);
-    Tri4Hits {
-        t,
-        b1,
-        b2,
-        mask: ok.bitmask() & inside & p.active,
     }
 }
 

@@ -1,7 +1,7 @@
 //! The wide BVH: nodes of `4·G` children (`G` groups of four, tested with one 4-wide slab test
 //! per group) whose leaves are packets of up to four triangles ([`Tri4`], tested at once), and
 //! its traversals: ordered (nearest child first) for the closest hit, any order with early exit
-//! for occlusion, and a shared-origin ray-packet traversal for gathers.
+//! for occlusion.
 //!
 //! The tree is obvhs's BVH2 (PLOC + reinsertion, leaves collapsed to at most four triangles)
 //! with levels pulled up: a wide node takes its BVH2 node's two children and repeatedly
@@ -13,9 +13,7 @@
 use glam::Vec4;
 use obvhs::{aabb::Aabb, bvh2::Bvh2};
 
-use crate::intersect::{
-    PreparedRay, RayPacket, Tri4, TriHit, TriSoa, intersect_tri_packet, intersect_tri4,
-};
+use crate::intersect::{PreparedRay, Tri4, TriHit, TriSoa, intersect_tri4};
 
 /// A child reference with this bit set is a leaf: the rest is the index of its [`Tri4`].
 const LEAF: u32 = 1 << 31;
@@ -45,13 +43,6 @@ pub(crate) struct WideBvh<const G: usize> {
 
 /// A traversal stack entry: a child reference and the ray's entry distance into its box.
 pub(crate) type Entry = (u32, f32);
-
-/// A packet traversal stack entry: a child reference, the smallest entry distance of the
-/// lanes that enter its box, and the mask of those lanes.
-pub(crate) type PacketEntry = (u32, f32, u32);
-
-/// A closest hit found by a traversal: (packet, lane of the packet, hit).
-pub(crate) type Found = (u32, usize, TriHit);
 
 impl<const G: usize> WideBvh<G> {
     /// Converts `bvh` (leaves of at most four primitives; `triangles[i]` is primitive `i`).
@@ -222,83 +213,6 @@ impl<const G: usize> WideBvh<G> {
                 let (c, t) = stack[sp];
                 if t <= t_best {
                     current = c;
-                    break;
-                }
-            }
-        }
-    }
-
-    /// Closest hits of a ray packet (one per lane): the packet goes down the tree together, a
-    /// child is entered with the mask of the lanes that enter its box, and each lane keeps its
-    /// own closest hit. Children are visited nearest first by their smallest lane distance;
-    /// a popped entry keeps only the lanes whose best hit is not closer than that distance.
-    #[inline(always)]
-    pub(crate) fn closest_packet<const KZ: usize>(
-        &self,
-        p: &RayPacket,
-        stack: &mut [PacketEntry],
-    ) -> [Option<Found>; 4] {
-        let mut t_best = p.t_max;
-        let mut best = [None; 4];
-        let mut sp = 0;
-        let (mut current, mut lanes) = (0u32, p.active);
-        loop {
-            if current & LEAF != 0 {
-                let k = current & !LEAF;
-                let packet = &self.packets[k as usize];
-                let ids = &self.ids[k as usize];
-                for tri in 0..4 {
-                    // Spare lanes repeat the last triangle: stop at the first repeat.
-                    if tri > 0 && ids[tri] == ids[tri - 1] {
-                        break;
-                    }
-                    let hits = intersect_tri_packet::<KZ>(&packet.lane(tri), p, t_best);
-                    let mut m = hits.mask & lanes;
-                    while m != 0 {
-                        let l = m.trailing_zeros() as usize;
-                        m &= m - 1;
-                        let t = hits.t[l];
-                        t_best[l] = t;
-                        best[l] = Some((
-                            k,
-                            tri,
-                            TriHit {
-                                t,
-                                b1: hits.b1[l],
-                                b2: hits.b2[l],
-                            },
-                        ));
-                    }
-                }
-            } else {
-                let node = &self.nodes[current as usize];
-                let first = sp;
-                for g in 0..G {
-                    let hits = p.hits4(&node.planes[g], t_best, lanes);
-                    for (child, &(m, t)) in hits.iter().enumerate() {
-                        if m == 0 {
-                            continue;
-                        }
-                        let entry = (node.children[g][child], t, m);
-                        let mut i = sp;
-                        while i > first && stack[i - 1].1 < entry.1 {
-                            stack[i] = stack[i - 1];
-                            i -= 1;
-                        }
-                        stack[i] = entry;
-                        sp += 1;
-                    }
-                }
-            }
-            loop {
-                if sp == 0 {
-                    return best;
-                }
-                sp -= 1;
-                let (c, t, m) = stack[sp];
-                let m = m & Vec4::splat(t).cmple(t_best).bitmask();
-                if m != 0 {
-                    (current, lanes) = (c, m);
                     break;
                 }
             }
