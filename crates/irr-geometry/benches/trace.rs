@@ -13,10 +13,20 @@
 //!
 //! The scenes are built once per process, outside the timings.
 //!
+//! Also: `gather_one_by_one` and `gather_intersect_many`, an irradiance-cache record's
+//! gathers in the Cornell box (records at primary hits, 16 × 64 and 32 × 128 stratified
+//! cosine-weighted rays each, 2¹⁶ rays in all) traced with `intersect` and with one
+//! `intersect_many` call per record; and `build_same_centroid`, the build time of 10⁴ and 10⁵
+//! nested triangles sharing one centroid (`IRR_BUILD=<n>` times one build of `n`, e.g. 10⁶;
+//! `IRR_BUILD=<n>:ploc` times obvhs's PLOC + reinsertion alone, the build irr used before
+//! it handled such clusters).
+//!
 //! Run with `cargo bench -p irr-geometry`. For a profile, set
-//! `IRR_PROFILE=<cornell|million>:<bvh2|wide4|wide8>:<closest|occluded>` and run the bench binary under
-//! `valgrind --tool=callgrind`: it then traces that case's rays once (or `IRR_PROFILE_REPEATS`
-//! times, printing the best rate), outside divan, and exits.
+//! `IRR_PROFILE=<cornell|million>:<bvh2|wide4|wide8>:<closest|occluded|gather<M>x<N>[many]>`
+//! and run the bench binary under `valgrind --tool=callgrind` (with
+//! `--collect-atstart=no --toggle-collect='*trace::trace*'` to count only the tracing): it
+//! then traces that case's rays once (or `IRR_PROFILE_REPEATS` times, printing the best rate),
+//! outside divan, and exits.
 
 use std::sync::LazyLock;
 use std::time::Instant;
