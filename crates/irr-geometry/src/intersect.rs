@@ -446,6 +446,15 @@ pub(crate) fn intersect_tri4<const KZ: usize>(
     let neg = e0.cmplt(zero) | e1.cmplt(zero) | e2.cmplt(zero);
     let pos = e0.cmpgt(zero) | e1.cmpgt(zero) | e2.cmpgt(zero);
     let mut inside = !(neg & pos).bitmask() & 0xf & !near;
+    // Most packets a ray reaches it passes by: skip the divisions and the distance bound.
+    if inside | near == 0 {
+        return Tri4Hits {
+            t: Vec4::ZERO,
+            b1: Vec4::ZERO,
+            b2: Vec4::ZERO,
+            mask: 0,
+        };
+    }
     let inv_det = Vec4::ONE / (e0 + e1 + e2);
     let mut b1 = e1 * inv_det;
     let mut b2 = e2 * inv_det;
