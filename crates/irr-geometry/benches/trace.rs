@@ -13,10 +13,20 @@
 //!
 //! The scenes are built once per process, outside the timings.
 //!
+//! Also: `gather_one_by_one` and `gather_intersect_many`, an irradiance-cache record's
+//! gathers in the Cornell box (records at primary hits, 16 × 64 and 32 × 128 stratified
+//! cosine-weighted rays each, 2¹⁶ rays in all) traced with `intersect` and with one
+//! `intersect_many` call per record; and `build_same_centroid`, the build time of 10⁴ and 10⁵
+//! nested triangles sharing one centroid (`IRR_BUILD=<n>` times one build of `n`, e.g. 10⁶;
+//! `IRR_BUILD=<n>:ploc` times obvhs's PLOC + reinsertion alone, the build irr used before
+//! it handled such clusters).
+//!
 //! Run with `cargo bench -p irr-geometry`. For a profile, set
-//! `IRR_PROFILE=<cornell|million>:<bvh2|cwbvh|bvh8>:<closest|occluded>` and run the bench binary under
-//! `valgrind --tool=callgrind`: it then traces that case's rays once (or `IRR_PROFILE_REPEATS`
-//! times, printing the best rate), outside divan, and exits.
+//! `IRR_PROFILE=<cornell|million>:<bvh2|wide4|wide8>:<closest|occluded|gather<M>x<N>[many]>`
+//! and run the bench binary under `valgrind --tool=callgrind` (with
+//! `--collect-atstart=no --toggle-collect='*trace::trace*'` to count only the tracing): it
+//! then traces that case's rays once (or `IRR_PROFILE_REPEATS` times, printing the best rate),
+//! outside divan, and exits.
 
 use std::sync::LazyLock;
 use std::time::Instant;
@@ -26,10 +36,91 @@ use glam::Vec3;
 use irr_geometry::{BvhLayout, Geometry, Ray, TriangleMesh};
 
 fn main() {
+    if let Ok(spec) = std::env::var("IRR_BUILD") {
+        return build_time(&spec);
+    }
     match std::env::var("IRR_PROFILE") {
         Ok(spec) => profile(&spec),
         Err(_) => divan::main(),
     }
+}
+
+/// `n` nested triangles sharing one centroid (and one box centre: the origin), each 1.0001
+/// times the size of the previous one (1.00001 beyond 10⁵ triangles, so that the largest stays
+/// finite): the input of issue 12, item 5.
+fn same_centroid(n: usize) -> Vec<TriangleMesh> {
+    let factor: f32 = if n <= 100_000 { 1.0001 } else { 1.00001 };
+    let shape = [
+        Vec3::new(-1.0, -1.0, -1.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(0.0, 1.0, 0.0),
+    ];
+    let mut mesh = TriangleMesh::default();
+    let mut scale = 1.0f32;
+    for k in 0..n as u32 {
+        mesh.positions.extend(shape.map(|p| p * scale));
+        mesh.indices.push([3 * k, 3 * k + 1, 3 * k + 2]);
+        scale *= factor;
+    }
+    mesh.material_ids = vec![0; n];
+    vec![mesh]
+}
+
+/// `IRR_BUILD=<n>[:ploc]`: the time to build `n` same-centroid triangles, with
+/// `Geometry::build` or (`:ploc`) with the obvhs recipe irr-geometry used before it detected
+/// such clusters (PLOC with search radius 14, then reinsertion).
+fn build_time(spec: &str) {
+    let (n, ploc) = match spec.split_once(':') {
+        Some((n, _)) => (n, true),
+        None => (spec, false),
+    };
+    let n: usize = n
+        .parse()
+        .unwrap_or_else(|_| panic!("IRR_BUILD={spec}: not a count"));
+    let meshes = same_centroid(n);
+    let start = Instant::now();
+    if ploc {
+        use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
+        let aabbs: Vec<obvhs::aabb::Aabb> = meshes[0]
+            .indices
+            .iter()
+            .map(|t| {
+                let p = t.map(|i| meshes[0].positions[i as usize]);
+                obvhs::aabb::Aabb::new(
+                    p[0].min(p[1]).min(p[2]).into(),
+                    p[0].max(p[1]).max(p[2]).into(),
+                )
+            })
+            .collect();
+        let mut bvh = PlocBuilder::with_capacity(n).build(
+            PlocSearchDistance::Medium,
+            &aabbs,
+            (0..n as u32).collect(),
+            SortPrecision::U64,
+            3,
+        );
+        obvhs::bvh2::reinsertion::ReinsertionOptimizer::default().run(&mut bvh, 0.05, None);
+        divan::black_box(bvh);
+    } else {
+        divan::black_box(Geometry::build(&meshes).unwrap_or_else(|e| panic!("{e}")));
+    }
+    println!(
+        "{n} same-centroid triangles ({}): built in {:.3} s",
+        if ploc {
+            "obvhs PLOC + reinsertion"
+        } else {
+            "Geometry::build"
+        },
+        start.elapsed().as_secs_f64()
+    );
+}
+
+/// Build time of `n` nested triangles sharing one centroid (see `same_centroid`); 10⁶ with
+/// `IRR_BUILD=1000000` (it takes a few seconds).
+#[divan::bench(args = [10_000, 100_000], sample_count = 3)]
+fn build_same_centroid(bencher: Bencher, n: usize) {
+    let meshes = same_centroid(n);
+    bencher.bench(|| Geometry::build(divan::black_box(&meshes)));
 }
 
 /// Traces one case's rays once (see the module docs).
@@ -39,14 +130,29 @@ fn profile(spec: &str) {
         panic!("IRR_PROFILE={spec}: expected <scene>:<layout>:<query>");
     };
     let layout = match layout {
-        "cwbvh" => BvhLayout::Cwbvh,
-        "bvh8" => BvhLayout::Bvh8,
-        _ => BvhLayout::Bvh2,
+        "bvh2" => BvhLayout::Bvh2,
+        "wide4" => BvhLayout::Wide4,
+        _ => BvhLayout::Wide8,
     };
     let (meshes, camera, light) = setup(name);
     let s = scene(name, &meshes, layout, &camera, light);
     let occlusion = query == "occluded";
-    let rays = if occlusion { &s.shadow } else { &s.closest };
+    // `gather<M>x<N>` traces gathers one ray at a time, `gather<M>x<N>many` with
+    // `intersect_many`.
+    let gather = query.strip_prefix("gather").map(|g| {
+        let many = g.ends_with("many");
+        let (m, n) = g
+            .trim_end_matches("many")
+            .split_once('x')
+            .unwrap_or(("16", "64"));
+        let (m, n) = (m.parse().unwrap_or(16), n.parse().unwrap_or(64));
+        (gather_rays(&s.geometry, &camera, m, n), many)
+    });
+    let rays = match &gather {
+        Some((g, _)) => g,
+        None if occlusion => &s.shadow,
+        None => &s.closest,
+    };
     let repeats: usize = std::env::var("IRR_PROFILE_REPEATS")
         .ok()
         .and_then(|r| r.parse().ok())
@@ -55,7 +161,10 @@ fn profile(spec: &str) {
     let mut hits = 0;
     for _ in 0..repeats {
         let start = Instant::now();
-        hits = trace(&s.geometry, rays, occlusion, 1);
+        hits = match &gather {
+            Some((g, many)) => trace_gathers(&s.geometry, g, 1 << 12, *many),
+            None => trace(&s.geometry, rays, occlusion, 1),
+        };
         best = best.min(start.elapsed().as_secs_f64());
     }
     println!(
@@ -419,14 +528,99 @@ fn trace(g: &Geometry, rays: &[Ray], occlusion: bool, threads: usize) -> usize {
     })
 }
 
+/// 2¹⁶ gather rays of an irradiance-cache record's kind, in the Cornell box or another
+/// scene: records at the camera's primary hits, each with `m × n` stratified cosine-weighted
+/// directions (cell (j, k) of (cos²θ, φ), jittered, in that order) around the normal facing
+/// the camera, all leaving from the record's one spawned origin.
+fn gather_rays(g: &Geometry, camera: &Camera, m: usize, n: usize) -> Vec<Ray> {
+    let mut rng = Rng(0x6A7E);
+    let mut rays = Vec::with_capacity(RAYS);
+    while rays.len() < RAYS {
+        let primary = camera.ray(&mut rng);
+        let Some(hit) = g.intersect(&primary) else {
+            continue;
+        };
+        let s = g.surface(&primary, &hit);
+        let nrm = if s.geometric_normal.dot(primary.direction) < 0.0 {
+            s.geometric_normal
+        } else {
+            -s.geometric_normal
+        };
+        let t = nrm.any_orthonormal_vector();
+        let b = nrm.cross(t);
+        for j in 0..m {
+            for k in 0..n {
+                let u = (j as f32 + rng.f32()) / m as f32;
+                let phi = std::f32::consts::TAU * (k as f32 + rng.f32()) / n as f32;
+                let (sin, cos) = (u.sqrt(), (1.0 - u).max(0.0).sqrt());
+                let d = (t * (sin * phi.cos()) + b * (sin * phi.sin()) + nrm * cos).normalize();
+                rays.push(Ray::spawn(s.position, nrm, d));
+            }
+        }
+    }
+    rays.truncate(RAYS);
+    rays
+}
+
+/// Traces gathers of `per_record` rays one ray at a time, or each with one `intersect_many`
+/// call; returns the number of hits.
+#[inline(never)]
+fn trace_gathers(g: &Geometry, rays: &[Ray], per_record: usize, many: bool) -> usize {
+    let mut hits = vec![None; per_record];
+    let mut count = 0;
+    for record in rays.chunks(per_record) {
+        let out = &mut hits[..record.len()];
+        if many {
+            g.intersect_many(record, out);
+        } else {
+            for (ray, h) in record.iter().zip(out.iter_mut()) {
+                *h = g.intersect(ray);
+            }
+        }
+        count += out.iter().filter(|h| h.is_some()).count();
+    }
+    count
+}
+
+/// The gather sizes the gather benchmarks trace: M × N rays per record.
+const GATHERS: [(usize, usize); 2] = [(16, 64), (32, 128)];
+
+static CORNELL_GATHERS: LazyLock<[Vec<Ray>; 2]> = LazyLock::new(|| {
+    let camera = setup("cornell").1;
+    let s = get("cornell", BvhLayout::default());
+    GATHERS.map(|(m, n)| gather_rays(&s.geometry, &camera, m, n))
+});
+
+fn run_gather(bencher: Bencher, size: usize, many: bool) {
+    let s = get("cornell", BvhLayout::default());
+    let rays = &CORNELL_GATHERS[size];
+    let (m, n) = GATHERS[size];
+    bencher
+        .counter(ItemsCount::new(rays.len()))
+        .bench(|| trace_gathers(&s.geometry, divan::black_box(rays), m * n, many));
+}
+
+/// Cornell-box gathers (16 × 64 and 32 × 128 rays per record) on the default layout, one ray
+/// at a time with `intersect`.
+#[divan::bench(args = [0, 1], sample_count = 20)]
+fn gather_one_by_one(bencher: Bencher, size: usize) {
+    run_gather(bencher, size, false);
+}
+
+/// The same gathers with one `intersect_many` call per record.
+#[divan::bench(args = [0, 1], sample_count = 20)]
+fn gather_intersect_many(bencher: Bencher, size: usize) {
+    run_gather(bencher, size, true);
+}
+
 fn threads_all() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
 const SCENES: [&str; 2] = ["cornell", "million"];
-/// The layouts, as the benchmarks' const argument numbers them: 0 BVH2, 1 CWBVH, 2 BVH8 (the
-/// CWBVH tree with float boxes, the default).
-const LAYOUTS: [BvhLayout; 3] = [BvhLayout::Bvh2, BvhLayout::Cwbvh, BvhLayout::Bvh8];
+/// The layouts, as the benchmarks' const argument numbers them: 0 BVH2 (the scalar oracle),
+/// 1 Wide4, 2 Wide8 (the default).
+const LAYOUTS: [BvhLayout; 3] = [BvhLayout::Bvh2, BvhLayout::Wide4, BvhLayout::Wide8];
 
 fn run(bencher: Bencher, name: &str, layout: BvhLayout, occlusion: bool, threads: usize) {
     let s = get(name, layout);

@@ -43,8 +43,6 @@
 //! `1 + 2γ₃` and a box that the exact ray touches is never rejected.
 
 use glam::{DVec3, Vec3, Vec3A, Vec3Swizzles, Vec4};
-use obvhs::aabb::Aabb;
-use obvhs::cwbvh::node::{CwBvhNode, extract_byte64};
 
 use crate::Ray;
 use crate::mesh::cross_f64;
@@ -93,17 +91,20 @@ pub(crate) struct PreparedRay {
     ox: Vec3A,
     oy: Vec3A,
     oz: Vec3A,
-    sx: f32,
-    sy: f32,
+    pub(crate) sx: f32,
+    pub(crate) sy: f32,
     /// The axis of the largest direction component, which the triangle test maps to z.
     pub(crate) kz: usize,
     /// The caller's `t_max`.
     pub(crate) t_max: f32,
-    /// For the 4-wide box tests: the origin and inverse direction per axis, splatted; the
-    /// inverse direction scaled by Ize's `1 + 2γ₃` for far distances (one more rounding of at
-    /// most u, which the factor's margin of γ₃ − u covers); and per axis the index of the near
-    /// plane among (min x, min y, min z, max x, max y, max z).
+    /// For the 4-wide tests: the origin, direction and inverse direction per axis, splatted,
+    /// and the inverse direction scaled by Ize's `1 + 2γ₃` for far distances (one more
+    /// rounding of at most u, which the factor's margin of γ₃ − u covers). Splatting them where
+    /// they are used instead cost the closest-hit traversal ~25% more instructions (they do not
+    /// all stay in registers). Per axis, the index of the near plane among (min x, min y,
+    /// min z, max x, max y, max z).
     pub(crate) o4: [Vec4; 3],
+    pub(crate) d4: [Vec4; 3],
     pub(crate) inv4: [Vec4; 3],
     pub(crate) inv_far4: [Vec4; 3],
     pub(crate) near: [usize; 3],
@@ -132,8 +133,7 @@ impl PreparedRay {
             (2, -d.x / d.z, -d.y / d.z)
         };
         // 1/d, clamped to ±2⁶⁴ so that a zero component gives a large finite value instead of
-        // ±∞ (∞·0 is NaN when the origin lies on a slab plane, and the CWBVH node test multiplies
-        // it by node extents, which must not overflow for coordinates below ~1e18). The clamp
+        // ±∞ (∞·0 is NaN when the origin lies on a slab plane). The clamp
         // only changes components below 5.4e-20 (relative to the others: the ray is then
         // parallel to that axis to within 5e-20 rad).
         let inv_dir = (Vec3A::ONE / d).clamp(-INV_DIR_LIMIT, INV_DIR_LIMIT);
@@ -150,6 +150,7 @@ impl PreparedRay {
             kz,
             t_max: ray.t_max,
             o4: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
+            d4: [Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z)],
             inv4: [
                 Vec4::splat(inv_dir.x),
                 Vec4::splat(inv_dir.y),
@@ -201,123 +202,6 @@ pub(crate) fn box_entry(min: Vec3A, max: Vec3A, ray: &PreparedRay, t_best: f32) 
     }
 }
 
-/// The ray's octant as obvhs's CWBVH child ordering expects it: per byte, bit 2 set for
-/// x ≥ 0, bit 1 for y ≥ 0, bit 0 for z ≥ 0 (the slots are visited in an order that is near to
-/// far along the ray).
-#[inline(always)]
-pub(crate) fn octant_inv4(ray: &PreparedRay) -> u32 {
-    let d = ray.dir;
-    (if d.x < 0.0 { 0 } else { 0x0404_0404 })
-        | (if d.y < 0.0 { 0 } else { 0x0202_0202 })
-        | (if d.z < 0.0 { 0 } else { 0x0101_0101 })
-}
-
-/// The children of a CWBVH node (Ylitie et al. 2017) that the ray enters with an entry
-/// distance in `[0, t_best]`, as the hit mask obvhs's traversal expects (high byte: internal
-/// children in traversal order; low 24 bits: the triangles of hit leaves).
-///
-/// The child boxes are `p + q·e` with 8-bit `q` and a power-of-two `e` per axis, so a slab
-/// distance is `q·(e/d) + (p − o)/d`. Unlike the exact boxes of the BVH2, this sum can cancel
-/// (an origin inside the node), so Ize's relative correction does not apply; instead every
-/// distance is widened by an absolute bound, `γ₄·(255·|e/d| + |(p − o)/d|)` per axis (the
-/// product, the translation, the inverse and the sum each round once). It also covers the
-/// quantisation, which obvhs rounds outward up to one rounding of `min − p` (≤ u·255·e).
-#[inline(always)]
-pub(crate) fn cwbvh_node_hits(node: &CwBvhNode, ray: &PreparedRay, t_best: f32, oct: u32) -> u32 {
-    let adj_inv = node.compute_extent() * ray.inv_dir;
-    let adj_o = (Vec3A::from(node.p) - ray.origin) * ray.inv_dir;
-    let slack = gamma(4) * (adj_inv.abs() * 255.0 + adj_o.abs()).max_element();
-    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct);
-    let neg = ray.inv_dir.cmplt(Vec3A::ZERO);
-    let (nx, fx) = near_far(&node.child_min_x, &node.child_max_x, neg.test(0));
-    let (ny, fy) = near_far(&node.child_min_y, &node.child_max_y, neg.test(1));
-    let (nz, fz) = near_far(&node.child_min_z, &node.child_max_z, neg.test(2));
-    let mut hit_mask = 0;
-    for g in 0..2 {
-        let t_near = (q4(nx, g) * adj_inv.x + Vec4::splat(adj_o.x))
-            .max(q4(ny, g) * adj_inv.y + Vec4::splat(adj_o.y))
-            .max(q4(nz, g) * adj_inv.z + Vec4::splat(adj_o.z))
-            - Vec4::splat(slack);
-        let t_far = (q4(fx, g) * adj_inv.x + Vec4::splat(adj_o.x))
-            .min(q4(fy, g) * adj_inv.y + Vec4::splat(adj_o.y))
-            .min(q4(fz, g) * adj_inv.z + Vec4::splat(adj_o.z))
-            + Vec4::splat(slack);
-        let hit = t_near
-            .max(Vec4::ZERO)
-            .cmple(t_far.min(Vec4::splat(t_best)))
-            .bitmask();
-        for j in 0..4 {
-            if hit & (1 << j) != 0 {
-                let child = 4 * g + j;
-                hit_mask |= extract_byte64(child_bits8, child) << extract_byte64(bit_index8, child);
-            }
-        }
-    }
-    hit_mask
-}
-
-/// A BVH8 node's eight child boxes as floats, in two groups of four children: per group the
-/// min x, y, z and max x, y, z planes (lane = child). Empty slots hold the empty box.
-#[derive(Debug, Clone, Copy)]
-#[repr(C, align(64))]
-pub(crate) struct Planes8 {
-    g: [[Vec4; 6]; 2],
-}
-
-impl Planes8 {
-    pub(crate) fn new(boxes: &[Aabb; 8]) -> Planes8 {
-        let mut g = [[Vec4::ZERO; 6]; 2];
-        for (child, b) in boxes.iter().enumerate() {
-            for axis in 0..3 {
-                g[child / 4][axis][child % 4] = b.min[axis];
-                g[child / 4][3 + axis][child % 4] = b.max[axis];
-            }
-        }
-        Planes8 { g }
-    }
-}
-
-/// [`cwbvh_node_hits`] for a node whose child boxes are exact floats ([`Planes8`]): two 4-wide
-/// slab tests, conservative by Ize's factor on the far distances (the boxes are exact, so the
-/// relative bound applies).
-#[inline(always)]
-pub(crate) fn bvh8_node_hits(
-    planes: &Planes8,
-    node: &CwBvhNode,
-    ray: &PreparedRay,
-    t_best: f32,
-    oct: u32,
-) -> u32 {
-    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct);
-    let mut hit_mask = 0;
-    for (g, p) in planes.g.iter().enumerate() {
-        let (_, mut hit) = ray.hits4(p, t_best);
-        while hit != 0 {
-            let child = 4 * g + hit.trailing_zeros() as usize;
-            hit &= hit - 1;
-            hit_mask |= extract_byte64(child_bits8, child) << extract_byte64(bit_index8, child);
-        }
-    }
-    hit_mask
-}
-
-/// The near and far quantised planes of an axis, by the sign of the ray's direction.
-#[inline(always)]
-fn near_far<'a>(lo: &'a [u8; 8], hi: &'a [u8; 8], negative: bool) -> (&'a [u8; 8], &'a [u8; 8]) {
-    if negative { (hi, lo) } else { (lo, hi) }
-}
-
-/// Children `4g..4g + 4` of a quantised plane, as floats.
-#[inline(always)]
-fn q4(q: &[u8; 8], g: usize) -> Vec4 {
-    Vec4::new(
-        f32::from(q[4 * g]),
-        f32::from(q[4 * g + 1]),
-        f32::from(q[4 * g + 2]),
-        f32::from(q[4 * g + 3]),
-    )
-}
-
 /// A triangle hit: distance and the barycentrics of vertices 1 and 2.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct TriHit {
@@ -358,7 +242,7 @@ pub(crate) fn intersect_triangle<const KZ: usize>(
     // times smaller.
     let delta_e = edge_error(x, y, z, xt, yt);
     let (b1, b2) = if e.abs().cmple(Vec3A::splat(delta_e)).any() {
-        edge_test_f64::<KZ>(tri, ray)?
+        edge_test_f64::<KZ>(tri, ray.origin, ray.sx, ray.sy)?
     } else {
         // The ray passes the triangle only if all three edge functions have the same sign.
         if e.cmplt(Vec3A::ZERO).any() && e.cmpgt(Vec3A::ZERO).any() {
@@ -369,8 +253,8 @@ pub(crate) fn intersect_triangle<const KZ: usize>(
     };
     // Distance to the plane through p0 (see the module docs): a = p0 − o was computed above.
     let a = Vec3A::new(x.x, y.x, z.x);
-    let den = ray.dir.dot(tri.n);
-    let t = a.dot(tri.n) / den;
+    let den = dot3(ray.dir, tri.n);
+    let t = dot3(a, tri.n) / den;
     // A zero `den` (the ray parallel to the plane) gives ±∞ or NaN, rejected here or below.
     if t.is_nan() || t > t_best {
         return None;
@@ -382,8 +266,8 @@ pub(crate) fn intersect_triangle<const KZ: usize>(
     // bound itself is computed with a few roundings: γ₇, γ₆ and γ₂ instead of γ₅, γ₄ and γ₁
     // cover them.
     let t_abs = t.abs();
-    let delta_t = (gamma(7) * (a * tri.n).abs().element_sum()
-        + gamma(6) * t_abs * (ray.dir * tri.n).abs().element_sum())
+    let delta_t = (gamma(7) * sum3((a * tri.n).abs())
+        + gamma(6) * t_abs * sum3((ray.dir * tri.n).abs()))
         / den.abs()
         + gamma(2) * t_abs;
     if t > delta_t && t + delta_t < ray.t_max {
@@ -391,6 +275,19 @@ pub(crate) fn intersect_triangle<const KZ: usize>(
     } else {
         None
     }
+}
+
+/// `a·b` summed as `(x + y) + z`, the order the 4-wide test ([`intersect_tri4`]) uses too, so
+/// both give the same bits.
+#[inline(always)]
+fn dot3(a: Vec3A, b: Vec3A) -> f32 {
+    sum3(a * b)
+}
+
+/// `v.x + v.y + v.z`, summed in that order (see [`dot3`]).
+#[inline(always)]
+fn sum3(v: Vec3A) -> f32 {
+    (v.x + v.y) + v.z
 }
 
 /// A bound on the error of the `f32` edge functions, from the translated vertices `x, y, z`
@@ -417,6 +314,187 @@ fn edge_error(x: Vec3A, y: Vec3A, z: Vec3A, xt: Vec3A, yt: Vec3A) -> f32 {
     2.0 * gamma(3) * xm * ym + 2.0 * e * (xm + ym) + 2.0 * e * e + f32::MIN_POSITIVE
 }
 
+/// Four triangles as the 4-wide test reads them (lane = triangle): per vertex its x, y and z
+/// coordinates, and the components of the unit normal. A packet of fewer than four triangles
+/// repeats its last one in the spare lanes (a repeated triangle gives the same hit, so it
+/// changes no answer). 192 bytes, three cache lines.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+pub(crate) struct Tri4 {
+    x: [Vec4; 3],
+    y: [Vec4; 3],
+    z: [Vec4; 3],
+    n: [Vec4; 3],
+}
+
+impl Tri4 {
+    /// A packet of one to four triangles (the first four of `tris`; `tris` must not be empty).
+    pub(crate) fn new(tris: &[TriSoa]) -> Tri4 {
+        let mut p = Tri4 {
+            x: [Vec4::ZERO; 3],
+            y: [Vec4::ZERO; 3],
+            z: [Vec4::ZERO; 3],
+            n: [Vec4::ZERO; 3],
+        };
+        for lane in 0..4 {
+            let t = &tris[lane.min(tris.len() - 1)];
+            for v in 0..3 {
+                p.x[v][lane] = t.xs[v];
+                p.y[v][lane] = t.ys[v];
+                p.z[v][lane] = t.zs[v];
+            }
+            p.n[0][lane] = t.n.x;
+            p.n[1][lane] = t.n.y;
+            p.n[2][lane] = t.n.z;
+        }
+        p
+    }
+
+    /// The triangle in `lane`, as the scalar test reads it (bit for bit the `TriSoa` it was
+    /// made from).
+    pub(crate) fn lane(&self, lane: usize) -> TriSoa {
+        TriSoa {
+            xs: Vec3A::new(self.x[0][lane], self.x[1][lane], self.x[2][lane]),
+            ys: Vec3A::new(self.y[0][lane], self.y[1][lane], self.y[2][lane]),
+            zs: Vec3A::new(self.z[0][lane], self.z[1][lane], self.z[2][lane]),
+            n: Vec3A::new(self.n[0][lane], self.n[1][lane], self.n[2][lane]),
+        }
+    }
+}
+
+/// The hits of a ray on a [`Tri4`]: per lane the distance and barycentrics, and the mask of the
+/// lanes that hit.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Tri4Hits {
+    pub(crate) t: Vec4,
+    pub(crate) b1: Vec4,
+    pub(crate) b2: Vec4,
+    pub(crate) mask: u32,
+}
+
+impl Tri4Hits {
+    /// The closest of the hits, as (lane, hit); `None` if no lane hit.
+    #[inline(always)]
+    pub(crate) fn closest(&self) -> Option<(usize, TriHit)> {
+        let mut m = self.mask;
+        let mut best: Option<(usize, TriHit)> = None;
+        while m != 0 {
+            let l = m.trailing_zeros() as usize;
+            m &= m - 1;
+            if best.is_none_or(|(_, b)| self.t[l] < b.t) {
+                best = Some((
+                    l,
+                    TriHit {
+                        t: self.t[l],
+                        b1: self.b1[l],
+                        b2: self.b2[l],
+                    },
+                ));
+            }
+        }
+        best
+    }
+}
+
+/// [`intersect_triangle`] on four triangles at once (lane = triangle), with the same operations
+/// in the same order on each lane, so each lane's answer is bit for bit the scalar test's. A
+/// lane whose edge functions fail the filter is redone by the scalar `f64` test, as there.
+#[inline(always)]
+pub(crate) fn intersect_tri4<const KZ: usize>(
+    tri: &Tri4,
+    ray: &PreparedRay,
+    t_best: f32,
+) -> Tri4Hits {
+    let o = &ray.o4;
+    // Translate the vertices so the ray starts at the origin (index = vertex).
+    let x = tri.x.map(|v| v - o[0]);
+    let y = tri.y.map(|v| v - o[1]);
+    let z = tri.z.map(|v| v - o[2]);
+    // Permute so that the ray's largest component is z (as in the scalar test).
+    let (px, py, pz) = match KZ {
+        0 => (&y, &z, &x),
+        1 => (&z, &x, &y),
+        _ => (&x, &y, &z),
+    };
+    // Shear so the ray runs along +z.
+    let sx = Vec4::splat(ray.sx);
+    let sy = Vec4::splat(ray.sy);
+    let xt = [0, 1, 2].map(|v| px[v] + sx * pz[v]);
+    let yt = [0, 1, 2].map(|v| py[v] + sy * pz[v]);
+    // Edge functions e_i = x_j·y_k − x_k·y_j for (i, j, k) cyclic.
+    let e0 = xt[1] * yt[2] - xt[2] * yt[1];
+    let e1 = xt[2] * yt[0] - xt[0] * yt[2];
+    let e2 = xt[0] * yt[1] - xt[1] * yt[0];
+    // The filter bound of `edge_error`, per lane, with the same operations in the same order.
+    let r = x[0]
+        .abs()
+        .max(x[1].abs())
+        .max(x[2].abs())
+        .max(y[0].abs().max(y[1].abs()).max(y[2].abs()))
+        .max(z[0].abs().max(z[1].abs()).max(z[2].abs()));
+    let xm = xt[0].abs().max(xt[1].abs()).max(xt[2].abs());
+    let ym = yt[0].abs().max(yt[1].abs()).max(yt[2].abs());
+    let e = Vec4::splat(2.0 * gamma(5)) * r;
+    let delta_e = Vec4::splat(2.0 * gamma(3)) * xm * ym
+        + Vec4::splat(2.0) * e * (xm + ym)
+        + Vec4::splat(2.0) * e * e
+        + Vec4::splat(f32::MIN_POSITIVE);
+    let near =
+        (e0.abs().cmple(delta_e) | e1.abs().cmple(delta_e) | e2.abs().cmple(delta_e)).bitmask();
+    // The ray passes a triangle only if its three edge functions have the same sign.
+    let zero = Vec4::ZERO;
+    let neg = e0.cmplt(zero) | e1.cmplt(zero) | e2.cmplt(zero);
+    let pos = e0.cmpgt(zero) | e1.cmpgt(zero) | e2.cmpgt(zero);
+    let mut inside = !(neg & pos).bitmask() & 0xf & !near;
+    // Most packets a ray reaches it passes by: skip the divisions and the distance bound.
+    if inside | near == 0 {
+        return Tri4Hits {
+            t: Vec4::ZERO,
+            b1: Vec4::ZERO,
+            b2: Vec4::ZERO,
+            mask: 0,
+        };
+    }
+    let inv_det = Vec4::ONE / (e0 + e1 + e2);
+    let mut b1 = e1 * inv_det;
+    let mut b2 = e2 * inv_det;
+    // Lanes within rounding distance of an edge: the scalar f64 test decides.
+    if near != 0 {
+        let mut m = near;
+        while m != 0 {
+            let l = m.trailing_zeros() as usize;
+            m &= m - 1;
+            if let Some((c1, c2)) = edge_test_f64::<KZ>(&tri.lane(l), ray.origin, ray.sx, ray.sy) {
+                inside |= 1 << l;
+                b1[l] = c1;
+                b2[l] = c2;
+            }
+        }
+    }
+    // Distance to the plane through p0, and its error bound (see `intersect_triangle`).
+    let d = &ray.d4;
+    let n = &tri.n;
+    let den = (d[0] * n[0] + d[1] * n[1]) + d[2] * n[2];
+    let an = [x[0] * n[0], y[0] * n[1], z[0] * n[2]];
+    let t = ((an[0] + an[1]) + an[2]) / den;
+    let t_abs = t.abs();
+    let dn = (d[0] * n[0]).abs() + (d[1] * n[1]).abs() + (d[2] * n[2]).abs();
+    let delta_t = (Vec4::splat(gamma(7)) * ((an[0].abs() + an[1].abs()) + an[2].abs())
+        + Vec4::splat(gamma(6)) * t_abs * dn)
+        / den.abs()
+        + Vec4::splat(gamma(2)) * t_abs;
+    // NaN distances fail every comparison, as in the scalar test.
+    let ok = t.cmple(Vec4::splat(t_best))
+        & t.cmpgt(delta_t)
+        & (t + delta_t).cmplt(Vec4::splat(ray.t_max));
+    Tri4Hits {
+        t,
+        b1,
+        b2,
+        mask: ok.bitmask() & inside,
+    }
+}
+
 /// The edge test in `f64` from the original data, for rays that pass within rounding distance
 /// of an edge: translation and products of `f32` values are (nearly) exact in `f64`, the shear
 /// uses the same `Sx`, `Sy` as the `f32` test (so both approximate the same exact problem), and
@@ -425,17 +503,22 @@ fn edge_error(x: Vec3A, y: Vec3A, z: Vec3A, xt: Vec3A, yt: Vec3A) -> f32 {
 /// Returns the barycentrics `(b1, b2)` if the ray passes the triangle.
 #[cold]
 #[inline(never)]
-fn edge_test_f64<const KZ: usize>(tri: &TriSoa, ray: &PreparedRay) -> Option<(f32, f32)> {
-    let x = tri.xs.as_dvec3() - DVec3::splat(f64::from(ray.ox.x));
-    let y = tri.ys.as_dvec3() - DVec3::splat(f64::from(ray.oy.x));
-    let z = tri.zs.as_dvec3() - DVec3::splat(f64::from(ray.oz.x));
+fn edge_test_f64<const KZ: usize>(
+    tri: &TriSoa,
+    origin: Vec3A,
+    sx: f32,
+    sy: f32,
+) -> Option<(f32, f32)> {
+    let x = tri.xs.as_dvec3() - DVec3::splat(f64::from(origin.x));
+    let y = tri.ys.as_dvec3() - DVec3::splat(f64::from(origin.y));
+    let z = tri.zs.as_dvec3() - DVec3::splat(f64::from(origin.z));
     let (px, py, pz) = match KZ {
         0 => (y, z, x),
         1 => (z, x, y),
         _ => (x, y, z),
     };
-    let xt = px + f64::from(ray.sx) * pz;
-    let yt = py + f64::from(ray.sy) * pz;
+    let xt = px + f64::from(sx) * pz;
+    let yt = py + f64::from(sy) * pz;
     let e = DVec3::new(
         xt.y * yt.z - xt.z * yt.y,
         xt.z * yt.x - xt.x * yt.z,

@@ -4,7 +4,8 @@
 //! # What it owns
 //! - [`TriangleMesh`] (input) and [`Geometry::build`]: validation (typed [`GeometryError`]s
 //!   naming the mesh and triangle), dropping and counting of zero-area and non-finite triangles
-//!   ([`BuildReport`]), and the BVH: obvhs PLOC + reinsertion, then by default the CWBVH tree
+//!   ([`BuildReport`]), and the BVH: obvhs PLOC + reinsertion (or a top-down build where many
+//!   centroids coincide), then by default an 8-wide tree with four-triangle SIMD leaves
 //!   with exact float child boxes ([`BvhLayout`] lists the layouts and their measured cost).
 //! - [`Geometry::intersect`] (closest hit: distance, triangle id, barycentrics) and
 //!   [`Geometry::occluded`] (any hit), with a watertight triangle test (Woop et al. 2013) that
@@ -74,11 +75,13 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod build;
 mod error;
 mod geometry;
 mod intersect;
 mod mesh;
 mod ray;
+mod wide;
 
 pub use error::GeometryError;
 pub use geometry::{BvhLayout, Geometry, Hit, SurfacePoint};
