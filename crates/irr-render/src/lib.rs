@@ -47,6 +47,7 @@
 mod accessor;
 mod camera;
 mod error;
+mod files;
 mod glb;
 mod image;
 mod load;
@@ -58,12 +59,16 @@ mod uri;
 
 pub use camera::{Camera, CameraRay};
 pub use error::RenderError;
+pub use files::{LoadOptions, MAX_JSON_BYTES, MAX_SCENE_BYTES};
 pub use image::Image;
 pub use irr_integrator::{
     AmbientOcclusion, AoSettings, Integrator, Material, PathSettings, PathTracer, RayCounter, Scene,
 };
-pub use load::{MAX_COORDINATE, SceneData, Warning, load_gltf};
-pub use output::{check_output, png_path_for, tone_map, write_exr_and_png};
+pub use load::{MAX_COORDINATE, SceneData, Warning, load_gltf, load_gltf_with};
+pub use output::{
+    check_exposure, check_output, png_path_for, remove_partial_outputs,
+    remove_partial_outputs_on_signals, tone_map, write_exr_and_png,
+};
 pub use render::{
     MAX_DIMENSION, MAX_THREADS, RenderOutput, RenderSettings, RenderStats, TILE_SIZE,
     mean_of_samples, pixel_samples, render,
@@ -123,7 +128,12 @@ impl LoadedScene {
 /// Errors name the file and the problem in one line; warnings (ignored features, no emitter,
 /// degenerate triangles dropped) are returned in [`LoadedScene::warnings`], never printed.
 pub fn load_scene(path: &Path) -> Result<LoadedScene, RenderError> {
-    let data = load_gltf(path)?;
+    load_scene_with(path, &LoadOptions::default())
+}
+
+/// [`load_scene`] with [`LoadOptions`] (the folder buffer files may be read from).
+pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene, RenderError> {
+    let data = load_gltf_with(path, options)?;
     let mut warnings = data.warnings;
     let geometry =
         Geometry::build(&data.meshes).map_err(|e| RenderError::scene(path, e.to_string()))?;
