@@ -209,11 +209,17 @@ pub fn load_gltf_with(path: &Path, options: &LoadOptions) -> Result<SceneData, R
     validate(path, &root)?;
     // The .glb's binary chunk becomes buffer 0's bytes in place; the JSON text is no longer
     // needed.
-    let blob = bin_range.map(|r| {
-        bytes.truncate(r.end);
-        bytes.drain(..r.start);
-        bytes
-    });
+    let blob = match bin_range {
+        Some(r) => {
+            bytes.truncate(r.end);
+            bytes.drain(..r.start);
+            Some(bytes)
+        }
+        None => {
+            drop(bytes);
+            None
+        }
+    };
     let document = gltf::Document::from_json_without_validation(root);
     Loader {
         path,
@@ -680,7 +686,8 @@ impl<'a> Loader<'a> {
         Ok((out, default))
     }
 
-    /// The nodes of the default scene in depth-first order, each with its world transform.
+    /// The nodes of the default scene that hold a mesh or a camera, in depth-first order, each
+    /// with its world transform.
     fn walk_nodes(&mut self) -> Result<Vec<(gltf::Node<'a>, Mat4)>, RenderError> {
         let d: &'a gltf::Document = self.document;
         let roots: Vec<gltf::Node<'a>> = match d.default_scene().or_else(|| d.scenes().next()) {
@@ -697,9 +704,15 @@ impl<'a> Loader<'a> {
             }
         };
         let mut visited = vec![false; d.nodes().len()];
+        // Only nodes with a mesh or a camera are kept: the others matter only through the
+        // transforms they pass on.
+        let kept = d
+            .nodes()
+            .filter(|n| n.mesh().is_some() || n.camera().is_some())
+            .count();
         let mut out = self
             .budget
-            .vec::<(gltf::Node<'a>, Mat4)>("the node hierarchy", d.nodes().len())
+            .vec::<(gltf::Node<'a>, Mat4)>("the node hierarchy", kept)
             .map_err(|e| self.err(e))?;
         let mut stack: Vec<(gltf::Node<'a>, Mat4)> = roots
             .into_iter()
@@ -720,7 +733,9 @@ impl<'a> Loader<'a> {
             let first = stack.len();
             stack.extend(node.children().map(|child| (child, world)));
             stack[first..].reverse();
-            out.push((node, world));
+            if node.mesh().is_some() || node.camera().is_some() {
+                out.push((node, world));
+            }
         }
         Ok(out)
     }
