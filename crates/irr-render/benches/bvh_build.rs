@@ -16,8 +16,10 @@ fn main() {
     divan::main();
 }
 
-/// `n` triangles about the centroid (0, −1/3, 0), triangle i scaled by 1.0001^i.
+/// `n` triangles about the centroid (0, −1/3, 0), triangle i scaled by 1.0001^i (1.00001^i above
+/// 10⁵ triangles: 1.0001^(10⁶) overflows f32, and irr-geometry would drop the infinite ones).
 fn nested(n: usize) -> TriangleMesh {
+    let ratio = if n > 100_000 { 1.000_01 } else { 1.0001 };
     let centroid = Vec3::new(0.0, -1.0 / 3.0, 0.0);
     let base = [
         Vec3::new(-1.0, -1.0, 0.0),
@@ -28,7 +30,7 @@ fn nested(n: usize) -> TriangleMesh {
     let mut scale = 1.0f32;
     for _ in 0..n {
         positions.extend(base.map(|p| centroid + (p - centroid) * scale));
-        scale *= 1.0001;
+        scale *= ratio;
     }
     TriangleMesh {
         indices: (0..n as u32)
