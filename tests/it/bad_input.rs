@@ -139,9 +139,10 @@ fn accessor_out_of_range() {
     });
     expect_load_error(&path, &["bufferView 0", "buffer 0 has 960 bytes"]);
     let path = cornell_copy(dir.path(), |j| j["buffers"][0]["byteLength"] = 5000.into());
+    // The file is inside the scene's folder, so its size may be named.
     expect_load_error(
         &path,
-        &["buffer 0 has 960 bytes but its byteLength says 5000"],
+        &["buffer 0", "which has 960 bytes", "byteLength says 5000"],
     );
     let path = cornell_copy(dir.path(), |j| {
         j["meshes"][0]["primitives"][0]["indices"] = 99.into()

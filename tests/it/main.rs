@@ -3,7 +3,10 @@
 mod bad_input;
 mod cache;
 mod extremes;
+mod fuzz;
 mod geometry;
+mod hostile;
 mod ic;
 mod render;
 mod sampling;
+mod signals;

@@ -7,9 +7,10 @@
 use clap::{Args, ValueEnum};
 use irr_render::{
     AmbientOcclusion, AoSettings, BounceMode, CacheBuilder, CachedAmbientOcclusion, GradientMode,
-    IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard, MetricKind, PathSettings,
-    PathTracer, RenderSettings, build_cache, check_output, fingerprint, load_scene, mark_records,
-    mean_of_samples, pixel_samples, read_cache_file, render, write_cache_file, write_exr_and_png,
+    IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard, LoadOptions, MetricKind,
+    PathSettings, PathTracer, RenderSettings, build_cache, check_exposure, check_output,
+    fingerprint, load_scene_with, mark_records, mean_of_samples, pixel_samples, read_cache_file,
+    remove_partial_outputs_on_signals, render, write_cache_file, write_exr_and_png,
 };
 use std::path::{Path, PathBuf};
 
@@ -201,7 +202,7 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = RenderSettings::default().threads as i64, allow_negative_numbers = true)]
     pub threads: i64,
     /// Seed of every random number (same seed, same image, bit for bit, for any thread count)
-    #[arg(long, default_value_t = RenderSettings::default().seed)]
+    #[arg(long, default_value_t = RenderSettings::default().seed, allow_negative_numbers = true)]
     pub seed: u64,
     /// Output OpenEXR file; the PNG preview is written beside it with the same stem
     /// [default: out/<scene stem>.exr in the workspace]
@@ -213,6 +214,10 @@ pub struct RenderArgs {
     /// Exposure of the PNG preview in stops: radiance × 2^exposure, clipped to [0, 1], sRGB
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub exposure: f32,
+    /// The folder whose files the scene's buffer URIs may read (after resolving `..` and
+    /// symbolic links) [default: the scene file's folder]
+    #[arg(long, value_name = "DIR")]
+    pub asset_root: Option<PathBuf>,
     /// Render only pixel X,Y (0,0 is the top-left) and print each sample's radiance; writes
     /// nothing
     #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
@@ -255,6 +260,7 @@ pub fn run(args: RenderArgs, root: &Path) -> Result<(), String> {
     let settings =
         RenderSettings::from_options(args.width, args.height, spp, args.seed, args.threads)
             .map_err(|e| e.to_string())?;
+    check_exposure(args.exposure).map_err(|e| e.to_string())?;
     let ic_settings = match args.integrator {
         IntegratorChoice::Ic | IntegratorChoice::IcAo => Some(args.ic.settings(args.max_depth)?),
         _ => None,
@@ -273,7 +279,29 @@ pub fn run(args: RenderArgs, root: &Path) -> Result<(), String> {
         // Before spending minutes: is there somewhere to put the result?
         check_output(&out).map_err(|e| e.to_string())?;
     }
-    let loaded = load_scene(&scene_path).map_err(|e| e.to_string())?;
+    let options = LoadOptions {
+        asset_root: args.asset_root.clone(),
+    };
+    let loaded = {
+        // The BVH build of a large (or badly shaped) scene can take a while: say so.
+        let spinner = indicatif::ProgressBar::new_spinner();
+        spinner.set_message(format!(
+            "loading {} and building its BVH",
+            scene_path.display()
+        ));
+        spinner.enable_steady_tick(std::time::Duration::from_millis(100));
+        let started = std::time::Instant::now();
+        let loaded = load_scene_with(&scene_path, &options);
+        spinner.finish_and_clear();
+        if started.elapsed().as_secs_f64() > 1.0 {
+            eprintln!(
+                "loaded {} and built its BVH in {:.1} s",
+                scene_path.display(),
+                started.elapsed().as_secs_f64()
+            );
+        }
+        loaded.map_err(|e| e.to_string())?
+    };
     for w in &loaded.warnings {
         eprintln!("warning: {w}");
     }
@@ -377,6 +405,8 @@ pub fn run(args: RenderArgs, root: &Path) -> Result<(), String> {
         return Ok(());
     }
 
+    // From here on temporary output files may exist: delete them if the user interrupts.
+    remove_partial_outputs_on_signals()?;
     let output =
         render(&loaded.scene, &camera, integrator, &settings, true).map_err(|e| e.to_string())?;
     eprintln!("{}", output.stats.summary());
@@ -453,6 +483,32 @@ mod tests {
             .err()
             .unwrap_or_default();
         assert_eq!(e, "--width: must be between 1 and 16384, got -5");
+    }
+
+    /// Issue 12, item 7: a bad exposure or seed is refused before anything is loaded or
+    /// rendered, naming the option.
+    #[test]
+    fn bad_exposure_and_seed_are_refused_up_front() {
+        for exposure in ["NaN", "inf", "-inf"] {
+            let option = format!("--exposure={exposure}");
+            let cli = Cli::try_parse_from(["render", &option, "--scene", "/nowhere"])
+                .unwrap_or_else(|e| panic!("{e}"));
+            // The scene does not exist: an error about it would mean the exposure was not
+            // checked first.
+            let e = run(cli.args, Path::new("/nonexistent"))
+                .err()
+                .unwrap_or_default();
+            assert!(
+                e.starts_with("--exposure: must be a finite number of stops"),
+                "{exposure}: {e}"
+            );
+        }
+        let e = Cli::try_parse_from(["render", "--seed", "-1"])
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("'-1'") && e.contains("--seed"), "{e}");
+        assert!(!e.contains("unexpected argument"), "{e}");
     }
 
     #[test]

@@ -6,6 +6,7 @@
 //! (indices), interleaved views (`byteStride`), accessors without a buffer view (all zeros) and
 //! sparse accessors (§3.6.2.3).
 
+use crate::files::Budget;
 use gltf::accessor::{DataType, Dimensions};
 
 /// The bytes of each buffer, indexed like `document.buffers()`.
@@ -138,12 +139,14 @@ fn sparse_elements<'b>(
     accessor: &gltf::Accessor<'_>,
     element_size: usize,
     buffers: &'b Buffers,
+    budget: &mut Budget,
 ) -> Result<Vec<(usize, &'b [u8])>, String> {
     let Some(sparse) = accessor.sparse() else {
         return Ok(Vec::new());
     };
     let n = sparse.count();
     let indices = sparse.indices();
+    // `index_type` panics on any other type: `load::prevalidate` refused those already.
     let index_type = match indices.index_type() {
         gltf::accessor::sparse::IndexType::U8 => DataType::U8,
         gltf::accessor::sparse::IndexType::U16 => DataType::U16,
@@ -168,12 +171,13 @@ fn sparse_elements<'b>(
         element_size,
         buffers,
     )?;
-    let mut out = Vec::with_capacity(n);
+    // `locate` proved that n indices are in the buffers, so n is bounded by the input's size.
+    let mut out = budget.vec(&format!("{what} (sparse)"), n)?;
     for k in 0..n {
         let i = read_index(index_type, &idx.bytes[k * index_size..(k + 1) * index_size]) as usize;
         if i >= accessor.count() {
             return Err(format!(
-                "{what}: sparse index {i} is out of range (the accessor has {} elements)",
+                "{what}: sparse index entry {k} is out of range (the accessor has {} elements)",
                 accessor.count()
             ));
         }
@@ -183,12 +187,14 @@ fn sparse_elements<'b>(
 }
 
 /// Reads the raw bytes of each element of `accessor` (its dense data with sparse substitutions
-/// applied) and hands each to `decode`.
+/// applied) and hands each to `decode`. The result is charged to `budget` before it is
+/// allocated: an accessor without a buffer view states its count freely.
 fn read_elements<T>(
     what: &str,
     accessor: &gltf::Accessor<'_>,
     element_size: usize,
     buffers: &Buffers,
+    budget: &mut Budget,
     zero: T,
     decode: impl Fn(&[u8]) -> T,
 ) -> Result<Vec<T>, String>
@@ -199,12 +205,18 @@ where
     let mut out = match accessor.view() {
         Some(view) => {
             let run = locate(what, view, accessor.offset(), count, element_size, buffers)?;
-            (0..run.count).map(|i| decode(run.element(i))).collect()
+            let mut out = budget.vec(what, run.count)?;
+            out.extend((0..run.count).map(|i| decode(run.element(i))));
+            out
         }
         // No buffer view: every element is zero unless a sparse substitution says otherwise.
-        None => vec![zero; count],
+        None => {
+            let mut out = budget.vec(what, count)?;
+            out.resize(count, zero);
+            out
+        }
     };
-    for (i, bytes) in sparse_elements(what, accessor, element_size, buffers)? {
+    for (i, bytes) in sparse_elements(what, accessor, element_size, buffers, budget)? {
         out[i] = decode(bytes);
     }
     Ok(out)
@@ -215,6 +227,7 @@ pub(crate) fn read_vec3(
     what: &str,
     accessor: &gltf::Accessor<'_>,
     buffers: &Buffers,
+    budget: &mut Budget,
 ) -> Result<Vec<[f32; 3]>, String> {
     let (t, d) = (accessor.data_type(), accessor.dimensions());
     if d != Dimensions::Vec3 || t != DataType::F32 {
@@ -225,7 +238,7 @@ pub(crate) fn read_vec3(
             type_name(t)
         ));
     }
-    read_elements(what, accessor, 12, buffers, [0.0; 3], |b| {
+    read_elements(what, accessor, 12, buffers, budget, [0.0; 3], |b| {
         let f = |k: usize| f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]]);
         [f(0), f(1), f(2)]
     })
@@ -236,6 +249,7 @@ pub(crate) fn read_indices(
     what: &str,
     accessor: &gltf::Accessor<'_>,
     buffers: &Buffers,
+    budget: &mut Budget,
 ) -> Result<Vec<u32>, String> {
     let (t, d) = (accessor.data_type(), accessor.dimensions());
     if d != Dimensions::Scalar || !matches!(t, DataType::U8 | DataType::U16 | DataType::U32) {
@@ -245,7 +259,7 @@ pub(crate) fn read_indices(
             type_name(t)
         ));
     }
-    read_elements(what, accessor, component_size(t), buffers, 0, |b| {
+    read_elements(what, accessor, component_size(t), buffers, budget, 0, |b| {
         read_index(t, b)
     })
 }

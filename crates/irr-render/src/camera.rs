@@ -69,11 +69,27 @@ impl Camera {
     /// The camera of a glTF node with world transform `world`: local −Z is the view direction,
     /// local +Y the up direction. Scale and shear in `world` are removed (the axes are
     /// re-orthonormalised, −Z kept exactly); `None` if the transform collapses the axes.
+    ///
+    /// The basis comes straight from the transform's columns, in f64: the view direction is
+    /// never recovered as a difference of two far-away points (at 3·10⁶ m from the origin, an
+    /// f32 `target − position` keeps only a few bits of the direction).
     pub fn from_node(world: Mat4, yfov: f32) -> Option<Self> {
-        let position = world.transform_point3(Vec3::ZERO);
-        let forward = world.transform_vector3(Vec3::NEG_Z).try_normalize()?;
-        let up_hint = world.transform_vector3(Vec3::Y);
-        Self::look_at(position, position + forward, up_hint, yfov)
+        let m = world.as_dmat4();
+        let position = m.w_axis.truncate();
+        let forward = (-m.z_axis.truncate()).try_normalize()?;
+        let right = forward.cross(m.y_axis.truncate()).try_normalize()?;
+        let up = right.cross(forward);
+        let position = position.as_vec3();
+        (yfov > 0.0 && yfov < std::f32::consts::PI && position.is_finite()).then_some(Self {
+            position,
+            forward: forward.as_vec3(),
+            up: up.as_vec3(),
+            right: right.as_vec3(),
+            yfov,
+            znear: 0.0,
+            zfar: None,
+            aspect_ratio_in_file: None,
+        })
     }
 
     /// A camera that frames the box `[lo, hi]` for an image of aspect ratio `aspect` (width /
@@ -172,6 +188,28 @@ mod tests {
         assert!((c.right - Vec3::NEG_X).length() < 1e-6);
         let left = c.ray(Vec2::new(0.0, 0.5), 1, 1);
         assert!(left.direction.x > 0.0);
+    }
+
+    /// Issue 12, item 6: a camera far from the origin keeps its exact view direction. A parent
+    /// translated by 3·10⁶ m (and, second case, 10⁸ m), then a 17° turn about Y: the view
+    /// direction is the turned −Z, (−sin 17°, 0, −cos 17°), to f32 rounding of the rotation
+    /// matrix's entries (a few ulps of 1: 1e-6), not the 2.8° error of a direction recovered from
+    /// `(position + forward) − position` in f32.
+    #[test]
+    fn far_away_cameras_keep_their_direction() {
+        let angle = 17f32.to_radians();
+        let expected = Vec3::new(-angle.sin(), 0.0, -angle.cos());
+        for distance in [3e6f32, 1e8] {
+            let world = Mat4::from_translation(Vec3::new(distance, -distance, distance))
+                * Mat4::from_rotation_y(angle);
+            let c = Camera::from_node(world, 0.8)
+                .unwrap_or_else(|| panic!("a camera at {distance} m is refused"));
+            let error = c.forward.angle_between(expected);
+            assert!(error < 1e-6, "at {distance} m the view is {error} rad off");
+            assert!((c.up - Vec3::Y).length() < 1e-6);
+            assert!((c.right - Vec3::new(angle.cos(), 0.0, -angle.sin())).length() < 1e-6);
+            assert_eq!(c.position, Vec3::new(distance, -distance, distance));
+        }
     }
 
     #[test]

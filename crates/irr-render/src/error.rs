@@ -71,7 +71,10 @@ pub enum RenderError {
     },
 }
 
-/// Squeezes a message from another library onto one line.
+/// Squeezes a message onto one line that is safe to print: line breaks become `; `, and every
+/// other character that a terminal would act on rather than show (see [`is_unprintable`]) is
+/// written as a `\u{..}` escape, so a name from a file cannot move the cursor, ring the bell,
+/// retitle the window or reorder the text.
 pub(crate) fn one_line(message: impl std::fmt::Display) -> String {
     let text = message.to_string();
     let mut out = String::with_capacity(text.len());
@@ -83,9 +86,33 @@ pub(crate) fn one_line(message: impl std::fmt::Display) -> String {
         if !out.is_empty() {
             out.push_str("; ");
         }
-        out.push_str(part);
+        for c in part.chars() {
+            if is_unprintable(c) {
+                out.extend(c.escape_unicode());
+            } else {
+                out.push(c);
+            }
+        }
     }
     out
+}
+
+/// Control characters (C0, DEL, C1: ESC, BEL, tab, …) and the invisible format characters that
+/// change how text around them is shown (zero-width characters, bidirectional embeddings,
+/// overrides and isolates, the byte-order mark).
+pub(crate) fn is_unprintable(c: char) -> bool {
+    c.is_control()
+        || matches!(
+            c,
+            '\u{00AD}'
+                | '\u{061C}'
+                | '\u{180E}'
+                | '\u{200B}'..='\u{200F}'
+                | '\u{2028}'..='\u{202E}'
+                | '\u{2060}'..='\u{206F}'
+                | '\u{FEFF}'
+                | '\u{FFF9}'..='\u{FFFB}'
+        )
 }
 
 impl RenderError {
@@ -124,5 +151,20 @@ mod tests {
             "a/b.gltf: not a valid glTF 2.0 file: first; second; third"
         );
         assert!(!text.contains('\n'));
+    }
+
+    /// Issue 12, item 7: names from a file reach the terminal without raw control characters.
+    #[test]
+    fn control_characters_are_escaped() {
+        let e = RenderError::scene(
+            Path::new("a.gltf"),
+            "node 0 \"\u{1b}]0;pwned\u{7}\u{1b}[2J\u{202e}evil\ttab\"",
+        );
+        let text = e.to_string();
+        assert_eq!(
+            text,
+            "a.gltf: node 0 \"\\u{1b}]0;pwned\\u{7}\\u{1b}[2J\\u{202e}evil\\u{9}tab\""
+        );
+        assert!(!text.chars().any(is_unprintable));
     }
 }

@@ -10,17 +10,20 @@ const CHUNK_JSON: u32 = 0x4E4F_534A;
 /// `BIN\0` read as a little-endian u32.
 const CHUNK_BIN: u32 = 0x004E_4942;
 
+use std::ops::Range;
+
 /// Whether `bytes` start like a binary glTF (and so must be parsed as one).
 pub(crate) fn is_glb(bytes: &[u8]) -> bool {
     bytes.starts_with(b"glTF")
 }
 
-/// The two chunks of a .glb file.
-pub(crate) struct Glb<'a> {
+/// Where the two chunks of a .glb file lie in it (byte ranges), so the caller can take the
+/// binary chunk out of the file's bytes without copying it.
+pub(crate) struct Glb {
     /// The JSON document.
-    pub json: &'a [u8],
+    pub json: Range<usize>,
     /// The binary buffer that `buffers[0]` without a URI refers to.
-    pub bin: Option<&'a [u8]>,
+    pub bin: Option<Range<usize>>,
 }
 
 fn u32_at(bytes: &[u8], at: usize) -> Option<u32> {
@@ -29,7 +32,7 @@ fn u32_at(bytes: &[u8], at: usize) -> Option<u32> {
 }
 
 /// Splits a .glb file into its chunks.
-pub(crate) fn parse(bytes: &[u8]) -> Result<Glb<'_>, String> {
+pub(crate) fn parse(bytes: &[u8]) -> Result<Glb, String> {
     let header = |at| {
         u32_at(bytes, at).ok_or_else(|| {
             format!(
@@ -75,11 +78,10 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Glb<'_>, String> {
                     bytes.len().saturating_sub(start)
                 )
             })?;
-        let data = &bytes[start..end];
         match (index, kind) {
-            (0, CHUNK_JSON) => json = Some(data),
+            (0, CHUNK_JSON) => json = Some(start..end),
             (0, _) => return Err("binary glTF's first chunk is not JSON".to_string()),
-            (1, CHUNK_BIN) => bin = Some(data),
+            (1, CHUNK_BIN) => bin = Some(start..end),
             (_, CHUNK_JSON) => {
                 return Err(format!("binary glTF has a second JSON chunk ({index})"));
             }
@@ -130,8 +132,8 @@ mod tests {
     fn round_trip() {
         let file = build(b"{\"a\":1}", Some(&[1, 2, 3]));
         let glb = parse(&file).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(glb.json, b"{\"a\":1} ");
-        assert_eq!(glb.bin, Some(&[1u8, 2, 3, 0][..]));
+        assert_eq!(&file[glb.json], b"{\"a\":1} ");
+        assert_eq!(glb.bin.map(|r| &file[r]), Some(&[1u8, 2, 3, 0][..]));
     }
 
     #[test]

@@ -51,6 +51,7 @@ mod accessor;
 mod cachefile;
 mod camera;
 mod error;
+mod files;
 mod glb;
 mod image;
 mod load;
@@ -64,14 +65,18 @@ mod uri;
 pub use cachefile::{fingerprint, read_cache_file, write_cache_file};
 pub use camera::{Camera, CameraRay};
 pub use error::RenderError;
+pub use files::{LoadOptions, MAX_JSON_BYTES, MAX_SCENE_BYTES};
 pub use image::Image;
 pub use irr_integrator::{
     AmbientOcclusion, AoSettings, BounceMode, CacheBuilder, CachedAmbientOcclusion, GradientMode,
     IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard, Material, MetricKind,
     PathSettings, PathTracer, RayCounter, Scene,
 };
-pub use load::{MAX_COORDINATE, SceneData, Warning, load_gltf};
-pub use output::{check_output, png_path_for, tone_map, write_exr_and_png};
+pub use load::{MAX_COORDINATE, SceneData, Warning, load_gltf, load_gltf_with};
+pub use output::{
+    check_exposure, check_output, png_path_for, remove_partial_outputs,
+    remove_partial_outputs_on_signals, tone_map, write_exr_and_png,
+};
 pub use passes::{CacheBuildStats, PassStats, build_cache, mark_records, pixel_spread};
 pub use render::{
     MAX_DIMENSION, MAX_THREADS, RenderOutput, RenderSettings, RenderStats, TILE_SIZE,
@@ -132,7 +137,12 @@ impl LoadedScene {
 /// Errors name the file and the problem in one line; warnings (ignored features, no emitter,
 /// degenerate triangles dropped) are returned in [`LoadedScene::warnings`], never printed.
 pub fn load_scene(path: &Path) -> Result<LoadedScene, RenderError> {
-    let data = load_gltf(path)?;
+    load_scene_with(path, &LoadOptions::default())
+}
+
+/// [`load_scene`] with [`LoadOptions`] (the folder buffer files may be read from).
+pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene, RenderError> {
+    let data = load_gltf_with(path, options)?;
     let mut warnings = data.warnings;
     let geometry =
         Geometry::build(&data.meshes).map_err(|e| RenderError::scene(path, e.to_string()))?;

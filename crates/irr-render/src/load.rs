@@ -31,10 +31,10 @@
 use crate::accessor::{read_indices, read_vec3};
 use crate::camera::Camera;
 use crate::error::{RenderError, one_line};
+use crate::files::{Budget, Confinement, LoadOptions, MAX_JSON_BYTES, read_scene_file};
 use crate::glb;
 use crate::uri::{decode_data_uri, percent_decode};
 use glam::{Mat3, Mat4, Quat, Vec3};
-use gltf::json::Value;
 use irr_geometry::TriangleMesh;
 use irr_integrator::Material;
 use std::collections::BTreeMap;
@@ -137,7 +137,8 @@ impl Warnings {
                 let (count, message) = counts.remove(&feature)?;
                 Some(Warning {
                     file: file.clone(),
-                    message: message(count),
+                    // Extension names come from the file: escaped like every message.
+                    message: one_line(message(count)),
                     feature,
                     count,
                 })
@@ -154,27 +155,47 @@ fn plural(n: usize, one: &str, many: &str) -> String {
     }
 }
 
-/// Reads a glTF 2.0 file (`.gltf` or `.glb`) into plain data. See the module docs for what is
-/// read, ignored (with a warning) and refused (with an error).
+/// Reads a glTF 2.0 file (`.gltf` or `.glb`) into plain data, reading buffer files only from
+/// the scene file's folder. See the module docs for what is read, ignored (with a warning) and
+/// refused (with an error).
 pub fn load_gltf(path: &Path) -> Result<SceneData, RenderError> {
-    let bytes = std::fs::read(path).map_err(|source| RenderError::Read {
+    load_gltf_with(path, &LoadOptions::default())
+}
+
+/// [`load_gltf`] with options: [`LoadOptions::asset_root`] widens (or moves) the folder that
+/// buffer URIs may read from.
+pub fn load_gltf_with(path: &Path, options: &LoadOptions) -> Result<SceneData, RenderError> {
+    let read_error = |problem: String| RenderError::Read {
         path: path.to_path_buf(),
-        source,
-    })?;
-    let (json_bytes, blob) = if glb::is_glb(&bytes) {
+        source: std::io::Error::other(problem),
+    };
+    let mut bytes = read_scene_file(path).map_err(read_error)?;
+    let file_bytes = bytes.len() as u64;
+    let confinement = Confinement::new(path, options).map_err(read_error)?;
+    let (json_range, bin_range) = if glb::is_glb(&bytes) {
         let g = glb::parse(&bytes).map_err(|e| RenderError::parse(path, e))?;
         (g.json, g.bin)
     } else {
-        (&bytes[..], None)
+        (0..bytes.len(), None)
     };
+    let json_bytes = bytes.get(json_range).unwrap_or_default();
     if json_bytes.is_empty() {
         return Err(RenderError::parse(path, "the file is empty"));
     }
-    // The raw JSON, to count every extension the file uses (the typed document drops the ones
-    // the gltf crate does not know).
-    let raw: Value = gltf::json::deserialize::from_slice(json_bytes)
-        .map_err(|e| RenderError::parse(path, format!("JSON: {e}")))?;
-    let root: gltf::json::Root = gltf::json::deserialize::from_value(raw.clone())
+    if json_bytes.len() > MAX_JSON_BYTES {
+        return Err(RenderError::parse(
+            path,
+            format!(
+                "its JSON has {} bytes, more than irr parses ({MAX_JSON_BYTES} bytes)",
+                json_bytes.len()
+            ),
+        ));
+    }
+    // Every extension the file uses, counted in a streaming pass that builds no tree (the typed
+    // document drops the extensions the gltf crate does not know).
+    let extension_counts =
+        count_extensions(json_bytes).map_err(|e| RenderError::parse(path, format!("JSON: {e}")))?;
+    let root: gltf::json::Root = gltf::json::deserialize::from_slice(json_bytes)
         .map_err(|e| RenderError::parse(path, format!("glTF schema: {e}")))?;
     for ext in &root.extensions_required {
         if !SUPPORTED_EXTENSIONS.contains(&ext.as_str()) {
@@ -184,14 +205,156 @@ pub fn load_gltf(path: &Path) -> Result<SceneData, RenderError> {
             ));
         }
     }
+    prevalidate(path, &root)?;
     validate(path, &root)?;
+    // The .glb's binary chunk becomes buffer 0's bytes in place; the JSON text is no longer
+    // needed.
+    let blob = match bin_range {
+        Some(r) => {
+            bytes.truncate(r.end);
+            bytes.drain(..r.start);
+            Some(bytes)
+        }
+        None => {
+            drop(bytes);
+            None
+        }
+    };
     let document = gltf::Document::from_json_without_validation(root);
     Loader {
         path,
         document: &document,
         warnings: Warnings::new(path),
+        confinement,
+        budget: Budget::for_input(file_bytes),
     }
-    .load(&raw, blob)
+    .load(extension_counts, blob)
+}
+
+/// Counts the objects that use each extension (the keys of every `"extensions"` object) in one
+/// streaming pass over the JSON, without building a tree. serde_json's nesting limit (128)
+/// bounds the recursion.
+fn count_extensions(json: &[u8]) -> Result<BTreeMap<String, usize>, String> {
+    use serde::de::{DeserializeSeed, Deserializer, MapAccess, SeqAccess, Visitor};
+
+    /// Walks one JSON value; `extensions` says it is the value of an `"extensions"` key.
+    struct Walk<'c> {
+        counts: &'c mut BTreeMap<String, usize>,
+        extensions: bool,
+    }
+
+    impl<'de> DeserializeSeed<'de> for Walk<'_> {
+        type Value = ();
+        fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+            d.deserialize_any(self)
+        }
+    }
+
+    impl<'de> Visitor<'de> for Walk<'_> {
+        type Value = ();
+        fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("any JSON value")
+        }
+        fn visit_bool<E>(self, _: bool) -> Result<(), E> {
+            Ok(())
+        }
+        fn visit_i64<E>(self, _: i64) -> Result<(), E> {
+            Ok(())
+        }
+        fn visit_u64<E>(self, _: u64) -> Result<(), E> {
+            Ok(())
+        }
+        fn visit_f64<E>(self, _: f64) -> Result<(), E> {
+            Ok(())
+        }
+        fn visit_str<E>(self, _: &str) -> Result<(), E> {
+            Ok(())
+        }
+        fn visit_unit<E>(self) -> Result<(), E> {
+            Ok(())
+        }
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
+            while seq
+                .next_element_seed(Walk {
+                    counts: &mut *self.counts,
+                    extensions: false,
+                })?
+                .is_some()
+            {}
+            Ok(())
+        }
+        fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<(), A::Error> {
+            while let Some(key) = map.next_key::<std::borrow::Cow<'de, str>>()? {
+                if self.extensions {
+                    *self.counts.entry(key.to_string()).or_default() += 1;
+                }
+                map.next_value_seed(Walk {
+                    counts: &mut *self.counts,
+                    extensions: !self.extensions && key == "extensions",
+                })?;
+            }
+            Ok(())
+        }
+    }
+
+    let mut counts = BTreeMap::new();
+    let mut de = serde_json::Deserializer::from_slice(json);
+    Walk {
+        counts: &mut counts,
+        extensions: false,
+    }
+    .deserialize(&mut de)
+    .and_then(|()| de.end())
+    .map_err(|e| e.to_string())?;
+    Ok(counts)
+}
+
+/// Checks what `gltf`'s own validation does not, and without which it or its accessors panic:
+/// each camera has the object its `type` names (`Camera::projection` unwraps it), and each
+/// primitive's attribute accessors exist (the schema check indexes `accessors` with `POSITION`'s
+/// before it checks the index). (Sparse indices of a non-integer type, an `unreachable!()` in
+/// `Indices::index_type`, are already refused when the JSON is deserialized.)
+fn prevalidate(path: &Path, root: &gltf::json::Root) -> Result<(), RenderError> {
+    use gltf::json::camera::Type;
+    use gltf::json::validation::Checked;
+    for (i, camera) in root.cameras.iter().enumerate() {
+        let missing = match camera.type_ {
+            Checked::Valid(Type::Perspective) if camera.perspective.is_none() => {
+                Some(("perspective", "perspective"))
+            }
+            Checked::Valid(Type::Orthographic) if camera.orthographic.is_none() => {
+                Some(("orthographic", "orthographic"))
+            }
+            _ => None,
+        };
+        if let Some((kind, object)) = missing {
+            return Err(RenderError::parse(
+                path,
+                format!(
+                    "camera {}: its type is \"{kind}\" but it has no \"{object}\" object",
+                    describe(i, camera.name.as_deref())
+                ),
+            ));
+        }
+    }
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            for index in primitive.attributes.values() {
+                if index.value() >= root.accessors.len() {
+                    return Err(RenderError::parse(
+                        path,
+                        format!(
+                            "mesh {} primitive {p}: attribute accessor {} does not exist (the file has {})",
+                            describe(m, mesh.name.as_deref()),
+                            index.value(),
+                            root.accessors.len()
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Checks the document against glTF's schema (indices in range, required members present),
@@ -220,6 +383,8 @@ struct Loader<'a> {
     path: &'a Path,
     document: &'a gltf::Document,
     warnings: Warnings,
+    confinement: Confinement,
+    budget: Budget,
 }
 
 impl<'a> Loader<'a> {
@@ -227,7 +392,11 @@ impl<'a> Loader<'a> {
         RenderError::scene(self.path, problem)
     }
 
-    fn load(mut self, raw: &Value, blob: Option<&[u8]>) -> Result<SceneData, RenderError> {
+    fn load(
+        mut self,
+        extension_counts: BTreeMap<String, usize>,
+        blob: Option<Vec<u8>>,
+    ) -> Result<SceneData, RenderError> {
         let version = &self.document.as_json().asset.version;
         if !version.starts_with("2.") {
             return Err(RenderError::parse(
@@ -235,7 +404,7 @@ impl<'a> Loader<'a> {
                 format!("asset.version is \"{version}\"; irr reads glTF 2.x"),
             ));
         }
-        self.count_extensions(raw);
+        self.count_extensions(extension_counts);
         self.count_document_features();
         let buffers = self.load_buffers(blob)?;
         let (mut materials, default_material) = self.materials()?;
@@ -331,28 +500,9 @@ impl<'a> Loader<'a> {
         })
     }
 
-    /// Counts, for each extension irr ignores, the objects that use it.
-    fn count_extensions(&mut self, raw: &Value) {
-        fn walk(v: &Value, counts: &mut BTreeMap<String, usize>) {
-            match v {
-                Value::Object(map) => {
-                    for (key, value) in map {
-                        if key == "extensions"
-                            && let Value::Object(exts) = value
-                        {
-                            for name in exts.keys() {
-                                *counts.entry(name.clone()).or_default() += 1;
-                            }
-                        }
-                        walk(value, counts);
-                    }
-                }
-                Value::Array(items) => items.iter().for_each(|i| walk(i, counts)),
-                _ => {}
-            }
-        }
-        let mut counts = BTreeMap::new();
-        walk(raw, &mut counts);
+    /// Warns, for each extension irr ignores, of the objects that use it (`counts`, from
+    /// [`count_extensions`]).
+    fn count_extensions(&mut self, mut counts: BTreeMap<String, usize>) {
         // Extensions listed as used but never attached to an object still deserve a word.
         for name in self.document.extensions_used() {
             counts.entry(name.to_string()).or_insert(0);
@@ -441,23 +591,32 @@ impl<'a> Loader<'a> {
         });
     }
 
-    fn load_buffers(&self, blob: Option<&[u8]>) -> Result<Vec<Vec<u8>>, RenderError> {
+    /// The bytes of each buffer: the .glb's binary chunk, a `data:` URI's payload, or the first
+    /// `byteLength` bytes of a file inside the asset root. Charges what it reads to the budget's
+    /// input.
+    fn load_buffers(&mut self, mut blob: Option<Vec<u8>>) -> Result<Vec<Vec<u8>>, RenderError> {
         let mut out = Vec::new();
         for buffer in self.document.buffers() {
             let i = buffer.index();
+            let length = buffer.length();
             let data = match buffer.source() {
-                gltf::buffer::Source::Bin => blob.map(<[u8]>::to_vec).ok_or_else(|| {
+                gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
                     self.err(format!(
-                        "buffer {i} has no URI and the file has no binary chunk (a .glb's BIN)"
+                        "buffer {i} has no URI and the file has no binary chunk (a .glb's BIN), or a second buffer claims it"
                     ))
                 })?,
-                gltf::buffer::Source::Uri(uri) => self.read_uri(i, uri)?,
+                gltf::buffer::Source::Uri(uri) => {
+                    let data = self.read_uri(i, uri, length)?;
+                    self.budget.add_input(data.len() as u64);
+                    data
+                }
             };
-            if data.len() < buffer.length() {
+            if data.len() < length {
+                // A data: URI or the .glb's own chunk, both inside the scene file: naming its
+                // size reveals nothing of another file.
                 return Err(self.err(format!(
-                    "buffer {i} has {} bytes but its byteLength says {}",
-                    data.len(),
-                    buffer.length()
+                    "buffer {i} has {} bytes but its byteLength says {length}",
+                    data.len()
                 )));
             }
             out.push(data);
@@ -465,7 +624,7 @@ impl<'a> Loader<'a> {
         Ok(out)
     }
 
-    fn read_uri(&self, i: usize, uri: &str) -> Result<Vec<u8>, RenderError> {
+    fn read_uri(&self, i: usize, uri: &str, length: usize) -> Result<Vec<u8>, RenderError> {
         if let Some(decoded) = decode_data_uri(uri) {
             return decoded.map_err(|e| self.err(format!("buffer {i}: {e}")));
         }
@@ -482,14 +641,9 @@ impl<'a> Loader<'a> {
             }
         }
         let name = percent_decode(uri).map_err(|e| self.err(format!("buffer {i}: {e}")))?;
-        let folder = self.path.parent().unwrap_or(Path::new(""));
-        let file = folder.join(&name);
-        std::fs::read(&file).map_err(|e| {
-            self.err(format!(
-                "buffer {i}: URI \"{uri}\" points nowhere: cannot read {}: {e}",
-                file.display()
-            ))
-        })
+        self.confinement
+            .read(&name, length as u64)
+            .map_err(|e| self.err(format!("buffer {i}: URI \"{uri}\" {e}")))
     }
 
     /// The materials in file order, and the index the default material will get.
@@ -532,8 +686,9 @@ impl<'a> Loader<'a> {
         Ok((out, default))
     }
 
-    /// The nodes of the default scene in depth-first order, each with its world transform.
-    fn walk_nodes(&self) -> Result<Vec<(gltf::Node<'a>, Mat4)>, RenderError> {
+    /// The nodes of the default scene that hold a mesh or a camera, in depth-first order, each
+    /// with its world transform.
+    fn walk_nodes(&mut self) -> Result<Vec<(gltf::Node<'a>, Mat4)>, RenderError> {
         let d: &'a gltf::Document = self.document;
         let roots: Vec<gltf::Node<'a>> = match d.default_scene().or_else(|| d.scenes().next()) {
             Some(scene) => scene.nodes().collect(),
@@ -549,12 +704,21 @@ impl<'a> Loader<'a> {
             }
         };
         let mut visited = vec![false; d.nodes().len()];
+        // Only nodes with a mesh or a camera are kept: the others matter only through the
+        // transforms they pass on.
+        let kept = d
+            .nodes()
+            .filter(|n| n.mesh().is_some() || n.camera().is_some())
+            .count();
+        let mut out = self
+            .budget
+            .vec::<(gltf::Node<'a>, Mat4)>("the node hierarchy", kept)
+            .map_err(|e| self.err(e))?;
         let mut stack: Vec<(gltf::Node<'a>, Mat4)> = roots
             .into_iter()
             .rev()
             .map(|n| (n, Mat4::IDENTITY))
             .collect();
-        let mut out = Vec::new();
         while let Some((node, parent)) = stack.pop() {
             let i = node.index();
             if std::mem::replace(&mut visited[i], true) {
@@ -564,11 +728,14 @@ impl<'a> Loader<'a> {
                 )));
             }
             let world = parent * self.local_transform(&node)?;
-            let children: Vec<_> = node.children().collect();
-            for child in children.into_iter().rev() {
-                stack.push((child, world));
+            // Children in reverse, so the first child is visited first; the stack holds at most
+            // one entry per node, as `visited` guarantees.
+            let first = stack.len();
+            stack.extend(node.children().map(|child| (child, world)));
+            stack[first..].reverse();
+            if node.mesh().is_some() || node.camera().is_some() {
+                out.push((node, world));
             }
-            out.push((node, world));
         }
         Ok(out)
     }
@@ -683,24 +850,28 @@ impl<'a> Loader<'a> {
             &format!("{what} POSITION accessor {}", positions_accessor.index()),
             &positions_accessor,
             buffers,
+            &mut self.budget,
         )
         .map_err(|e| self.err(e))?;
-        let mut positions = Vec::with_capacity(local.len());
+        // Messages name the vertex, never its coordinates: they are bytes of a file.
+        let mut positions = self
+            .budget
+            .vec::<Vec3>(&format!("{what} POSITION"), local.len())
+            .map_err(|e| self.err(e))?;
         for (i, p) in local.iter().enumerate() {
             let p = Vec3::from_array(*p);
             if !p.is_finite() {
-                return Err(self.err(format!(
-                    "{what}: vertex {i} has a non-finite coordinate {p}"
-                )));
+                return Err(self.err(format!("{what}: vertex {i} has a non-finite coordinate")));
             }
             let w = world.transform_point3(p);
             if !w.is_finite() || w.abs().max_element() > MAX_COORDINATE {
                 return Err(self.err(format!(
-                    "{what}: vertex {i} lies at {w} m in the world, beyond ±{MAX_COORDINATE:e} m (irr's limit for finite ray arithmetic)"
+                    "{what}: vertex {i} lies beyond ±{MAX_COORDINATE:e} m in the world (irr's limit for finite ray arithmetic)"
                 )));
             }
             positions.push(w);
         }
+        drop(local);
         let n = positions.len();
         let indices: Vec<u32> = match primitive.indices() {
             Some(acc) => {
@@ -708,18 +879,38 @@ impl<'a> Loader<'a> {
                     &format!("{what} indices accessor {}", acc.index()),
                     &acc,
                     buffers,
+                    &mut self.budget,
                 )
                 .map_err(|e| self.err(e))?;
-                if let Some((k, &bad)) = idx.iter().enumerate().find(|&(_, &v)| v as usize >= n) {
+                // The message names the entry, not its value (bytes of a file).
+                if let Some(k) = idx.iter().position(|&v| v as usize >= n) {
                     return Err(self.err(format!(
-                        "{what}: index {bad} (entry {k}) is out of range: the primitive has {n} vertices"
+                        "{what}: index entry {k} is out of range: the primitive has {n} vertices"
                     )));
                 }
                 idx
             }
-            None => (0..n as u32).collect(),
+            None => {
+                let n32 = u32::try_from(n).map_err(|_| {
+                    self.err(format!(
+                        "{what} has {n} vertices and no indices; irr's triangle indices are 32-bit"
+                    ))
+                })?;
+                let mut idx = self
+                    .budget
+                    .vec::<u32>(&format!("{what} implicit indices"), n)
+                    .map_err(|e| self.err(e))?;
+                idx.extend(0..n32);
+                idx
+            }
         };
+        let triangle_count = triangle_count(mode, indices.len());
+        // Each triangle also gets a material id below.
+        self.budget
+            .charge::<([u32; 3], u32)>(&format!("{what} triangles"), triangle_count)
+            .map_err(|e| self.err(e))?;
         let (mut triangles, leftover) = assemble(mode, &indices);
+        drop(indices);
         if leftover > 0 {
             self.warnings.add("leftover-indices", leftover, |n| {
                 format!(
@@ -743,8 +934,12 @@ impl<'a> Loader<'a> {
                     &format!("{what} NORMAL accessor {}", acc.index()),
                     &acc,
                     buffers,
+                    &mut self.budget,
                 )
                 .map_err(|e| self.err(e))?;
+                self.budget
+                    .charge::<Vec3>(&format!("{what} NORMAL"), local.len())
+                    .map_err(|e| self.err(e))?;
                 if local.len() != n {
                     return Err(self.err(format!(
                         "{what}: NORMAL has {} elements but POSITION has {n}",
@@ -783,6 +978,15 @@ fn describe(index: usize, name: Option<&str>) -> String {
     match name {
         Some(n) => format!("{index} \"{}\"", one_line(n)),
         None => index.to_string(),
+    }
+}
+
+/// The number of triangles [`assemble`] makes from `indices` indices.
+fn triangle_count(mode: gltf::mesh::Mode, indices: usize) -> usize {
+    use gltf::mesh::Mode;
+    match mode {
+        Mode::TriangleStrip | Mode::TriangleFan => indices.saturating_sub(2),
+        _ => indices / 3,
     }
 }
 
@@ -1140,10 +1344,12 @@ mod tests {
         let i = g.indices(&[0, 1, 7], 5123);
         let prim = format!(r#"{{"attributes":{{"POSITION":{p}}},"indices":{i}}}"#);
         let e = load_err(&write(d.path(), "idx.gltf", one_mesh(&g, "", &prim)));
+        // The entry is named, not its value (bytes of a file are never echoed).
         assert!(
-            e.contains("idx.gltf") && e.contains("index 7") && e.contains("3 vertices"),
+            e.contains("idx.gltf") && e.contains("index entry 2") && e.contains("3 vertices"),
             "{e}"
         );
+        assert!(!e.contains("index 7"), "{e}");
 
         let mut g = Gltf::default();
         let p = g.vec3(&TRIANGLE);

@@ -9,11 +9,103 @@
 //! encoded with the sRGB transfer function (IEC 61966-2-1: `12.92·v` below 0.0031308, else
 //! `1.055·v^(1/2.4) − 0.055`), then rounded to 8 bits. The PNG carries an sRGB chunk. Non-finite
 //! values show as black.
+//!
+//! # Interruption
+//! A temporary file is deleted when its write fails or its handle is dropped, but a signal ends
+//! the process without running destructors. Every temporary output is therefore listed in a
+//! registry while it exists, and [`remove_partial_outputs_on_signals`] installs a SIGINT/SIGTERM
+//! (and Ctrl-C) handler that deletes the listed files before the process exits with status 130.
 
 use crate::error::{RenderError, one_line};
 use crate::image::Image as IrrImage;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard};
+
+/// The temporary output files that exist now, and whether a signal has asked for the exit.
+struct Pending {
+    paths: Vec<PathBuf>,
+    exiting: bool,
+}
+
+static PENDING: Mutex<Pending> = Mutex::new(Pending {
+    paths: Vec::new(),
+    exiting: false,
+});
+
+/// The registry, even if a thread panicked while holding it (its list stays meaningful).
+fn pending() -> MutexGuard<'static, Pending> {
+    PENDING
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// Deletes every temporary output file that a write in progress has created, and makes any
+/// later attempt to create one fail. Returns how many files it deleted. For signal handlers:
+/// call it, then exit.
+pub fn remove_partial_outputs() -> usize {
+    let mut p = pending();
+    p.exiting = true;
+    let paths = std::mem::take(&mut p.paths);
+    paths
+        .iter()
+        .filter(|path| std::fs::remove_file(path).is_ok())
+        .count()
+}
+
+/// Installs a handler for SIGINT, SIGTERM and SIGHUP (Ctrl-C on Windows) that deletes the
+/// temporary files of a write in progress ([`remove_partial_outputs`]) and exits with status
+/// 130. For programs (like `cargo xtask render`) that write renders; call it once.
+pub fn remove_partial_outputs_on_signals() -> Result<(), String> {
+    ctrlc::set_handler(|| {
+        remove_partial_outputs();
+        // Exit while the registry stays locked, so no new temporary file can appear.
+        let _held = pending();
+        std::process::exit(130);
+    })
+    .map_err(|e| format!("cannot install the signal handler: {e}"))
+}
+
+/// A temporary output file, listed in the registry for as long as it exists (fields drop in
+/// order: the file is deleted, then its entry removed).
+struct TempOutput {
+    file: tempfile::NamedTempFile,
+    _listed: Listed,
+}
+
+/// A path's entry in the registry, removed on drop.
+struct Listed(PathBuf);
+
+impl Drop for Listed {
+    fn drop(&mut self) {
+        pending().paths.retain(|q| *q != self.0);
+    }
+}
+
+impl TempOutput {
+    fn as_file(&self) -> &std::fs::File {
+        self.file.as_file()
+    }
+
+    /// Renames the file over `target`, then leaves the registry (on failure the temporary file
+    /// is deleted).
+    fn persist(self, target: &Path) -> Result<(), std::io::Error> {
+        let TempOutput { file, _listed } = self;
+        file.persist(target).map(drop).map_err(|e| e.error)
+    }
+}
+
+/// Checks the preview's exposure before any rendering: a finite number of stops.
+pub fn check_exposure(exposure: f32) -> Result<(), RenderError> {
+    if exposure.is_finite() {
+        Ok(())
+    } else {
+        Err(RenderError::Setting {
+            option: "--exposure",
+            problem: format!("must be a finite number of stops, got {exposure}"),
+        })
+    }
+}
 
 /// The PNG preview's path for an EXR path: the same folder and stem, extension `png`.
 pub fn png_path_for(exr_path: &Path) -> PathBuf {
@@ -60,7 +152,23 @@ pub fn check_output(exr_path: &Path) -> Result<(), RenderError> {
     temp_in(folder, exr_path).map(drop)
 }
 
-fn temp_in(folder: &Path, for_path: &Path) -> Result<tempfile::NamedTempFile, RenderError> {
+/// Creates a temporary file for `for_path` in `folder`, listed in the registry (created and
+/// listed under its lock, so a signal handler sees every file that exists).
+fn temp_in(folder: &Path, for_path: &Path) -> Result<TempOutput, RenderError> {
+    let mut p = pending();
+    if p.exiting {
+        return Err(RenderError::write(for_path, "the program is exiting"));
+    }
+    let file = new_temp(folder, for_path)?;
+    p.paths.push(file.path().to_path_buf());
+    let listed = Listed(file.path().to_path_buf());
+    Ok(TempOutput {
+        file,
+        _listed: listed,
+    })
+}
+
+fn new_temp(folder: &Path, for_path: &Path) -> Result<tempfile::NamedTempFile, RenderError> {
     let mut builder = tempfile::Builder::new();
     builder.prefix(".irr-").suffix(".tmp");
     // Temporary files are private (0600) by default; the output is an ordinary file, so ask
@@ -152,12 +260,7 @@ pub fn write_exr_and_png(
     if image.width() == 0 || image.height() == 0 {
         return Err(RenderError::write(exr_path, "the image is empty"));
     }
-    if !exposure.is_finite() {
-        return Err(RenderError::write(
-            exr_path,
-            format!("exposure {exposure} is not a finite number of stops"),
-        ));
-    }
+    check_exposure(exposure)?;
     let png_path = png_path_for(exr_path);
     let folder = folder_of(exr_path);
     let exr_tmp = temp_in(folder, exr_path)?;
@@ -170,10 +273,10 @@ pub fn write_exr_and_png(
         .map_err(|e| RenderError::write(&png_path, e))?;
     png_tmp
         .persist(&png_path)
-        .map_err(|e| RenderError::write(&png_path, e.error))?;
+        .map_err(|e| RenderError::write(&png_path, e))?;
     exr_tmp
         .persist(exr_path)
-        .map_err(|e| RenderError::write(exr_path, e.error))?;
+        .map_err(|e| RenderError::write(exr_path, e))?;
     Ok((exr_path.to_path_buf(), png_path))
 }
 
