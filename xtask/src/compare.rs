@@ -58,6 +58,10 @@ pub struct CompareArgs {
     /// More irradiance-cache settings to run, as KAPPA:MxN[:cached], comma-separated
     #[arg(long, value_delimiter = ',')]
     pub extra: Vec<String>,
+    /// Also copy the report, plot, heat maps and crops to docs/compare/<scene>/ (what the README
+    /// shows)
+    #[arg(long)]
+    pub publish: bool,
 }
 
 /// The errors of an image against a reference, over pixels and channels.
@@ -613,6 +617,29 @@ pub struct Report {
 /// Runs `cargo xtask compare`.
 pub fn run(args: CompareArgs, root: &Path) -> Result<(), String> {
     let report = compare(&args, root)?;
+    if args.publish {
+        let stem = report
+            .folder
+            .file_name()
+            .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
+        let dest = root.join("docs").join("compare").join(stem);
+        std::fs::create_dir_all(&dest).map_err(|e| format!("{}: {e}", dest.display()))?;
+        for file in [
+            "report.md",
+            "runs.csv",
+            "plot.svg",
+            "heat-ic.png",
+            "heat-path.png",
+            "crops.png",
+        ] {
+            let from = report.folder.join(file);
+            if from.exists() {
+                std::fs::copy(&from, dest.join(file))
+                    .map_err(|e| format!("{}: {e}", dest.join(file).display()))?;
+            }
+        }
+        println!("published to {}", dest.display());
+    }
     println!(
         "{} runs; reference noise {:.2e}, one cache image's noise {:.2e}; wrote {} (report.md, runs.csv, plot.svg, heat maps, crops)",
         report.runs.len(),
@@ -965,6 +992,7 @@ mod tests {
             direct_samples: 1,
             only: None,
             extra: Vec::new(),
+            publish: false,
         };
         let report = compare(&args, root.path()).unwrap_or_else(|e| panic!("{e}"));
         for file in [
