@@ -1,6 +1,7 @@
 //! The numbers at the extremes: the same scene in other units or far from the origin renders the
 //! same image, and degenerate geometry makes no NaN.
 
+use crate::support::rel_mse;
 use glam::Vec3;
 use irr_geometry::{Geometry, TriangleMesh};
 use irr_integrator::{Integrator, Scene};
@@ -35,17 +36,6 @@ fn cornell_mapped(s: f32, t: Vec3) -> (Scene, Camera) {
         ..c
     };
     (scene, camera)
-}
-
-fn rel_mse(a: &Image, b: &Image) -> f64 {
-    let mut sum = 0.0;
-    for (x, r) in a.pixels().iter().zip(b.pixels()) {
-        for c in 0..3 {
-            let (x, r) = (f64::from(x[c]), f64::from(r[c]));
-            sum += (x - r).powi(2) / (r * r + 0.01);
-        }
-    }
-    sum / (a.pixels().len() * 3) as f64
 }
 
 fn ic_render(scene: &Scene, camera: &Camera, settings: &RenderSettings) -> Image {

@@ -2,6 +2,7 @@
 //! no light through a thin wall, no halo at a contact, and consistency (the error falls as the
 //! settings tighten, towards the path tracer's image).
 
+use crate::support::rel_mse;
 use glam::Vec3;
 use irr_geometry::{Geometry, TriangleMesh};
 use irr_integrator::{Integrator, Material, Scene};
@@ -103,72 +104,35 @@ fn quad(corners: [Vec3; 4], material: u32, normal_hint: Vec3) -> TriangleMesh {
     }
 }
 
-/// An axis-aligned box [lo, hi] as six quads facing out.
+/// An axis-aligned box [lo, hi] as six quads facing out: for each axis, the face at lo and the
+/// face at hi, their corners in order around the face.
 fn cuboid(lo: Vec3, hi: Vec3, material: u32) -> Vec<TriangleMesh> {
-    let c = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
-    let (a, b) = (lo, hi);
-    vec![
-        quad(
-            [
-                c(a.x, a.y, a.z),
-                c(b.x, a.y, a.z),
-                c(b.x, a.y, b.z),
-                c(a.x, a.y, b.z),
-            ],
-            material,
-            -Vec3::Y,
-        ),
-        quad(
-            [
-                c(a.x, b.y, a.z),
-                c(b.x, b.y, a.z),
-                c(b.x, b.y, b.z),
-                c(a.x, b.y, b.z),
-            ],
-            material,
-            Vec3::Y,
-        ),
-        quad(
-            [
-                c(a.x, a.y, a.z),
-                c(a.x, b.y, a.z),
-                c(a.x, b.y, b.z),
-                c(a.x, a.y, b.z),
-            ],
-            material,
-            -Vec3::X,
-        ),
-        quad(
-            [
-                c(b.x, a.y, a.z),
-                c(b.x, b.y, a.z),
-                c(b.x, b.y, b.z),
-                c(b.x, a.y, b.z),
-            ],
-            material,
-            Vec3::X,
-        ),
-        quad(
-            [
-                c(a.x, a.y, a.z),
-                c(b.x, a.y, a.z),
-                c(b.x, b.y, a.z),
-                c(a.x, b.y, a.z),
-            ],
-            material,
-            -Vec3::Z,
-        ),
-        quad(
-            [
-                c(a.x, a.y, b.z),
-                c(b.x, a.y, b.z),
-                c(b.x, b.y, b.z),
-                c(a.x, b.y, b.z),
-            ],
-            material,
-            Vec3::Z,
-        ),
-    ]
+    let mut faces = Vec::with_capacity(6);
+    for axis in 0..3 {
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        for side in [false, true] {
+            let at = |a: bool, b: bool| {
+                let mut c = lo;
+                for (k, on) in [(axis, side), (u, a), (v, b)] {
+                    c[k] = if on { hi[k] } else { lo[k] };
+                }
+                c
+            };
+            let mut outward = Vec3::ZERO;
+            outward[axis] = if side { 1.0 } else { -1.0 };
+            faces.push(quad(
+                [
+                    at(false, false),
+                    at(true, false),
+                    at(true, true),
+                    at(false, true),
+                ],
+                material,
+                outward,
+            ));
+        }
+    }
+    faces
 }
 
 /// Two rooms of 2 m × 2 m, 1 m high, open at the top to a black void, side by side along x and
@@ -455,17 +419,6 @@ impl Integrator for Indirect<'_> {
             _ => Vec3::ZERO,
         }
     }
-}
-
-fn rel_mse(a: &Image, b: &Image) -> f64 {
-    let mut sum = 0.0;
-    for (x, r) in a.pixels().iter().zip(b.pixels()) {
-        for c in 0..3 {
-            let (x, r) = (f64::from(x[c]), f64::from(r[c]));
-            sum += (x - r).powi(2) / (r * r + 0.01);
-        }
-    }
-    sum / (a.pixels().len() * 3) as f64
 }
 
 fn mean_bias(a: &Image, b: &Image) -> f64 {

@@ -10,3 +10,4 @@ mod ic;
 mod render;
 mod sampling;
 mod signals;
+mod support;

@@ -485,6 +485,31 @@ pub trait CacheBuilder: Integrator + Send {
     fn records_for_display(&self) -> Vec<(Vec3, Vec3, f32)>;
 }
 
+/// The parts of [`CacheBuilder`] both cached integrators share, forwarded to their `core`.
+macro_rules! forward_to_core {
+    () => {
+        fn select(&self, probes: Vec<Probe>) -> Vec<Probe> {
+            self.core.select(probes)
+        }
+
+        fn commit(&mut self, scene: &Scene, candidates: Vec<Candidate>) -> CommitStats {
+            self.core.commit(scene, candidates)
+        }
+
+        fn record_counts(&self) -> Vec<usize> {
+            self.core.levels.iter().map(|l| l.cache.len()).collect()
+        }
+
+        fn fallback_gathers(&self) -> u64 {
+            self.core.fallbacks.load(Ordering::Relaxed)
+        }
+
+        fn records_for_display(&self) -> Vec<(Vec3, Vec3, f32)> {
+            display(&self.core)
+        }
+    };
+}
+
 /// The shared machinery of both cached integrators: levels, gathers, the leak guard.
 #[derive(Debug)]
 struct Core<V: IcValue> {
@@ -672,6 +697,25 @@ impl<V: IcValue> Core<V> {
             neighbour_clamping: self.settings.neighbour_clamping,
         };
         (record, inputs, samples.min_distance())
+    }
+
+    /// The candidate of `probe` from its gather.
+    fn candidate(
+        &self,
+        probe: &Probe,
+        samples: &GatherSamples<V::Gathered>,
+        frame: &Frame,
+        rays: RayCounter,
+    ) -> Candidate {
+        let (record, inputs, occluder) =
+            self.record_from(probe.level, &probe.x, samples, frame, probe.spacing);
+        Candidate {
+            level: probe.level,
+            record: to_rgb_record(&record),
+            inputs,
+            occluder,
+            rays,
+        }
     }
 
     /// Follows `level` cosine bounces from the camera ray's first hit; the shading point there
@@ -1115,10 +1159,6 @@ impl CacheBuilder for IrradianceCacheIntegrator {
         self.core.probe(scene, level, ray, spread, key, rays)
     }
 
-    fn select(&self, probes: Vec<Probe>) -> Vec<Probe> {
-        self.core.select(probes)
-    }
-
     fn complete(&self, scene: &Scene, probe: &Probe, rays: &mut RayCounter) -> Option<Candidate> {
         let li = probe.level as usize;
         let mut spent = RayCounter::default();
@@ -1131,33 +1171,10 @@ impl CacheBuilder for IrradianceCacheIntegrator {
             |hit, w, k, r| self.gather_radiance(scene, li, hit, w, k, r),
         )?;
         *rays += spent;
-        let (record, inputs, occluder) =
-            self.core
-                .record_from(probe.level, &probe.x, &samples, &frame, probe.spacing);
-        Some(Candidate {
-            level: probe.level,
-            record,
-            inputs,
-            occluder,
-            rays: spent,
-        })
+        Some(self.core.candidate(probe, &samples, &frame, spent))
     }
 
-    fn commit(&mut self, scene: &Scene, candidates: Vec<Candidate>) -> CommitStats {
-        self.core.commit(scene, candidates)
-    }
-
-    fn record_counts(&self) -> Vec<usize> {
-        self.core.levels.iter().map(|l| l.cache.len()).collect()
-    }
-
-    fn fallback_gathers(&self) -> u64 {
-        self.core.fallbacks.load(Ordering::Relaxed)
-    }
-
-    fn records_for_display(&self) -> Vec<(Vec3, Vec3, f32)> {
-        display(&self.core)
-    }
+    forward_to_core!();
 }
 
 fn display<V: IcValue>(core: &Core<V>) -> Vec<(Vec3, Vec3, f32)> {
@@ -1272,43 +1289,16 @@ impl CacheBuilder for CachedAmbientOcclusion {
         self.core.probe(scene, 0, ray, spread, key, rays)
     }
 
-    fn select(&self, probes: Vec<Probe>) -> Vec<Probe> {
-        self.core.select(probes)
-    }
-
     fn complete(&self, scene: &Scene, probe: &Probe, rays: &mut RayCounter) -> Option<Candidate> {
         let mut spent = RayCounter::default();
         let strata = self.core.levels.first()?.strata;
         let (samples, frame) =
             self.occlusion_gather(scene, strata, &probe.x, probe.key, &mut spent)?;
         *rays += spent;
-        let (record, inputs, occluder) =
-            self.core
-                .record_from(0, &probe.x, &samples, &frame, probe.spacing);
-        Some(Candidate {
-            level: 0,
-            record: to_rgb_record(&record),
-            inputs,
-            occluder,
-            rays: spent,
-        })
+        Some(self.core.candidate(probe, &samples, &frame, spent))
     }
 
-    fn commit(&mut self, scene: &Scene, candidates: Vec<Candidate>) -> CommitStats {
-        self.core.commit(scene, candidates)
-    }
-
-    fn record_counts(&self) -> Vec<usize> {
-        vec![self.core.levels.first().map_or(0, |l| l.cache.len())]
-    }
-
-    fn fallback_gathers(&self) -> u64 {
-        self.core.fallbacks.load(Ordering::Relaxed)
-    }
-
-    fn records_for_display(&self) -> Vec<(Vec3, Vec3, f32)> {
-        display(&self.core)
-    }
+    forward_to_core!();
 }
 
 #[cfg(test)]
