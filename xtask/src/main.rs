@@ -1,8 +1,9 @@
 //! irr's developer commands, run as `cargo xtask <command>` (the alias in `.cargo/config.toml`
 //! builds this crate in release mode).
 //!
-//! - `cargo xtask render`: renders a glTF scene (by default the Cornell box in assets/) to
-//!   `out/<scene>.exr` plus a PNG preview; `cargo xtask render --help` lists the options.
+//! - `cargo xtask render`: the `irr` command (crates/irr-cli) on a glTF scene, by default the
+//!   Cornell box in assets/, to `out/<scene>.exr` plus a PNG preview; `cargo xtask render --help`
+//!   lists the options.
 //! - `cargo xtask compare`: the irradiance cache against the path tracer (speed and error) on a
 //!   scene; the report goes to target/compare/<scene>/.
 //! - `cargo xtask tidy`: checks the codebase's own rules (also run by `cargo test` through the
@@ -29,7 +30,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a glTF scene to OpenEXR (linear radiance) and a PNG preview.
-    Render(render::RenderArgs),
+    Render(render::RenderCommand),
     /// Measure the irradiance cache's speed and error against the path tracer.
     Compare(compare::CompareArgs),
     /// Check the codebase's own rules: crate docs, and the one-way dependency table.

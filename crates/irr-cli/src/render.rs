@@ -1,0 +1,514 @@
+//! The render command shared by `irr` and `cargo xtask render`: a thin command-line layer over
+//! irr-render's library functions.
+//!
+//! Order of work: check the settings and that the output can be written (fail fast, before any
+//! rendering), load the scene and print its warnings, render with a progress bar, print the
+//! summary, write EXR + PNG (temporary files renamed into place).
+
+use clap::{Args, ValueEnum};
+use irr_render::{
+    AmbientOcclusion, AoSettings, BounceMode, CacheBuilder, CachedAmbientOcclusion, GradientMode,
+    IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard, LoadOptions, MetricKind,
+    PathSettings, PathTracer, RenderSettings, build_cache, check_exposure, check_output,
+    fingerprint, load_scene_with, mark_records, mean_of_samples, pixel_samples, read_cache_file,
+    remove_partial_outputs_on_signals, render, write_cache_file, write_exr_and_png,
+};
+use std::path::{Path, PathBuf};
+
+/// Which integrator estimates the radiance.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum IntegratorChoice {
+    /// The irradiance cache: emission + direct light (NEE) + indirect light interpolated from
+    /// sparse hemisphere gathers. The default.
+    Ic,
+    /// The unbiased path tracer (next-event estimation, Russian roulette): the reference.
+    Path,
+    /// Ambient occlusion (cosine-weighted, unbounded distance): grey, no emitters needed.
+    Ao,
+    /// Ambient occlusion through the irradiance cache (scalar records).
+    IcAo,
+}
+
+/// The cache's error metric.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MetricChoice {
+    /// Tabellion & Lamorlette 2004: --error is κ (larger is stricter)
+    TabellionLamorlette,
+    /// Ward et al. 1988: --error is a (smaller is stricter)
+    Ward,
+}
+
+/// The records' translation gradient.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum GradientChoice {
+    /// No gradients
+    Off,
+    /// Ward & Heckbert 1992
+    WardHeckbert,
+    /// Křivánek et al. 2005
+    KrivanekGautron,
+}
+
+/// What a gather ray brings back beyond the direct light at its hit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BounceChoice {
+    /// A path-traced continuation (unbiased)
+    PathTraced,
+    /// The next bounce level's cache (Radiance's -ab)
+    Cached,
+}
+
+/// Options of the irradiance-cache integrators (`ic`, `ic-ao`); defaults from `IcSettings`.
+#[derive(Args, Debug, Clone)]
+pub struct IcArgs {
+    /// The error metric
+    #[arg(long, value_enum, default_value_t = MetricChoice::TabellionLamorlette)]
+    pub metric: MetricChoice,
+    /// The error parameter: κ for tabellion-lamorlette (> 0, larger is stricter), a for ward
+    /// (> 0, smaller is stricter)
+    #[arg(long, default_value_t = IcSettings::default().error, allow_negative_numbers = true)]
+    pub error: f32,
+    /// Hemisphere strata M×N of a gather (M along θ, N along φ)
+    #[arg(long, value_name = "MxN", default_value = "12x48", value_parser = parse_strata)]
+    pub strata: (u32, u32),
+    /// Record radius limits in pixels, MIN,MAX (the metric's distance scale on screen)
+    #[arg(long, value_name = "MIN,MAX", default_value = "1.5,10", value_parser = parse_pair)]
+    pub pixel_spacing: (f32, f32),
+    /// Largest record radius, as a fraction of the scene's bounding-box diagonal
+    #[arg(long, default_value_t = IcSettings::default().world_max, allow_negative_numbers = true)]
+    pub world_max: f32,
+    /// Smallest record radius, as a fraction of the scene's bounding-box diagonal
+    #[arg(long, default_value_t = IcSettings::default().world_min, allow_negative_numbers = true)]
+    pub world_min: f32,
+    /// The records' translation gradient
+    #[arg(long, value_enum, default_value_t = GradientChoice::WardHeckbert)]
+    pub gradients: GradientChoice,
+    /// Turn neighbour clamping (Křivánek et al. 2006) off
+    #[arg(long)]
+    pub no_neighbour_clamping: bool,
+    /// Turn the leak guard (a visibility test between query and record) off
+    #[arg(long)]
+    pub no_leak_guard: bool,
+    /// What a gather ray brings back beyond the direct light at its hit
+    #[arg(long, value_enum, default_value_t = BounceChoice::PathTraced)]
+    pub bounce_mode: BounceChoice,
+    /// With --bounce-mode cached: cache levels below the first (1 to 8)
+    #[arg(long, default_value_t = IcSettings::default().cached_bounces)]
+    pub bounces: u32,
+    /// Light samples per camera hit for the direct light (≥ 1)
+    #[arg(long, default_value_t = IcSettings::default().direct_samples)]
+    pub direct_samples: u32,
+    /// Also build records at every camera sample's own hit, not only at pixel centres (the final
+    /// pass then almost never gathers for itself)
+    #[arg(long)]
+    pub fill_samples: bool,
+    /// Write a second image, <out stem>-records.exr/.png, with every record marked
+    #[arg(long)]
+    pub show_records: bool,
+    /// A persistent cache (--integrator ic): read the records from FILE if it exists (it must
+    /// have been written for the same scene, camera, image size and cache settings), and write
+    /// them there after the render
+    #[arg(long, value_name = "FILE")]
+    pub cache: Option<PathBuf>,
+}
+
+impl IcArgs {
+    /// The settings, checked (an error names the option).
+    pub fn settings(&self, max_depth: u32) -> Result<IcSettings, String> {
+        let s = IcSettings {
+            metric: match self.metric {
+                MetricChoice::TabellionLamorlette => MetricKind::TabellionLamorlette,
+                MetricChoice::Ward => MetricKind::Ward,
+            },
+            error: self.error,
+            strata_m: self.strata.0,
+            strata_n: self.strata.1,
+            pixel_min: self.pixel_spacing.0,
+            pixel_max: self.pixel_spacing.1,
+            world_max: self.world_max,
+            world_min: self.world_min,
+            gradients: match self.gradients {
+                GradientChoice::Off => GradientMode::Off,
+                GradientChoice::WardHeckbert => GradientMode::WardHeckbert,
+                GradientChoice::KrivanekGautron => GradientMode::KrivanekGautron,
+            },
+            neighbour_clamping: !self.no_neighbour_clamping,
+            leak_guard: if self.no_leak_guard {
+                LeakGuard::Off
+            } else {
+                LeakGuard::Visibility
+            },
+            bounce_mode: match self.bounce_mode {
+                BounceChoice::PathTraced => BounceMode::PathTraced,
+                BounceChoice::Cached => BounceMode::Cached,
+            },
+            cached_bounces: self.bounces,
+            direct_samples: self.direct_samples,
+            fill_samples: self.fill_samples,
+            path: PathSettings {
+                max_depth,
+                ..PathSettings::default()
+            },
+            ..IcSettings::default()
+        };
+        s.validate().map_err(|e| e.to_string())?;
+        Ok(s)
+    }
+}
+
+fn parse_strata(text: &str) -> Result<(u32, u32), String> {
+    let (m, n) = text
+        .split_once(['x', '×'])
+        .ok_or_else(|| format!("expected MxN, e.g. 16x64, got '{text}'"))?;
+    let parse = |s: &str| {
+        s.trim()
+            .parse::<u32>()
+            .map_err(|e| format!("'{s}' in '{text}': {e}"))
+    };
+    Ok((parse(m)?, parse(n)?))
+}
+
+fn parse_pair(text: &str) -> Result<(f32, f32), String> {
+    let (a, b) = text
+        .split_once(',')
+        .ok_or_else(|| format!("expected MIN,MAX, got '{text}'"))?;
+    let parse = |s: &str| {
+        s.trim()
+            .parse::<f32>()
+            .map_err(|e| format!("'{s}' in '{text}': {e}"))
+    };
+    Ok((parse(a)?, parse(b)?))
+}
+
+/// Render a glTF scene to OpenEXR (linear radiance) and a PNG preview beside it.
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// The integrator
+    #[arg(long, value_enum, default_value_t = IntegratorChoice::Ic)]
+    pub integrator: IntegratorChoice,
+    /// Samples per pixel (≥ 1) [default: 256 for path and ao, 64 for ic and ic-ao: camera
+    /// samples for anti-aliasing and direct light; the cache makes the indirect light smooth]
+    #[arg(long, allow_negative_numbers = true)]
+    pub spp: Option<i64>,
+    /// Image width in pixels (1 to 16384)
+    #[arg(long, default_value_t = RenderSettings::default().width.into(), allow_negative_numbers = true)]
+    pub width: i64,
+    /// Image height in pixels (1 to 16384)
+    #[arg(long, default_value_t = RenderSettings::default().height.into(), allow_negative_numbers = true)]
+    pub height: i64,
+    /// Worker threads; 0 means one per core
+    #[arg(long, default_value_t = RenderSettings::default().threads as i64, allow_negative_numbers = true)]
+    pub threads: i64,
+    /// Seed of every random number (same seed, same image, bit for bit, for any thread count)
+    #[arg(long, default_value_t = RenderSettings::default().seed, allow_negative_numbers = true)]
+    pub seed: u64,
+    /// Maximum number of bounces of the path tracer (0: emitters seen directly only)
+    #[arg(long, default_value_t = PathSettings::default().max_depth)]
+    pub max_depth: u32,
+    /// Exposure of the PNG preview in stops: radiance × 2^exposure, clipped to [0, 1], sRGB
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub exposure: f32,
+    /// The folder whose files the scene's buffer URIs may read (after resolving `..` and
+    /// symbolic links) [default: the scene file's folder]
+    #[arg(long, value_name = "DIR")]
+    pub asset_root: Option<PathBuf>,
+    /// Render only pixel X,Y (0,0 is the top-left) and print each sample's radiance; writes
+    /// nothing
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
+    pub debug_pixel: Option<(u32, u32)>,
+    /// The irradiance cache's options
+    #[command(flatten)]
+    pub ic: IcArgs,
+}
+
+/// The default samples per pixel of `choice`.
+pub fn default_spp(choice: IntegratorChoice) -> i64 {
+    match choice {
+        IntegratorChoice::Path | IntegratorChoice::Ao => RenderSettings::default().spp.into(),
+        IntegratorChoice::Ic | IntegratorChoice::IcAo => IC_DEFAULT_SPP,
+    }
+}
+
+/// The largest persistent cache file read (10⁸ records of 120 bytes would be 12 GB; a cache
+/// file beyond 4 GiB is refused rather than read).
+pub const MAX_CACHE_FILE_BYTES: u64 = 4 << 30;
+
+/// Camera samples per pixel of the irradiance cache by default (see `default_spp`).
+pub const IC_DEFAULT_SPP: i64 = 64;
+
+fn parse_pixel(text: &str) -> Result<(u32, u32), String> {
+    let (x, y) = text
+        .split_once(',')
+        .ok_or_else(|| format!("expected X,Y, got '{text}'"))?;
+    let parse = |s: &str| {
+        s.trim()
+            .parse::<u32>()
+            .map_err(|e| format!("'{s}' in '{text}': {e}"))
+    };
+    Ok((parse(x)?, parse(y)?))
+}
+
+/// Renders `scene_path` to `out` (OpenEXR, with the PNG preview beside it); the error is one
+/// line naming the file or option and the problem.
+pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String> {
+    let spp = args.spp.unwrap_or_else(|| default_spp(args.integrator));
+    let settings =
+        RenderSettings::from_options(args.width, args.height, spp, args.seed, args.threads)
+            .map_err(|e| e.to_string())?;
+    check_exposure(args.exposure).map_err(|e| e.to_string())?;
+    let ic_settings = match args.integrator {
+        IntegratorChoice::Ic | IntegratorChoice::IcAo => Some(args.ic.settings(args.max_depth)?),
+        _ => None,
+    };
+    let scene_path = scene_path.to_path_buf();
+    let out = out.to_path_buf();
+    if args.debug_pixel.is_none() {
+        // Before spending minutes: is there somewhere to put the result?
+        check_output(&out).map_err(|e| e.to_string())?;
+    }
+    let options = LoadOptions {
+        asset_root: args.asset_root.clone(),
+    };
+    let loaded = {
+        // The BVH build of a large (or badly shaped) scene can take a while: say so.
+        let spinner = indicatif::ProgressBar::new_spinner();
+        spinner.set_message(format!(
+            "loading {} and building its BVH",
+            scene_path.display()
+        ));
+        spinner.enable_steady_tick(std::time::Duration::from_millis(100));
+        let started = std::time::Instant::now();
+        let loaded = load_scene_with(&scene_path, &options);
+        spinner.finish_and_clear();
+        if started.elapsed().as_secs_f64() > 1.0 {
+            eprintln!(
+                "loaded {} and built its BVH in {:.1} s",
+                scene_path.display(),
+                started.elapsed().as_secs_f64()
+            );
+        }
+        loaded.map_err(|e| e.to_string())?
+    };
+    for w in &loaded.warnings {
+        eprintln!("warning: {w}");
+    }
+    if let Some(note) = loaded.aspect_note(settings.width, settings.height) {
+        eprintln!("warning: {note}");
+    }
+    if loaded.camera.is_none() {
+        eprintln!(
+            "note: {} has no camera: irr frames the scene's bounds from +Z with a 45° vertical field of view",
+            scene_path.display()
+        );
+    }
+    let camera = loaded.camera_for(settings.width, settings.height);
+    if args.ic.cache.is_some() && args.integrator != IntegratorChoice::Ic {
+        return Err("--cache: a persistent cache works with --integrator ic only".into());
+    }
+    // What a persistent cache must match: the scene file's bytes, the image, the camera and
+    // the cache's settings (their Debug text: every field, floats to the last bit).
+    let cache_fingerprint = match (&args.ic.cache, ic_settings) {
+        (Some(_), Some(s)) => {
+            let scene_bytes = std::fs::read(&scene_path)
+                .map_err(|e| format!("{}: cannot read: {e}", scene_path.display()))?;
+            let camera_text = format!("{camera:?} {}x{}", settings.width, settings.height);
+            let settings_text = format!("{s:?}");
+            Some(fingerprint(&[
+                &scene_bytes,
+                camera_text.as_bytes(),
+                settings_text.as_bytes(),
+            ]))
+        }
+        _ => None,
+    };
+    let mut ic_integrator = match (args.integrator, ic_settings) {
+        (IntegratorChoice::Ic, Some(s)) => {
+            let mut ic = IrradianceCacheIntegrator::new(s).map_err(|e| e.to_string())?;
+            if let (Some(path), Some(fp)) = (&args.ic.cache, cache_fingerprint)
+                && path.exists()
+            {
+                let metric = s.metric_at(0).map_err(|e| e.to_string())?;
+                let (cache, occluders) = read_cache_file(path, fp, metric, MAX_CACHE_FILE_BYTES)
+                    .map_err(|e| e.to_string())?;
+                eprintln!("read {} records from {}", cache.len(), path.display());
+                ic.load_records(cache, occluders)
+                    .map_err(|e| e.to_string())?;
+            }
+            Some(ic)
+        }
+        _ => None,
+    };
+    let mut ao_integrator = match (args.integrator, ic_settings) {
+        (IntegratorChoice::IcAo, Some(s)) => Some(
+            CachedAmbientOcclusion::new(s, AoSettings::default().max_distance)
+                .map_err(|e| e.to_string())?,
+        ),
+        _ => None,
+    };
+    let mut plain: Box<dyn Integrator> = match args.integrator {
+        IntegratorChoice::Ao => Box::new(AmbientOcclusion::new(AoSettings::default())),
+        _ => Box::new(PathTracer::new(PathSettings {
+            max_depth: args.max_depth,
+            ..PathSettings::default()
+        })),
+    };
+    plain.preprocess(&loaded.scene);
+    let mut builder: Option<&mut dyn CacheBuilder> = match (&mut ic_integrator, &mut ao_integrator)
+    {
+        (Some(ic), _) => Some(ic),
+        (_, Some(ao)) => Some(ao),
+        _ => None,
+    };
+    if let Some(b) = builder.as_deref_mut() {
+        b.preprocess(&loaded.scene);
+        let stats = build_cache(
+            &loaded.scene,
+            &camera,
+            b,
+            &settings,
+            ic_settings.is_some_and(|s| s.fill_samples),
+            args.debug_pixel.is_none(),
+        )
+        .map_err(|e| e.to_string())?;
+        eprintln!("{}", stats.summary());
+    }
+    let builder: Option<&dyn CacheBuilder> = builder.map(|b| &*b);
+    let integrator: &dyn Integrator = match builder {
+        Some(b) => b,
+        None => &*plain,
+    };
+
+    if let Some((x, y)) = args.debug_pixel {
+        let samples = pixel_samples(&loaded.scene, &camera, integrator, &settings, x, y)
+            .map_err(|e| e.to_string())?;
+        for (i, l) in samples.iter().enumerate() {
+            println!("sample {i}: {} {} {}", l.x, l.y, l.z);
+        }
+        let mean = mean_of_samples(&samples);
+        println!(
+            "pixel ({x}, {y}), seed {}, {} samples: mean {} {} {}",
+            settings.seed, settings.spp, mean.x, mean.y, mean.z
+        );
+        return Ok(());
+    }
+
+    // From here on temporary output files may exist: delete them if the user interrupts.
+    remove_partial_outputs_on_signals()?;
+    let output =
+        render(&loaded.scene, &camera, integrator, &settings, true).map_err(|e| e.to_string())?;
+    eprintln!("{}", output.stats.summary());
+    let mean = output.image.mean();
+    eprintln!("image mean radiance: {} {} {}", mean.x, mean.y, mean.z);
+    if let Some(b) = builder {
+        let misses = b.fallback_gathers();
+        let samples =
+            u64::from(settings.width) * u64::from(settings.height) * u64::from(settings.spp);
+        eprintln!(
+            "cache queries: {:.2} % of camera samples found no record and gathered for themselves ({misses})",
+            100.0 * misses as f64 / samples.max(1) as f64
+        );
+    }
+    if output.stats.non_finite_samples > 0 {
+        eprintln!(
+            "warning: {} samples were NaN or infinite and counted as black; replay one with --debug-pixel",
+            output.stats.non_finite_samples
+        );
+    }
+    let (exr, png) =
+        write_exr_and_png(&output.image, &out, args.exposure).map_err(|e| e.to_string())?;
+    println!("wrote {} and {}", exr.display(), png.display());
+    if let (true, Some(b)) = (args.ic.show_records, builder) {
+        let view = mark_records(&output.image, &camera, &b.records_for_display());
+        let stem = out
+            .file_stem()
+            .map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
+        let path = out.with_file_name(format!("{stem}-records.exr"));
+        let (exr, png) =
+            write_exr_and_png(&view, &path, args.exposure).map_err(|e| e.to_string())?;
+        println!(
+            "wrote {} and {} (records marked)",
+            exr.display(),
+            png.display()
+        );
+    }
+    if let (Some(path), Some(fp), Some(ic)) = (&args.ic.cache, cache_fingerprint, &ic_integrator) {
+        write_cache_file(path, fp, ic).map_err(|e| e.to_string())?;
+        println!("wrote the cache's records to {}", path.display());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: RenderArgs,
+    }
+
+    #[test]
+    fn defaults_and_negative_numbers_parse() {
+        let cli = Cli::try_parse_from(["render"]).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            (cli.args.width, cli.args.height, cli.args.spp),
+            (256, 256, None)
+        );
+        assert_eq!(cli.args.integrator, IntegratorChoice::Ic);
+        assert_eq!(default_spp(IntegratorChoice::Path), 256);
+        assert_eq!(
+            cli.args.ic.settings(cli.args.max_depth),
+            Ok(IcSettings::default())
+        );
+        // Negative sizes reach the library's range check, which names the option.
+        let cli = Cli::try_parse_from(["render", "--width", "-5", "--debug-pixel", "3,4"])
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(cli.args.debug_pixel, Some((3, 4)));
+        let e = run(
+            cli.args,
+            Path::new("/nonexistent/scene.gltf"),
+            Path::new("/nonexistent/out.exr"),
+        )
+        .err()
+        .unwrap_or_default();
+        assert_eq!(e, "--width: must be between 1 and 16384, got -5");
+    }
+
+    /// Issue 12, item 7: a bad exposure or seed is refused before anything is loaded or
+    /// rendered, naming the option.
+    #[test]
+    fn bad_exposure_and_seed_are_refused_up_front() {
+        for exposure in ["NaN", "inf", "-inf"] {
+            let option = format!("--exposure={exposure}");
+            let cli = Cli::try_parse_from(["render", &option]).unwrap_or_else(|e| panic!("{e}"));
+            // The scene does not exist: an error about it would mean the exposure was not
+            // checked first.
+            let e = run(
+                cli.args,
+                Path::new("/nowhere/scene.gltf"),
+                Path::new("/nowhere/out.exr"),
+            )
+            .err()
+            .unwrap_or_default();
+            assert!(
+                e.starts_with("--exposure: must be a finite number of stops"),
+                "{exposure}: {e}"
+            );
+        }
+        let e = Cli::try_parse_from(["render", "--seed", "-1"])
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("'-1'") && e.contains("--seed"), "{e}");
+        assert!(!e.contains("unexpected argument"), "{e}");
+    }
+
+    #[test]
+    fn bad_pixels_are_refused() {
+        assert!(parse_pixel("3").is_err());
+        assert!(parse_pixel("3,-1").is_err());
+        assert_eq!(parse_pixel(" 3, 4"), Ok((3, 4)));
+    }
+}
