@@ -10,6 +10,10 @@
 //!   documents exactly which light paths each carries, so the irradiance cache can replace the
 //!   indirect part without counting anything twice.
 //! - [`AmbientOcclusion`].
+//! - The irradiance cache ([`ic`]): [`IrradianceCacheIntegrator`] (emission + NEE + the cached
+//!   indirect part, split like the path tracer's), [`CachedAmbientOcclusion`], their
+//!   [`IcSettings`], and [`CacheBuilder`], the interface a renderer drives deterministic parallel
+//!   construction through (probe, select, complete, commit).
 //!
 //! # What it must not know
 //! Images, tiles, threads, progress, file formats: those are irr-render's. Integrators see one ray
