@@ -21,11 +21,14 @@
 //!
 //! # Construction, deterministic and parallel
 //! The renderer drives construction through [`CacheBuilder`]: in each pass the cache is
-//! read-only and [`CacheBuilder::candidate`] computes, in parallel, a candidate record wherever a
-//! camera ray's hit is not covered; [`CacheBuilder::commit`] then inserts the candidates in the
-//! order given (pixel order), dropping any that an earlier candidate of the same pass already
-//! covers. A candidate depends only on the cache before its pass and on its own sample key, and
-//! commits run in a fixed order, so the cache (and the image) are the same bit for bit whatever
+//! read-only; [`CacheBuilder::probe`] tells, in parallel, whether a camera ray's hit is covered
+//! and if not predicts its record's radius from a cheap 4×8 distance-only gather;
+//! [`CacheBuilder::select`] keeps, in pixel order, the probes whose predicted spheres do not cover
+//! each other; [`CacheBuilder::complete`] gathers for those in parallel; and
+//! [`CacheBuilder::commit`] inserts the candidates in the order given (pixel order), dropping any
+//! that an earlier candidate of the same pass already covers. A candidate depends only on the
+//! cache before its pass and on its own sample key, and selection and commits run in a fixed
+//! order, so the cache (and the image) are the same bit for bit whatever
 //! the thread count. The final shading pass only reads; a shading point that no record covers
 //! (rare: an edge pixel's jittered sample, or a record shrunk by neighbour clamping) gets a gather
 //! of its own, used and not stored.

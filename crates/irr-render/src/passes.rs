@@ -6,11 +6,19 @@
 //! above) to level 0. A level is built in passes over a coarse-to-fine grid of pixels: stride
 //! 16, then the pixels of stride 8 not already visited, and so on down to stride 1 (level 0) or
 //! 4 (deeper levels, whose records are larger and fewer). In a pass:
-//! 1. the cache is read-only; every pixel of the pass asks [`CacheBuilder::candidate`] for a
-//!    candidate record at its camera ray's hit (through the pixel's centre; for a deeper level,
-//!    the end of a random bounce path from there), in parallel on the rayon pool;
-//! 2. the candidates are committed in pixel order (row-major), each dropped if an earlier one
-//!    of the same pass already covers it.
+//! 1. the cache is read-only; every pixel of the pass asks [`CacheBuilder::probe`] whether the
+//!    hit of its camera ray (through the pixel's centre; for a deeper level, the end of a random
+//!    bounce path from there) is covered, and if not for a predicted radius, in parallel on the
+//!    rayon pool;
+//! 2. [`CacheBuilder::select`] keeps, in pixel order (row-major), the probes whose predicted
+//!    spheres do not cover each other;
+//! 3. [`CacheBuilder::complete`] gathers for the selected probes, in parallel;
+//! 4. [`CacheBuilder::commit`] inserts the candidates in pixel order, each dropped if an earlier
+//!    one of the same pass already covers it.
+//!
+//! Each finer stride runs as three sub-lattice passes whose pixels lie 2s apart; after the
+//! finest, repair passes repeat it until no pixel is uncovered (neighbour clamping shrinks earlier
+//! records as later ones arrive).
 //!
 //! A candidate depends only on the cache before its pass and on its own [`SampleKey`]
 //! (seed, level stream, pixel), and commits run in a fixed order, so the cache is the same bit
