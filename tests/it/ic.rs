@@ -459,6 +459,36 @@ fn ic_indirect(
     (image, integrator.cache(0).map_or(0, |c| c.len()))
 }
 
+/// The path tracer's indirect part at 2 × 1024 spp (seeds 91 and 92) and its own relMSE
+/// (relMSE between the halves / 4).
+fn indirect_reference(scene: &Scene, camera: &Camera, settings: &RenderSettings) -> (Image, f64) {
+    let pt = PathTracer::new(PathSettings::default());
+    let view = Indirect {
+        path: Some(&pt),
+        ic: None,
+    };
+    let half = |seed| {
+        let s = RenderSettings {
+            spp: 1024,
+            seed,
+            ..*settings
+        };
+        render(scene, camera, &view, &s, false)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .image
+    };
+    let (a, b) = (half(91), half(92));
+    let mean = a
+        .pixels()
+        .iter()
+        .zip(b.pixels())
+        .map(|(x, y)| (*x + *y) * 0.5)
+        .collect();
+    let image =
+        Image::from_pixels(settings.width, settings.height, mean).unwrap_or_else(|| panic!("size"));
+    (image, rel_mse(&a, &b) / 4.0)
+}
+
 /// Consistency: as the error parameter tightens and the gathers grow, the cache's indirect light
 /// converges to the path tracer's. On a small Cornell box, four settings from loose to tight
 /// (κ and M×N together), each compared with a 2048-spp path-traced reference of the indirect part
@@ -482,38 +512,7 @@ fn the_cache_converges_to_the_path_tracer() {
         seed: 5,
         threads: 0,
     };
-    let pt = PathTracer::new(PathSettings::default());
-    let view = Indirect {
-        path: Some(&pt),
-        ic: None,
-    };
-    let half = |seed| {
-        render(
-            &loaded.scene,
-            &camera,
-            &view,
-            &RenderSettings {
-                spp: 1024,
-                seed,
-                ..settings
-            },
-            false,
-        )
-        .unwrap_or_else(|e| panic!("{e}"))
-        .image
-    };
-    let (ra, rb) = (half(91), half(92));
-    let reference = Image::from_pixels(
-        w,
-        h,
-        ra.pixels()
-            .iter()
-            .zip(rb.pixels())
-            .map(|(a, b)| (*a + *b) * 0.5)
-            .collect(),
-    )
-    .unwrap_or_else(|| panic!("size"));
-    let reference_noise = rel_mse(&ra, &rb) / 4.0;
+    let (reference, reference_noise) = indirect_reference(&loaded.scene, &camera, &settings);
     let ladder = [
         (0.5f32, 6u32, 24u32),
         (1.0, 8, 32),
@@ -679,38 +678,7 @@ fn cached_bounces_converge_too() {
         seed: 5,
         threads: 0,
     };
-    let pt = PathTracer::new(PathSettings::default());
-    let view = Indirect {
-        path: Some(&pt),
-        ic: None,
-    };
-    let half = |seed| {
-        render(
-            &loaded.scene,
-            &camera,
-            &view,
-            &RenderSettings {
-                spp: 1024,
-                seed,
-                ..settings
-            },
-            false,
-        )
-        .unwrap_or_else(|e| panic!("{e}"))
-        .image
-    };
-    let (ra, rb) = (half(91), half(92));
-    let reference = Image::from_pixels(
-        w,
-        h,
-        ra.pixels()
-            .iter()
-            .zip(rb.pixels())
-            .map(|(a, b)| (*a + *b) * 0.5)
-            .collect(),
-    )
-    .unwrap_or_else(|| panic!("size"));
-    let reference_noise = rel_mse(&ra, &rb) / 4.0;
+    let (reference, reference_noise) = indirect_reference(&loaded.scene, &camera, &settings);
     for bounces in [1u32, 2] {
         let at = |kappa: f32, m: u32, n: u32, seed: u64| {
             let ic = IcSettings {

@@ -491,6 +491,19 @@ pub trait CacheBuilder: Integrator + Send {
 /// The parts of [`CacheBuilder`] both cached integrators share, forwarded to their `core`.
 macro_rules! forward_to_core {
     () => {
+        fn probe(
+            &self,
+            scene: &Scene,
+            level: u32,
+            ray: &Ray,
+            spread: f32,
+            key: SampleKey,
+            rays: &mut RayCounter,
+        ) -> Option<Probe> {
+            // A level the integrator does not have (AO has one) probes nothing.
+            self.core.probe(scene, level, ray, spread, key, rays)
+        }
+
         fn select(&self, probes: Vec<Probe>) -> Vec<Probe> {
             self.core.select(probes)
         }
@@ -1150,18 +1163,6 @@ impl CacheBuilder for IrradianceCacheIntegrator {
         self.core.levels.len() as u32
     }
 
-    fn probe(
-        &self,
-        scene: &Scene,
-        level: u32,
-        ray: &Ray,
-        spread: f32,
-        key: SampleKey,
-        rays: &mut RayCounter,
-    ) -> Option<Probe> {
-        self.core.probe(scene, level, ray, spread, key, rays)
-    }
-
     fn complete(&self, scene: &Scene, probe: &Probe, rays: &mut RayCounter) -> Option<Candidate> {
         let li = probe.level as usize;
         let mut spent = RayCounter::default();
@@ -1275,21 +1276,6 @@ impl Integrator for CachedAmbientOcclusion {
 impl CacheBuilder for CachedAmbientOcclusion {
     fn levels(&self) -> u32 {
         1
-    }
-
-    fn probe(
-        &self,
-        scene: &Scene,
-        level: u32,
-        ray: &Ray,
-        spread: f32,
-        key: SampleKey,
-        rays: &mut RayCounter,
-    ) -> Option<Probe> {
-        if level != 0 {
-            return None;
-        }
-        self.core.probe(scene, 0, ray, spread, key, rays)
     }
 
     fn complete(&self, scene: &Scene, probe: &Probe, rays: &mut RayCounter) -> Option<Candidate> {
