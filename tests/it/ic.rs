@@ -17,13 +17,13 @@ fn cornell() -> LoadedScene {
         .unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// Builds the cache and renders: the image and the number of level-0 records.
-fn ic_image(
+/// The integrator with its cache built for `settings`.
+fn built(
     scene: &Scene,
     camera: &Camera,
     ic: IcSettings,
     settings: &RenderSettings,
-) -> (Image, usize) {
+) -> IrradianceCacheIntegrator {
     let mut integrator = IrradianceCacheIntegrator::new(ic).unwrap_or_else(|e| panic!("{e}"));
     integrator.preprocess(scene);
     build_cache(
@@ -35,6 +35,17 @@ fn ic_image(
         false,
     )
     .unwrap_or_else(|e| panic!("{e}"));
+    integrator
+}
+
+/// Builds the cache and renders: the image and the number of level-0 records.
+fn ic_image(
+    scene: &Scene,
+    camera: &Camera,
+    ic: IcSettings,
+    settings: &RenderSettings,
+) -> (Image, usize) {
+    let integrator = built(scene, camera, ic, settings);
     let image = render(scene, camera, &integrator, settings, false)
         .unwrap_or_else(|e| panic!("{e}"))
         .image;
@@ -438,17 +449,7 @@ fn ic_indirect(
     ic: IcSettings,
     settings: &RenderSettings,
 ) -> (Image, usize) {
-    let mut integrator = IrradianceCacheIntegrator::new(ic).unwrap_or_else(|e| panic!("{e}"));
-    integrator.preprocess(scene);
-    build_cache(
-        scene,
-        camera,
-        &mut integrator,
-        settings,
-        ic.fill_samples,
-        false,
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let integrator = built(scene, camera, ic, settings);
     let view = Indirect {
         path: None,
         ic: Some(&integrator),
