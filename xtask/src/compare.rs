@@ -639,6 +639,19 @@ pub fn run(args: CompareArgs, root: &Path) -> Result<(), String> {
             }
         }
         println!("published to {}", dest.display());
+        let readme = root.join("README.md");
+        if let Ok(text) = std::fs::read_to_string(&readme) {
+            let report_md = std::fs::read_to_string(report.folder.join("report.md"))
+                .map_err(|e| format!("{}: {e}", report.folder.join("report.md").display()))?;
+            let stem = dest
+                .file_name()
+                .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+            if let Some(updated) = readme_section(&text, &stem, &report_md) {
+                std::fs::write(&readme, updated)
+                    .map_err(|e| format!("{}: {e}", readme.display()))?;
+                println!("updated the {stem} section of {}", readme.display());
+            }
+        }
     }
     println!(
         "{} runs; reference noise {:.2e}, one cache image's noise {:.2e}; wrote {} (report.md, runs.csv, plot.svg, heat maps, crops)",
@@ -648,6 +661,25 @@ pub fn run(args: CompareArgs, root: &Path) -> Result<(), String> {
         report.folder.display()
     );
     Ok(())
+}
+
+/// `readme` with the part between `<!-- compare:STEM -->` and `<!-- /compare:STEM -->` replaced
+/// by the report's table and derived figures (its picture links pointed at docs/compare/STEM/);
+/// `None` when the README has no such markers.
+pub fn readme_section(readme: &str, stem: &str, report_md: &str) -> Option<String> {
+    let open = format!("<!-- compare:{stem} -->");
+    let close = format!("<!-- /compare:{stem} -->");
+    let start = readme.find(&open)? + open.len();
+    let end = start + readme[start..].find(&close)?;
+    let mut body = String::from("\n");
+    for line in report_md.lines() {
+        let keep = line.starts_with('|') || line.starts_with("- ") || line.starts_with("![");
+        if keep {
+            body.push_str(&line.replace("](", &format!("](docs/compare/{stem}/")));
+            body.push('\n');
+        }
+    }
+    Some(format!("{}{body}{}", &readme[..start], &readme[end..]))
 }
 
 /// The measurement behind `run`.
@@ -999,6 +1031,18 @@ mod tests {
     /// with every error finite, and the error falls along the cache's κ ladder within the
     /// measured noise (each step may rise by at most twice one image's own noise plus the
     /// reference's: two independent noisy estimates of falling errors).
+    #[test]
+    fn the_readme_section_is_replaced_between_its_markers() {
+        let readme = "# irr\n<!-- compare:box -->\nold\n<!-- /compare:box -->\nend\n";
+        let report = "# box\n\ntext\n| a | b |\n|---|---|\n- figure\n![plot](plot.svg)\n";
+        let out = readme_section(readme, "box", report).unwrap_or_default();
+        assert_eq!(
+            out,
+            "# irr\n<!-- compare:box -->\n| a | b |\n|---|---|\n- figure\n![plot](docs/compare/box/plot.svg)\n<!-- /compare:box -->\nend\n"
+        );
+        assert!(readme_section("no markers", "box", report).is_none());
+    }
+
     #[test]
     fn quick_compare_writes_a_sound_report() {
         let root = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
