@@ -42,7 +42,7 @@
 //! 2). A record on the lit side of a 1 mm wall therefore never lights the dark side.
 
 use crate::integrator::{Integrator, RayCounter};
-use crate::path::{PathSettings, PathTracer, Radiance, ShadingPoint};
+use crate::path::{PathSettings, PathTracer, Radiance, ShadingPoint, sample_light};
 use crate::scene::Scene;
 use glam::Vec3;
 use irr_cache::{
@@ -947,34 +947,8 @@ pub fn direct_nee(
     let f = albedo * FRAC_1_PI;
     let mut sum = Vec3::ZERO;
     for _ in 0..samples {
-        let u_light = dims.next_1d();
-        let u_point = dims.next_2d();
-        let Some(ls) = scene.lights().sample(scene.geometry(), u_light, u_point) else {
-            continue;
-        };
-        let to_light = ls.position - x.position;
-        let dist2 = to_light.length_squared();
-        if dist2 <= 0.0 {
-            continue;
-        }
-        let wi = to_light / dist2.sqrt();
-        let cos_surface = wi.dot(x.ns);
-        let cos_light = ls.normal.dot(wi).abs();
-        if cos_surface <= 0.0 || wi.dot(x.ng) <= 0.0 || cos_light <= 0.0 {
-            continue;
-        }
-        let le = scene.material_of(ls.triangle).emitted(ls.normal, -wi);
-        if le == Vec3::ZERO {
-            continue;
-        }
-        let pdf = ls.pdf_area * dist2 / cos_light;
-        if !(pdf.is_finite() && pdf > 0.0) {
-            continue;
-        }
-        rays.shadow += 1;
-        let shadow = Ray::spawn_to(x.position, x.ng, ls.position, ls.normal);
-        if !scene.geometry().occluded(&shadow) {
-            sum += f * le * (cos_surface / pdf);
+        if let Some(nee) = sample_light(scene, x, dims, rays) {
+            sum += f * nee.le * (nee.cos_surface / nee.pdf);
         }
     }
     sum / samples as f32
@@ -1066,12 +1040,12 @@ impl IrradianceCacheIntegrator {
                 indirect: Vec3::ZERO,
             };
         }
-        // The fallback gather's own key: a hash of this sample's key and the cursor's position,
-        // so it depends only on the sample (the pixel, the index, the seed).
-        let key = SampleKey::new(dims.key().bits(dims.position()), FALLBACK_STREAM, 0);
         let e = match self.core.lookup(scene, 0, x.position, x.ns, rays) {
             Some(e) => e.to_gathered(),
             None => {
+                // The fallback gather's own key: a hash of this sample's key and the cursor's
+                // position, so it depends only on the sample (the pixel, the index, the seed).
+                let key = SampleKey::new(dims.key().bits(dims.position()), FALLBACK_STREAM, 0);
                 self.core.fallbacks.fetch_add(1, Ordering::Relaxed);
                 self.gather_irradiance(scene, 0, &x, key, rays)
                     .map(|g| g.irradiance())

@@ -125,6 +125,56 @@ impl ShadingPoint {
     }
 }
 
+/// One next-event-estimation sample that reached its point unoccluded (see [`sample_light`]).
+#[derive(Clone, Copy, Debug)]
+pub struct LightArrival {
+    /// The radiance the emitter sends towards the shading point.
+    pub le: Vec3,
+    /// cos θ at the shading point (shading normal), > 0.
+    pub cos_surface: f32,
+    /// The light sample's density per unit solid angle at the shading point, finite and > 0.
+    pub pdf: f32,
+}
+
+/// One next-event-estimation sample at `x`: an emitter chosen by power and a point on it
+/// uniformly by area (two dimensions of `dims`, always drawn), then a shadow ray. `None` when
+/// the sample carries no light: no emitter, a direction below the shading or the geometric
+/// surface, the emitter's back, or an occluder. The path tracer weighs the arrival against BSDF
+/// sampling; the irradiance cache's direct light takes it alone.
+pub fn sample_light(
+    scene: &Scene,
+    x: &ShadingPoint,
+    dims: &mut Dimensions,
+    rays: &mut RayCounter,
+) -> Option<LightArrival> {
+    let u_light = dims.next_1d();
+    let u_point = dims.next_2d();
+    let ls = scene.lights().sample(scene.geometry(), u_light, u_point)?;
+    let to_light = ls.position - x.position;
+    let dist2 = to_light.length_squared();
+    let wi = to_light / dist2.sqrt();
+    let cos_surface = wi.dot(x.ns);
+    let cos_light = ls.normal.dot(wi).abs();
+    let le = scene.material_of(ls.triangle).emitted(ls.normal, -wi);
+    // Only directions above both the shading and the geometric surface carry light.
+    if !(cos_surface > 0.0
+        && wi.dot(x.ng) > 0.0
+        && cos_light > 0.0
+        && le != Vec3::ZERO
+        && dist2 > 0.0)
+    {
+        return None;
+    }
+    let pdf = ls.pdf_area * dist2 / cos_light;
+    let shadow = Ray::spawn_to(x.position, x.ng, ls.position, ls.normal);
+    rays.shadow += 1;
+    (pdf.is_finite() && !scene.geometry().occluded(&shadow)).then_some(LightArrival {
+        le,
+        cos_surface,
+        pdf,
+    })
+}
+
 /// The path-traced reference: Lambertian BSDF, NEE on area lights combined with BSDF sampling by
 /// MIS, Russian roulette after `rr_start` bounces (unbiased: survivors are divided by the survival
 /// probability).
@@ -191,30 +241,9 @@ impl PathTracer {
 
             // Next-event estimation: pick a point on an emitter by power and area, and add its
             // light if it is visible, weighted against BSDF sampling by the power heuristic.
-            let u_light = dims.next_1d();
-            let u_point = dims.next_2d();
-            if let Some(ls) = scene.lights().sample(scene.geometry(), u_light, u_point) {
-                let to_light = ls.position - x.position;
-                let dist2 = to_light.length_squared();
-                let wi = to_light / dist2.sqrt();
-                let cos_surface = wi.dot(x.ns);
-                let cos_light = ls.normal.dot(wi).abs();
-                let le = scene.material_of(ls.triangle).emitted(ls.normal, -wi);
-                // Only directions above both the shading and the geometric surface carry light.
-                if cos_surface > 0.0
-                    && wi.dot(x.ng) > 0.0
-                    && cos_light > 0.0
-                    && le != Vec3::ZERO
-                    && dist2 > 0.0
-                {
-                    let pdf_light = ls.pdf_area * dist2 / cos_light;
-                    let shadow = Ray::spawn_to(x.position, x.ng, ls.position, ls.normal);
-                    rays.shadow += 1;
-                    if pdf_light.is_finite() && !scene.geometry().occluded(&shadow) {
-                        let w = power_heuristic(pdf_light, cosine_hemisphere_pdf(cos_surface));
-                        contribution += f * le * (cos_surface * w / pdf_light);
-                    }
-                }
+            if let Some(nee) = sample_light(scene, &x, dims, rays) {
+                let w = power_heuristic(nee.pdf, cosine_hemisphere_pdf(nee.cos_surface));
+                contribution += f * nee.le * (nee.cos_surface * w / nee.pdf);
             }
 
             // BSDF sampling: a cosine-distributed direction. For the Lambertian BSDF,
