@@ -1,0 +1,140 @@
+//! Materials and the document-wide features irr ignores.
+
+use super::{Loader, SUPPORTED_EXTENSIONS, describe, plural};
+use crate::error::RenderError;
+use glam::Vec3;
+use irr_integrator::Material;
+use std::collections::BTreeMap;
+
+impl Loader<'_> {
+    /// Warns, for each extension irr ignores, of the objects that use it (`counts`, from
+    /// [`count_extensions`]).
+    pub(super) fn count_extensions(&mut self, mut counts: BTreeMap<String, usize>) {
+        // Extensions listed as used but never attached to an object still deserve a word.
+        for name in self.document.extensions_used() {
+            counts.entry(name.to_string()).or_insert(0);
+        }
+        for (name, count) in counts {
+            if SUPPORTED_EXTENSIONS.contains(&name.as_str()) {
+                continue;
+            }
+            let why = match name.as_str() {
+                "KHR_lights_punctual" => "irr's only lights are emissive triangles",
+                "KHR_draco_mesh_compression" | "EXT_meshopt_compression" => {
+                    "compressed geometry is not decoded"
+                }
+                "KHR_texture_transform" | "KHR_texture_basisu" | "EXT_texture_webp" => {
+                    "irr does not use textures"
+                }
+                _ => "irr does not support it",
+            };
+            let feature = format!("extension:{name}");
+            // An extension only in `extensionsUsed` still gets one line, with count 1.
+            self.warnings.add(&feature, count.max(1), move |n| {
+                format!(
+                    "extension {name} ignored ({}; {})",
+                    plural(n, "use", "uses"),
+                    why
+                )
+            });
+        }
+    }
+
+    pub(super) fn count_document_features(&mut self) {
+        let d = self.document;
+        let textures = d.textures().len();
+        self.warnings.add("textures", textures, |n| {
+            format!(
+                "{} ignored (irr uses baseColorFactor and emissiveFactor only)",
+                plural(n, "texture", "textures")
+            )
+        });
+        let images = d.images().len();
+        self.warnings.add("images", images, |n| {
+            format!(
+                "{} ignored (irr does not use textures)",
+                plural(n, "image", "images")
+            )
+        });
+        self.warnings.add("animations", d.animations().len(), |n| {
+            format!(
+                "{} ignored (irr renders the rest pose)",
+                plural(n, "animation", "animations")
+            )
+        });
+        self.warnings.add("skins", d.skins().len(), |n| {
+            format!(
+                "{} ignored (irr renders the unskinned positions)",
+                plural(n, "skin", "skins")
+            )
+        });
+        let scenes = d.scenes().len();
+        self.warnings.add("scenes", scenes.saturating_sub(1), |n| {
+            format!(
+                "{} ignored (irr renders the default scene)",
+                plural(n, "other scene", "other scenes")
+            )
+        });
+        let (mut metallic, mut alpha) = (0, 0);
+        for m in d.materials() {
+            if m.pbr_metallic_roughness().metallic_factor() > 0.0 {
+                metallic += 1;
+            }
+            if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
+                alpha += 1;
+            }
+        }
+        self.warnings.add("metallic", metallic, |n| {
+            format!(
+                "{} metallicFactor > 0: metallic reflection ignored (irr's surfaces are diffuse, albedo baseColorFactor)",
+                plural(n, "material has", "materials have")
+            )
+        });
+        self.warnings.add("alpha", alpha, |n| {
+            format!(
+                "{} alphaMode BLEND or MASK: transparency ignored (irr's surfaces are opaque)",
+                plural(n, "material has", "materials have")
+            )
+        });
+    }
+
+    /// The materials in file order, and the index the default material will get.
+    pub(super) fn materials(&mut self) -> Result<(Vec<Material>, u32), RenderError> {
+        let mut out = Vec::new();
+        let mut clamped = 0;
+        for m in self.document.materials() {
+            let name = describe(m.index().unwrap_or(0), m.name());
+            let base = m.pbr_metallic_roughness().base_color_factor();
+            let albedo = Vec3::new(base[0], base[1], base[2]);
+            if !albedo.is_finite() {
+                return Err(self.err(format!(
+                    "material {name}: baseColorFactor {albedo} is not finite"
+                )));
+            }
+            let clamped_albedo = albedo.clamp(Vec3::ZERO, Vec3::ONE);
+            if clamped_albedo != albedo {
+                clamped += 1;
+            }
+            let strength = m.emissive_strength().unwrap_or(1.0);
+            let emission = Vec3::from_array(m.emissive_factor()) * strength;
+            if !emission.is_finite() || emission.min_element() < 0.0 {
+                return Err(self.err(format!(
+                    "material {name}: emission {emission} (emissiveFactor × emissiveStrength) must be finite and non-negative"
+                )));
+            }
+            out.push(Material {
+                albedo: clamped_albedo,
+                emission,
+                two_sided: m.double_sided(),
+            });
+        }
+        self.warnings.add("albedo-clamped", clamped, |n| {
+            format!(
+                "{} baseColorFactor outside [0, 1]: clamped",
+                plural(n, "material has", "materials have")
+            )
+        });
+        let default = out.len() as u32;
+        Ok((out, default))
+    }
+}

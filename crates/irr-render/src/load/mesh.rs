@@ -1,0 +1,228 @@
+//! Triangle primitives: positions, indices by topology, normals.
+
+use super::{Loader, MAX_COORDINATE, describe, plural};
+use crate::accessor::{read_indices, read_vec3};
+use crate::error::RenderError;
+use glam::{Mat3, Mat4, Vec3};
+use irr_geometry::TriangleMesh;
+
+impl Loader<'_> {
+    pub(super) fn primitive(
+        &mut self,
+        node: &gltf::Node<'_>,
+        mesh: &gltf::Mesh<'_>,
+        primitive: &gltf::Primitive<'_>,
+        world: Mat4,
+        material_id: u32,
+        buffers: &[Vec<u8>],
+    ) -> Result<Option<TriangleMesh>, RenderError> {
+        use gltf::mesh::Mode;
+        let what = format!(
+            "mesh {} primitive {} (node {})",
+            describe(mesh.index(), mesh.name()),
+            primitive.index(),
+            describe(node.index(), node.name())
+        );
+        let mode = primitive.mode();
+        if matches!(
+            mode,
+            Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip
+        ) {
+            self.warnings.add("non-triangle", 1, |n| {
+                format!(
+                    "{} of points or lines ignored (irr renders triangles)",
+                    plural(n, "primitive", "primitives")
+                )
+            });
+            return Ok(None);
+        }
+        let targets = primitive.morph_targets().len();
+        if targets > 0 {
+            self.warnings.add("morph-targets", 1, |n| {
+                format!(
+                    "{} morph targets: ignored (irr uses the base positions)",
+                    plural(n, "primitive has", "primitives have")
+                )
+            });
+        }
+        let colours = primitive
+            .attributes()
+            .filter(|(s, _)| matches!(s, gltf::Semantic::Colors(_)))
+            .count();
+        self.warnings.add("vertex-colours", colours, |n| {
+            format!(
+                "{} (COLOR_n) ignored (irr uses baseColorFactor only)",
+                plural(n, "vertex colour attribute", "vertex colour attributes")
+            )
+        });
+        let positions_accessor = primitive
+            .get(&gltf::Semantic::Positions)
+            .ok_or_else(|| self.err(format!("{what} has no POSITION attribute")))?;
+        let local = read_vec3(
+            &format!("{what} POSITION accessor {}", positions_accessor.index()),
+            &positions_accessor,
+            buffers,
+            &mut self.budget,
+        )
+        .map_err(|e| self.err(e))?;
+        // Messages name the vertex, never its coordinates: they are bytes of a file.
+        let mut positions = self
+            .budget
+            .vec::<Vec3>(&format!("{what} POSITION"), local.len())
+            .map_err(|e| self.err(e))?;
+        for (i, p) in local.iter().enumerate() {
+            let p = Vec3::from_array(*p);
+            if !p.is_finite() {
+                return Err(self.err(format!("{what}: vertex {i} has a non-finite coordinate")));
+            }
+            let w = world.transform_point3(p);
+            if !w.is_finite() || w.abs().max_element() > MAX_COORDINATE {
+                return Err(self.err(format!(
+                    "{what}: vertex {i} lies beyond ±{MAX_COORDINATE:e} m in the world (irr's limit for finite ray arithmetic)"
+                )));
+            }
+            positions.push(w);
+        }
+        drop(local);
+        let n = positions.len();
+        let indices: Vec<u32> = match primitive.indices() {
+            Some(acc) => {
+                let idx = read_indices(
+                    &format!("{what} indices accessor {}", acc.index()),
+                    &acc,
+                    buffers,
+                    &mut self.budget,
+                )
+                .map_err(|e| self.err(e))?;
+                // The message names the entry, not its value (bytes of a file).
+                if let Some(k) = idx.iter().position(|&v| v as usize >= n) {
+                    return Err(self.err(format!(
+                        "{what}: index entry {k} is out of range: the primitive has {n} vertices"
+                    )));
+                }
+                idx
+            }
+            None => {
+                let n32 = u32::try_from(n).map_err(|_| {
+                    self.err(format!(
+                        "{what} has {n} vertices and no indices; irr's triangle indices are 32-bit"
+                    ))
+                })?;
+                let mut idx = self
+                    .budget
+                    .vec::<u32>(&format!("{what} implicit indices"), n)
+                    .map_err(|e| self.err(e))?;
+                idx.extend(0..n32);
+                idx
+            }
+        };
+        let triangle_count = triangle_count(mode, indices.len());
+        // Each triangle also gets a material id below.
+        self.budget
+            .charge::<([u32; 3], u32)>(&format!("{what} triangles"), triangle_count)
+            .map_err(|e| self.err(e))?;
+        let (mut triangles, leftover) = assemble(mode, &indices);
+        drop(indices);
+        if leftover > 0 {
+            self.warnings.add("leftover-indices", leftover, |n| {
+                format!(
+                    "{} left over after the last whole triangle ignored",
+                    plural(n, "index", "indices")
+                )
+            });
+        }
+        let linear = Mat3::from_mat4(world);
+        // A transform with negative determinant mirrors the mesh, which turns counter-clockwise
+        // windings clockwise; swapping two vertices keeps the front face where the file meant.
+        if linear.determinant() < 0.0 {
+            for t in &mut triangles {
+                t.swap(1, 2);
+            }
+        }
+        let normals = match primitive.get(&gltf::Semantic::Normals) {
+            None => None,
+            Some(acc) => {
+                let local = read_vec3(
+                    &format!("{what} NORMAL accessor {}", acc.index()),
+                    &acc,
+                    buffers,
+                    &mut self.budget,
+                )
+                .map_err(|e| self.err(e))?;
+                self.budget
+                    .charge::<Vec3>(&format!("{what} NORMAL"), local.len())
+                    .map_err(|e| self.err(e))?;
+                if local.len() != n {
+                    return Err(self.err(format!(
+                        "{what}: NORMAL has {} elements but POSITION has {n}",
+                        local.len()
+                    )));
+                }
+                // Normals transform by the inverse transpose of the linear part.
+                let normal_matrix = linear.inverse().transpose();
+                let world_normals: Option<Vec<Vec3>> = local
+                    .iter()
+                    .map(|v| (normal_matrix * Vec3::from_array(*v)).try_normalize())
+                    .collect();
+                if world_normals.is_none() {
+                    self.warnings.add("bad-normals", 1, |n| {
+                        format!(
+                            "{} zero-length or non-finite normals: ignored, the geometric normal is used",
+                            plural(n, "primitive has", "primitives have")
+                        )
+                    });
+                }
+                world_normals
+            }
+        };
+        let count = triangles.len();
+        Ok(Some(TriangleMesh {
+            positions,
+            indices: triangles,
+            normals,
+            material_ids: vec![material_id; count],
+        }))
+    }
+}
+
+/// The number of triangles [`assemble`] makes from `indices` indices.
+fn triangle_count(mode: gltf::mesh::Mode, indices: usize) -> usize {
+    use gltf::mesh::Mode;
+    match mode {
+        Mode::TriangleStrip | Mode::TriangleFan => indices.saturating_sub(2),
+        _ => indices / 3,
+    }
+}
+
+/// Triangles from a primitive's index list (glTF 2.0 §3.7.2.1 "Topology Types"), and the number
+/// of indices left over after the last whole triangle.
+fn assemble(mode: gltf::mesh::Mode, idx: &[u32]) -> (Vec<[u32; 3]>, usize) {
+    use gltf::mesh::Mode;
+    match mode {
+        Mode::TriangleStrip => {
+            // Triangle i is (i, i+1, i+2) for even i and (i+1, i, i+2) for odd i, which keeps
+            // every triangle's winding the same as the first one's.
+            let tris = (0..idx.len().saturating_sub(2))
+                .map(|i| {
+                    if i % 2 == 0 {
+                        [idx[i], idx[i + 1], idx[i + 2]]
+                    } else {
+                        [idx[i + 1], idx[i], idx[i + 2]]
+                    }
+                })
+                .collect();
+            (tris, 0)
+        }
+        Mode::TriangleFan => {
+            // Triangle i is (i+1, i+2, 0).
+            let tris = (0..idx.len().saturating_sub(2))
+                .map(|i| [idx[i + 1], idx[i + 2], idx[0]])
+                .collect();
+            (tris, 0)
+        }
+        _ => {
+            let tris = idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+            (tris, idx.len() % 3)
+        }
+    }
+}

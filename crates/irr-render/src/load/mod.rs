@@ -1,0 +1,370 @@
+//! glTF 2.0 loading: a `.gltf` (with external or `data:` URI buffers) or `.glb` file becomes
+//! world-space triangle meshes, diffuse materials and a camera.
+//!
+//! # What irr reads
+//! - The default scene (`scene`, else the first), its node hierarchy and transforms (matrix or
+//!   TRS; normals by the inverse transpose; a negative determinant flips the winding so the
+//!   front face stays where the file meant it).
+//! - Triangle primitives (`TRIANGLES`, `TRIANGLE_STRIP`, `TRIANGLE_FAN`), indexed (u8, u16, u32
+//!   indices) or not; `POSITION` and, if present, `NORMAL`.
+//! - Materials: `baseColorFactor.rgb` is the diffuse albedo; `emissiveFactor` times
+//!   `KHR_materials_emissive_strength.emissiveStrength` (1 without the extension) is the emitted
+//!   radiance in W·sr⁻¹·m⁻²; `doubleSided` says whether a surface emits from both faces or only
+//!   from its front face (counter-clockwise winding). A primitive without a material gets glTF's
+//!   default material (white, albedo 1), with a warning.
+//! - The first perspective camera met in a depth-first walk of the scene's nodes.
+//!
+//! # What irr ignores, always with a warning
+//! Textures and images, metallic reflection (`metallicFactor > 0`), transparency (`alphaMode`
+//! other than `OPAQUE`), vertex colours, morph targets, skins, animations, points and lines,
+//! orthographic cameras, other scenes, and every extension except
+//! `KHR_materials_emissive_strength` (lights, transmission, …). Each becomes one [`Warning`] with
+//! a count. glTF's dielectric specular layer (the 4 % reflection of its metallic-roughness BRDF
+//! at `metallicFactor = 0`) is not modelled: irr's surfaces are Lambertian.
+//!
+//! # What irr refuses, with a [`RenderError`]
+//! Files it cannot read or parse, buffers that point nowhere or are shorter than declared,
+//! accessors out of range, indices past the vertex count, non-finite coordinates or coordinates
+//! beyond [`MAX_COORDINATE`], non-finite or negative emission, and required extensions it does
+//! not support.
+
+mod buffers;
+mod json;
+mod materials;
+mod mesh;
+mod nodes;
+#[cfg(test)]
+mod tests;
+
+use json::{count_extensions, prevalidate, validate};
+
+use crate::camera::Camera;
+use crate::error::{RenderError, one_line};
+use crate::files::{Budget, Confinement, LoadOptions, MAX_JSON_BYTES, read_scene_file};
+use crate::glb;
+use glam::Vec3;
+use irr_geometry::TriangleMesh;
+use irr_integrator::Material;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// The largest coordinate magnitude (metres, after the node transforms) that irr accepts.
+///
+/// Ray-triangle tests multiply differences of two coordinates (edge vectors, ≤ 2·10¹⁸) by each
+/// other; the product, ≤ 4·10³⁶, and a sum of three such terms stay below f32::MAX ≈ 3.4·10³⁸.
+/// Beyond this a scene overflows to infinity inside the intersection code.
+pub const MAX_COORDINATE: f32 = 1e18;
+
+/// The one extension irr reads.
+const SUPPORTED_EXTENSIONS: [&str; 1] = ["KHR_materials_emissive_strength"];
+
+/// A feature of the file that irr ignored, with how many times it occurs.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Warning {
+    /// The scene file.
+    pub file: PathBuf,
+    /// A short stable key for the feature: `textures`, `metallic`, `extension:KHR_lights_punctual`…
+    pub feature: String,
+    /// How many times the file uses it.
+    pub count: usize,
+    /// The full message, e.g. `3 textures ignored (irr uses baseColorFactor only)`.
+    pub message: String,
+}
+
+impl std::fmt::Display for Warning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {}", self.file.display(), self.message)
+    }
+}
+
+/// A glTF file read into plain data: world-space meshes, materials, the camera, and the
+/// warnings about what was ignored.
+#[derive(Clone, Debug)]
+pub struct SceneData {
+    /// The file it came from.
+    pub path: PathBuf,
+    /// One mesh per primitive instance, in world space; `material_ids` index `materials`.
+    pub meshes: Vec<TriangleMesh>,
+    /// The materials, in the file's order, plus glTF's default material at the end if a
+    /// primitive has none.
+    pub materials: Vec<Material>,
+    /// The file's first perspective camera, if any.
+    pub camera: Option<Camera>,
+    /// Everything irr ignored, one entry per feature.
+    pub warnings: Vec<Warning>,
+    /// The number of triangles whose material emits (a scene with none renders black under the
+    /// path tracer).
+    pub emissive_triangles: usize,
+    /// The bounds of every vertex, `None` for a scene without triangles.
+    pub bounds: Option<(Vec3, Vec3)>,
+}
+
+/// Writes a warning's line from its final count.
+type Message = Box<dyn Fn(usize) -> String>;
+
+/// Collects warnings, merging counts per feature, in first-seen order.
+struct Warnings {
+    file: PathBuf,
+    order: Vec<String>,
+    counts: BTreeMap<String, (usize, Message)>,
+}
+
+impl Warnings {
+    fn new(file: &Path) -> Self {
+        Self {
+            file: file.to_path_buf(),
+            order: Vec::new(),
+            counts: BTreeMap::new(),
+        }
+    }
+
+    /// Adds `n` occurrences of `feature`; `message(count)` writes the final line.
+    fn add(&mut self, feature: &str, n: usize, message: impl Fn(usize) -> String + 'static) {
+        if n == 0 {
+            return;
+        }
+        match self.counts.get_mut(feature) {
+            Some((count, _)) => *count += n,
+            None => {
+                self.order.push(feature.to_string());
+                self.counts
+                    .insert(feature.to_string(), (n, Box::new(message)));
+            }
+        }
+    }
+
+    fn finish(self) -> Vec<Warning> {
+        let Self {
+            file,
+            order,
+            mut counts,
+        } = self;
+        order
+            .into_iter()
+            .filter_map(|feature| {
+                let (count, message) = counts.remove(&feature)?;
+                Some(Warning {
+                    file: file.clone(),
+                    // Extension names come from the file: escaped like every message.
+                    message: one_line(message(count)),
+                    feature,
+                    count,
+                })
+            })
+            .collect()
+    }
+}
+
+fn plural(n: usize, one: &str, many: &str) -> String {
+    if n == 1 {
+        format!("{n} {one}")
+    } else {
+        format!("{n} {many}")
+    }
+}
+
+/// Reads a glTF 2.0 file (`.gltf` or `.glb`) into plain data, reading buffer files only from
+/// the scene file's folder. See the module docs for what is read, ignored (with a warning) and
+/// refused (with an error).
+pub fn load_gltf(path: &Path) -> Result<SceneData, RenderError> {
+    load_gltf_with(path, &LoadOptions::default())
+}
+
+/// [`load_gltf`] with options: [`LoadOptions::asset_root`] widens (or moves) the folder that
+/// buffer URIs may read from.
+pub fn load_gltf_with(path: &Path, options: &LoadOptions) -> Result<SceneData, RenderError> {
+    let read_error = |problem: String| RenderError::Read {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(problem),
+    };
+    let mut bytes = read_scene_file(path).map_err(read_error)?;
+    let file_bytes = bytes.len() as u64;
+    let confinement = Confinement::new(path, options).map_err(read_error)?;
+    let (json_range, bin_range) = if glb::is_glb(&bytes) {
+        let g = glb::parse(&bytes).map_err(|e| RenderError::parse(path, e))?;
+        (g.json, g.bin)
+    } else {
+        (0..bytes.len(), None)
+    };
+    let json_bytes = bytes.get(json_range).unwrap_or_default();
+    if json_bytes.is_empty() {
+        return Err(RenderError::parse(path, "the file is empty"));
+    }
+    if json_bytes.len() > MAX_JSON_BYTES {
+        return Err(RenderError::parse(
+            path,
+            format!(
+                "its JSON has {} bytes, more than irr parses ({MAX_JSON_BYTES} bytes)",
+                json_bytes.len()
+            ),
+        ));
+    }
+    // Every extension the file uses, counted in a streaming pass that builds no tree (the typed
+    // document drops the extensions the gltf crate does not know).
+    let extension_counts =
+        count_extensions(json_bytes).map_err(|e| RenderError::parse(path, format!("JSON: {e}")))?;
+    let root: gltf::json::Root = gltf::json::deserialize::from_slice(json_bytes)
+        .map_err(|e| RenderError::parse(path, format!("glTF schema: {e}")))?;
+    for ext in &root.extensions_required {
+        if !SUPPORTED_EXTENSIONS.contains(&ext.as_str()) {
+            return Err(RenderError::scene(
+                path,
+                format!("requires extension {ext}, which irr does not support"),
+            ));
+        }
+    }
+    prevalidate(path, &root)?;
+    validate(path, &root)?;
+    // The .glb's binary chunk becomes buffer 0's bytes in place; the JSON text is no longer
+    // needed.
+    let blob = match bin_range {
+        Some(r) => {
+            bytes.truncate(r.end);
+            bytes.drain(..r.start);
+            Some(bytes)
+        }
+        None => {
+            drop(bytes);
+            None
+        }
+    };
+    let document = gltf::Document::from_json_without_validation(root);
+    Loader {
+        path,
+        document: &document,
+        warnings: Warnings::new(path),
+        confinement,
+        budget: Budget::for_input(file_bytes),
+    }
+    .load(extension_counts, blob)
+}
+
+struct Loader<'a> {
+    path: &'a Path,
+    document: &'a gltf::Document,
+    warnings: Warnings,
+    confinement: Confinement,
+    budget: Budget,
+}
+
+impl<'a> Loader<'a> {
+    fn err(&self, problem: impl std::fmt::Display) -> RenderError {
+        RenderError::scene(self.path, problem)
+    }
+
+    fn load(
+        mut self,
+        extension_counts: BTreeMap<String, usize>,
+        blob: Option<Vec<u8>>,
+    ) -> Result<SceneData, RenderError> {
+        let version = &self.document.as_json().asset.version;
+        if !version.starts_with("2.") {
+            return Err(RenderError::parse(
+                self.path,
+                format!("asset.version is \"{version}\"; irr reads glTF 2.x"),
+            ));
+        }
+        self.count_extensions(extension_counts);
+        self.count_document_features();
+        let buffers = self.load_buffers(blob)?;
+        let (mut materials, default_material) = self.materials()?;
+        let mut meshes = Vec::new();
+        let mut camera = None;
+        let mut used_default_material = 0;
+        for (node, world) in self.walk_nodes()? {
+            if let Some(cam) = node.camera() {
+                match cam.projection() {
+                    gltf::camera::Projection::Perspective(p) if camera.is_none() => {
+                        camera = Some(self.camera(&node, world, &p)?);
+                    }
+                    gltf::camera::Projection::Perspective(_) => {
+                        self.warnings.add("extra-cameras", 1, |n| {
+                            format!(
+                                "{} ignored (irr renders through the first perspective camera)",
+                                plural(n, "more camera", "more cameras")
+                            )
+                        })
+                    }
+                    gltf::camera::Projection::Orthographic(_) => {
+                        self.warnings.add("orthographic", 1, |n| {
+                            format!(
+                                "{} ignored (irr has perspective cameras only)",
+                                plural(n, "orthographic camera", "orthographic cameras")
+                            )
+                        })
+                    }
+                }
+            }
+            if let Some(mesh) = node.mesh() {
+                for primitive in mesh.primitives() {
+                    let file_material = primitive.material().index();
+                    let material_id = file_material.map_or(default_material, |i| i as u32);
+                    if let Some(m) =
+                        self.primitive(&node, &mesh, &primitive, world, material_id, &buffers)?
+                    {
+                        used_default_material += usize::from(file_material.is_none());
+                        meshes.push(m);
+                    }
+                }
+            }
+        }
+        if used_default_material > 0 {
+            materials.push(Material {
+                albedo: Vec3::ONE,
+                emission: Vec3::ZERO,
+                two_sided: false,
+            });
+            self.warnings.add("default-material", used_default_material, |n| {
+                format!(
+                    "{} no material: glTF's default material is used as white diffuse (albedo 1)",
+                    plural(n, "primitive has", "primitives have")
+                )
+            });
+        }
+        if self.document.cameras().len() > 0 && camera.is_none() {
+            self.warnings.add("unplaced-camera", 1, |_| {
+                "no perspective camera is attached to a node of the scene: irr frames the scene's bounds instead".to_string()
+            });
+        }
+        let emissive_triangles = meshes
+            .iter()
+            .flat_map(|m| m.material_ids.iter())
+            .filter(|&&id| {
+                materials
+                    .get(id as usize)
+                    .is_some_and(|m| m.emission.max_element() > 0.0)
+            })
+            .count();
+        if emissive_triangles == 0 {
+            self.warnings.add("no-emitter", 1, |_| {
+                "the scene has no emissive triangles: the image will be black (ambient occlusion does not need them)".to_string()
+            });
+        }
+        let bounds = meshes.iter().flat_map(|m| m.positions.iter()).fold(
+            None,
+            |acc: Option<(Vec3, Vec3)>, &p| {
+                Some(match acc {
+                    Some((lo, hi)) => (lo.min(p), hi.max(p)),
+                    None => (p, p),
+                })
+            },
+        );
+        Ok(SceneData {
+            path: self.path.to_path_buf(),
+            meshes,
+            materials,
+            camera,
+            warnings: self.warnings.finish(),
+            emissive_triangles,
+            bounds,
+        })
+    }
+}
+
+/// `3 "name"` or `3` for an object without a name.
+fn describe(index: usize, name: Option<&str>) -> String {
+    match name {
+        Some(n) => format!("{index} \"{}\"", one_line(n)),
+        None => index.to_string(),
+    }
+}

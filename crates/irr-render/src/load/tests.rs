@@ -1,0 +1,374 @@
+//! The loader's unit tests.
+
+use super::*;
+use crate::testutil::{Gltf, assets, write};
+
+fn dir() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn load(path: &Path) -> SceneData {
+    load_gltf(path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn load_err(path: &Path) -> String {
+    match load_gltf(path) {
+        Ok(_) => panic!("{} loaded but should not", path.display()),
+        Err(e) => e.to_string(),
+    }
+}
+
+const TRIANGLE: [[f32; 3]; 3] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+
+/// One emissive material, one node with `node_extra`, one mesh whose primitive is
+/// `primitive`.
+fn one_mesh(g: &Gltf, node_extra: &str, primitive: &str) -> String {
+    g.json(&format!(
+        r#""scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0{node_extra}}}],
+        "meshes":[{{"primitives":[{primitive}]}}],
+        "materials":[{{"emissiveFactor":[1,1,1]}}]"#
+    ))
+}
+
+fn world_triangles(s: &SceneData) -> Vec<[Vec3; 3]> {
+    s.meshes
+        .iter()
+        .flat_map(|m| {
+            m.indices
+                .iter()
+                .map(|t| t.map(|i| m.positions[i as usize]))
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+#[test]
+fn cornell_box_loads_with_its_measured_data() {
+    let s = load(&assets().join("cornell-box.gltf"));
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    // 8 surfaces: floor, ceiling, back, two walls, light (1 quad each), blocks (5 quads).
+    let triangles: usize = s.meshes.iter().map(|m| m.indices.len()).sum();
+    assert_eq!(triangles, 2 * (6 + 5 + 5));
+    assert_eq!(s.emissive_triangles, 2);
+    let light = s
+        .materials
+        .iter()
+        .find(|m| m.emission.max_element() > 0.0)
+        .unwrap_or_else(|| panic!("no light"));
+    // emissiveFactor (1, 12/17, 4/17) × strength 17 = (17, 12, 4), to f32 rounding of one
+    // division and one product: 2 ulp of 17 ≈ 4e-6.
+    assert!(
+        (light.emission - Vec3::new(17.0, 12.0, 4.0))
+            .abs()
+            .max_element()
+            < 4e-6
+    );
+    assert!(!light.two_sided);
+    let cam = s.camera.unwrap_or_else(|| panic!("no camera"));
+    assert!((cam.position - Vec3::new(0.278, 0.273, -0.8)).length() < 1e-6);
+    assert!((cam.forward - Vec3::Z).length() < 1e-6);
+    assert!((cam.yfov - 2.0 * (12.5f32 / 35.0).atan()).abs() < 1e-6);
+    let (lo, hi) = s.bounds.unwrap_or_else(|| panic!("no bounds"));
+    assert!((hi - Vec3::new(0.556, 0.5488, 0.5592)).abs().max_element() < 1e-6);
+    assert_eq!(lo, Vec3::ZERO);
+}
+
+#[test]
+fn glb_and_data_uri_assets_load() {
+    let furnace = load(&assets().join("furnace.glb"));
+    assert_eq!(furnace.meshes[0].indices.len(), 320);
+    assert!(furnace.materials[0].two_sided);
+    let disk = load(&assets().join("disk-light.gltf"));
+    assert_eq!(disk.emissive_triangles, 256);
+    let ao = load(&assets().join("ao-plane.gltf"));
+    assert_eq!(ao.emissive_triangles, 0);
+    assert_eq!(
+        ao.warnings
+            .iter()
+            .map(|w| w.feature.as_str())
+            .collect::<Vec<_>>(),
+        ["no-emitter"]
+    );
+    assert!(ao.warnings[0].to_string().contains("ao-plane.gltf: "));
+    assert!(ao.warnings[0].message.contains("the image will be black"));
+}
+
+#[test]
+fn index_types_and_non_indexed_give_the_same_triangles() {
+    let d = dir();
+    let quad = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ];
+    let order = [0u32, 1, 2, 0, 2, 3];
+    let mut reference = None;
+    for ct in [5121, 5123, 5125] {
+        let mut g = Gltf::default();
+        let p = g.vec3(&quad);
+        let i = g.indices(&order, ct);
+        let json = one_mesh(
+            &g,
+            "",
+            &format!(r#"{{"attributes":{{"POSITION":{p}}},"indices":{i}}}"#),
+        );
+        let s = load(&write(d.path(), &format!("q{ct}.gltf"), json));
+        let tris = world_triangles(&s);
+        assert_eq!(tris.len(), 2);
+        match &reference {
+            None => reference = Some(tris),
+            Some(r) => assert_eq!(&tris, r),
+        }
+    }
+    let mut g = Gltf::default();
+    let flat: Vec<[f32; 3]> = order.iter().map(|&i| quad[i as usize]).collect();
+    let p = g.vec3(&flat);
+    let json = one_mesh(&g, "", &format!(r#"{{"attributes":{{"POSITION":{p}}}}}"#));
+    let s = load(&write(d.path(), "flat.gltf", json));
+    assert_eq!(Some(world_triangles(&s)), reference);
+}
+
+#[test]
+fn strips_and_fans_keep_the_winding() {
+    let d = dir();
+    // Four vertices of a quad in the z = 0 plane, counter-clockwise seen from +z.
+    let strip = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+    ];
+    for (mode, verts) in [
+        (5, strip),
+        (
+            6,
+            [
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [1.0, 1.0, 0.0],
+                [0.0, 1.0, 0.0],
+            ],
+        ),
+    ] {
+        let mut g = Gltf::default();
+        let p = g.vec3(&verts);
+        let json = one_mesh(
+            &g,
+            "",
+            &format!(r#"{{"attributes":{{"POSITION":{p}}},"mode":{mode}}}"#),
+        );
+        let s = load(&write(d.path(), &format!("m{mode}.gltf"), json));
+        let tris = world_triangles(&s);
+        assert_eq!(tris.len(), 2, "mode {mode}");
+        for t in tris {
+            let n = (t[1] - t[0]).cross(t[2] - t[0]);
+            assert!(n.z > 0.0, "mode {mode}: triangle {t:?} faces away");
+        }
+    }
+}
+
+#[test]
+fn node_hierarchy_transforms_compose() {
+    let d = dir();
+    let mut g = Gltf::default();
+    let p = g.vec3(&TRIANGLE);
+    // Parent: translate by (10, 0, 0); child: scale 2, then a quarter turn about Z given as
+    // a column-major matrix; the mesh hangs on the child.
+    let json = g.json(&format!(
+        r#""scene":0,"scenes":[{{"nodes":[0]}}],
+        "nodes":[{{"translation":[10,0,0],"children":[1]}},
+                 {{"mesh":0,"matrix":[0,2,0,0, -2,0,0,0, 0,0,2,0, 0,0,0,1]}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p}}}}}]}}],
+        "materials":[]"#
+    ));
+    let s = load(&write(d.path(), "h.gltf", json));
+    let t = world_triangles(&s)[0];
+    // (1,0,0) → scaled and turned to (0,2,0) → translated to (10,2,0); (0,1,0) → (8,0,0).
+    assert_eq!(
+        t,
+        [
+            Vec3::new(10.0, 0.0, 0.0),
+            Vec3::new(10.0, 2.0, 0.0),
+            Vec3::new(8.0, 0.0, 0.0)
+        ]
+    );
+}
+
+#[test]
+fn mirroring_keeps_the_front_face_and_normals_use_the_inverse_transpose() {
+    let d = dir();
+    let mut g = Gltf::default();
+    // A triangle in the plane x + y = 1, front face (counter-clockwise) toward +x+y, with
+    // its shading normals given.
+    let verts = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let p = g.vec3(&verts);
+    let n = g.vec3(&[[0.57735, 0.57735, 0.57735]; 3]);
+    let prim = format!(r#"{{"attributes":{{"POSITION":{p},"NORMAL":{n}}}}}"#);
+    for (name, scale) in [("plain", [1.0, 1.0, 1.0]), ("mirror", [-1.0, 3.0, 1.0])] {
+        let json = one_mesh(
+            &g,
+            &format!(r#","scale":[{},{},{}]"#, scale[0], scale[1], scale[2]),
+            &prim,
+        );
+        let s = load(&write(d.path(), &format!("{name}.gltf"), json));
+        let m = &s.meshes[0];
+        let t = m.indices[0].map(|i| m.positions[i as usize]);
+        let front = (t[1] - t[0]).cross(t[2] - t[0]).normalize();
+        let normal = m.normals.as_ref().unwrap_or_else(|| panic!("no normals"))[0];
+        // The shading normal (transformed by the inverse transpose) stays perpendicular to
+        // the transformed surface and on its front side. Tolerance: f32 rounding of a few
+        // products of O(1) values, 1e-6.
+        assert!((t[1] - t[0]).dot(normal).abs() < 1e-6, "{name}");
+        assert!((t[2] - t[0]).dot(normal).abs() < 1e-6, "{name}");
+        assert!(
+            front.dot(normal) > 0.999,
+            "{name}: front {front} normal {normal}"
+        );
+    }
+}
+
+#[test]
+fn ignored_features_are_counted_in_warnings() {
+    let d = dir();
+    let mut g = Gltf::default();
+    let p = g.vec3(&TRIANGLE);
+    let json = g.json(&format!(
+        r#""extensionsUsed":["KHR_lights_punctual","KHR_materials_transmission"],
+        "extensions":{{"KHR_lights_punctual":{{"lights":[{{"type":"point"}}]}}}},
+        "scene":0,"scenes":[{{"nodes":[0,1,2]}},{{"nodes":[]}}],
+        "nodes":[{{"mesh":0}},{{"extensions":{{"KHR_lights_punctual":{{"light":0}}}}}},{{"mesh":1}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p}}},"material":0}},
+                                 {{"attributes":{{"POSITION":{p}}},"material":1}},
+                                 {{"attributes":{{"POSITION":{p}}},"mode":0}}]}},
+                  {{"primitives":[{{"attributes":{{"POSITION":{p}}}}}]}}],
+        "images":[{{"uri":"a.png"}}],"textures":[{{"source":0}},{{"source":0}}],
+        "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0}}}}}},
+                     {{"pbrMetallicRoughness":{{"metallicFactor":0}},"alphaMode":"BLEND",
+                       "extensions":{{"KHR_materials_transmission":{{"transmissionFactor":1}}}}}}]"#
+    ));
+    let s = load(&write(d.path(), "w.gltf", json));
+    let got: Vec<(&str, usize)> = s
+        .warnings
+        .iter()
+        .map(|w| (w.feature.as_str(), w.count))
+        .collect();
+    for expected in [
+        ("extension:KHR_lights_punctual", 2),
+        ("extension:KHR_materials_transmission", 1),
+        ("textures", 2),
+        ("images", 1),
+        ("scenes", 1),
+        // Material 0 keeps glTF's default metallicFactor of 1.
+        ("metallic", 1),
+        ("alpha", 1),
+        ("non-triangle", 1),
+        ("default-material", 1),
+    ] {
+        assert!(got.contains(&expected), "missing {expected:?} in {got:?}");
+    }
+    let text: Vec<String> = s.warnings.iter().map(ToString::to_string).collect();
+    assert!(
+        text.iter()
+            .all(|t| t.starts_with(&format!("{}: ", d.path().join("w.gltf").display())))
+    );
+    assert!(
+        text.iter().any(|t| t
+            .ends_with("2 textures ignored (irr uses baseColorFactor and emissiveFactor only)")),
+        "{text:?}"
+    );
+    // The default material is appended after the file's two.
+    assert_eq!(s.materials.len(), 3);
+    assert_eq!(s.meshes.last().map(|m| m.material_ids[0]), Some(2));
+}
+
+#[test]
+fn sparse_accessors_substitute_values() {
+    let d = dir();
+    let mut g = Gltf::default();
+    let p = g.vec3(&[[0.0; 3]; 3]);
+    // Replace vertices 1 and 2 by (1,0,0) and (0,1,0).
+    let idx = g.indices(&[1, 2], 5123);
+    let vals = g.vec3(&[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    let idx_view = g.accessors[idx]
+        .split(',')
+        .next()
+        .map(|s| s.replace(r#"{"bufferView":"#, ""))
+        .unwrap_or_default();
+    let val_view = g.accessors[vals]
+        .split(',')
+        .next()
+        .map(|s| s.replace(r#"{"bufferView":"#, ""))
+        .unwrap_or_default();
+    g.accessors[p] = format!(
+        r#"{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3",
+           "sparse":{{"count":2,"indices":{{"bufferView":{idx_view},"componentType":5123}},
+                      "values":{{"bufferView":{val_view}}}}}}}"#
+    );
+    let json = one_mesh(&g, "", &format!(r#"{{"attributes":{{"POSITION":{p}}}}}"#));
+    let s = load(&write(d.path(), "sparse.gltf", json));
+    assert_eq!(world_triangles(&s)[0], TRIANGLE.map(Vec3::from_array));
+}
+
+#[test]
+fn bad_content_is_refused_with_the_reason() {
+    let d = dir();
+    let mut g = Gltf::default();
+    let p = g.vec3(&TRIANGLE);
+    let i = g.indices(&[0, 1, 7], 5123);
+    let prim = format!(r#"{{"attributes":{{"POSITION":{p}}},"indices":{i}}}"#);
+    let e = load_err(&write(d.path(), "idx.gltf", one_mesh(&g, "", &prim)));
+    // The entry is named, not its value (bytes of a file are never echoed).
+    assert!(
+        e.contains("idx.gltf") && e.contains("index entry 2") && e.contains("3 vertices"),
+        "{e}"
+    );
+    assert!(!e.contains("index 7"), "{e}");
+
+    let mut g = Gltf::default();
+    let p = g.vec3(&TRIANGLE);
+    g.accessors[p] = g.accessors[p].replace(r#""count":3"#, r#""count":4"#);
+    let prim = format!(r#"{{"attributes":{{"POSITION":{p}}}}}"#);
+    let e = load_err(&write(d.path(), "range.gltf", one_mesh(&g, "", &prim)));
+    assert!(
+        e.contains("range.gltf") && e.contains("out of range"),
+        "{e}"
+    );
+
+    for (name, bad) in [("nan", f32::NAN), ("inf", f32::INFINITY), ("huge", 1e30)] {
+        let mut g = Gltf::default();
+        let p = g.vec3(&[[0.0, 0.0, 0.0], [bad, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+        let prim = format!(r#"{{"attributes":{{"POSITION":{p}}}}}"#);
+        let e = load_err(&write(
+            d.path(),
+            &format!("{name}.gltf"),
+            one_mesh(&g, "", &prim),
+        ));
+        assert!(
+            e.contains(&format!("{name}.gltf")) && e.contains("vertex 1"),
+            "{e}"
+        );
+    }
+
+    // A node that is its own child.
+    let mut g = Gltf::default();
+    let p = g.vec3(&TRIANGLE);
+    let json = g.json(&format!(
+        r#""scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0,"children":[0]}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p}}}}}]}}]"#
+    ));
+    let e = load_err(&write(d.path(), "cycle.gltf", json));
+    assert!(
+        e.contains("cycle.gltf") && e.contains("reached twice"),
+        "{e}"
+    );
+
+    // A required extension irr cannot honour.
+    let g = Gltf::default();
+    let json = g.json(r#""extensionsRequired":["KHR_draco_mesh_compression"],"extensionsUsed":["KHR_draco_mesh_compression"]"#);
+    let e = load_err(&write(d.path(), "draco.gltf", json));
+    assert!(
+        e.contains("draco.gltf") && e.contains("requires extension KHR_draco_mesh_compression"),
+        "{e}"
+    );
+}
