@@ -1,14 +1,11 @@
 //! The numbers at the extremes: the same scene in other units or far from the origin renders the
 //! same image, and degenerate geometry makes no NaN.
 
-use crate::support::rel_mse;
+use crate::support::{ic_image, path_image, rel_mse};
 use glam::Vec3;
 use irr_geometry::{Geometry, TriangleMesh};
-use irr_integrator::{Integrator, Scene};
-use irr_render::{
-    Camera, IcSettings, Image, IrradianceCacheIntegrator, PathSettings, PathTracer, RenderSettings,
-    build_cache, load_gltf, render,
-};
+use irr_integrator::Scene;
+use irr_render::{Camera, IcSettings, Image, RenderSettings, load_gltf};
 use std::path::Path;
 
 /// The Cornell box's meshes, materials and camera, every position mapped by `f` (a uniform scale
@@ -44,20 +41,7 @@ fn ic_render(scene: &Scene, camera: &Camera, settings: &RenderSettings) -> Image
         strata_n: 32,
         ..IcSettings::default()
     };
-    let mut integrator = IrradianceCacheIntegrator::new(ic).unwrap_or_else(|e| panic!("{e}"));
-    integrator.preprocess(scene);
-    build_cache(scene, camera, &mut integrator, settings, false, false)
-        .unwrap_or_else(|e| panic!("{e}"));
-    render(scene, camera, &integrator, settings, false)
-        .unwrap_or_else(|e| panic!("{e}"))
-        .image
-}
-
-fn path_render(scene: &Scene, camera: &Camera, settings: &RenderSettings) -> Image {
-    let pt = PathTracer::new(PathSettings::default());
-    render(scene, camera, &pt, settings, false)
-        .unwrap_or_else(|e| panic!("{e}"))
-        .image
+    ic_image(scene, camera, ic, settings).0
 }
 
 /// No record, weight, radius, clamp, octree query or ray offset depends on the unit: the Cornell
@@ -86,7 +70,7 @@ fn units_do_not_change_the_image() {
             "cache",
             ic_render as fn(&Scene, &Camera, &RenderSettings) -> Image,
         ),
-        ("path", path_render),
+        ("path", path_image),
     ] {
         let base = render_with(&scene, &camera, &settings);
         let noise = rel_mse(&render_with(&scene, &camera, &other_seed), &base);
@@ -126,7 +110,7 @@ fn far_from_the_origin_the_image_holds() {
             "cache",
             ic_render as fn(&Scene, &Camera, &RenderSettings) -> Image,
         ),
-        ("path", path_render),
+        ("path", path_image),
     ] {
         let base = render_with(&scene, &camera, &settings);
         let noise = rel_mse(

@@ -1,6 +1,12 @@
 //! Helpers shared by the test modules.
 
-use irr_render::Image;
+use glam::Vec3;
+use irr_geometry::TriangleMesh;
+use irr_integrator::{Integrator, Scene};
+use irr_render::{
+    Camera, IcSettings, Image, IrradianceCacheIntegrator, PathSettings, PathTracer, RenderSettings,
+    build_cache, render,
+};
 
 /// relMSE = mean over pixels and channels of (x − r)²/(r² + 0.01): the measure of the peer
 /// figures in the issues and of `cargo xtask compare`.
@@ -13,4 +19,138 @@ pub fn rel_mse(a: &Image, b: &Image) -> f64 {
         }
     }
     sum / (a.pixels().len() * 3) as f64
+}
+
+/// A quad as two triangles (counter-clockwise seen from the side `normal_hint` points to).
+pub fn quad(corners: [Vec3; 4], material: u32, normal_hint: Vec3) -> TriangleMesh {
+    let n = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
+    let indices = if n.dot(normal_hint) >= 0.0 {
+        vec![[0, 1, 2], [0, 2, 3]]
+    } else {
+        vec![[0, 2, 1], [0, 3, 2]]
+    };
+    TriangleMesh {
+        positions: corners.to_vec(),
+        indices,
+        normals: None,
+        material_ids: vec![material; 2],
+    }
+}
+
+/// An axis-aligned box [lo, hi] as six quads facing out: for each axis, the face at lo and the
+/// face at hi, their corners in order around the face.
+pub fn cuboid(lo: Vec3, hi: Vec3, material: u32) -> Vec<TriangleMesh> {
+    let mut faces = Vec::with_capacity(6);
+    for axis in 0..3 {
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        for side in [false, true] {
+            let at = |a: bool, b: bool| {
+                let mut c = lo;
+                for (k, on) in [(axis, side), (u, a), (v, b)] {
+                    c[k] = if on { hi[k] } else { lo[k] };
+                }
+                c
+            };
+            let mut outward = Vec3::ZERO;
+            outward[axis] = if side { 1.0 } else { -1.0 };
+            faces.push(quad(
+                [
+                    at(false, false),
+                    at(true, false),
+                    at(true, true),
+                    at(false, true),
+                ],
+                material,
+                outward,
+            ));
+        }
+    }
+    faces
+}
+
+/// Pixel means over a region, with the standard error of the mean from K independent renders.
+pub fn region_mean(images: &[Image], region: &[(u32, u32)]) -> (f64, f64) {
+    let means: Vec<f64> = images
+        .iter()
+        .map(|im| {
+            region
+                .iter()
+                .map(|&(x, y)| f64::from(im.get(x, y).element_sum()) / 3.0)
+                .sum::<f64>()
+                / region.len() as f64
+        })
+        .collect();
+    let k = means.len() as f64;
+    let mean = means.iter().sum::<f64>() / k;
+    let var = means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (k - 1.0);
+    (mean, (var / k).sqrt())
+}
+
+/// The integrator with its cache built for `settings`.
+pub fn built(
+    scene: &Scene,
+    camera: &Camera,
+    ic: IcSettings,
+    settings: &RenderSettings,
+) -> IrradianceCacheIntegrator {
+    let mut integrator = IrradianceCacheIntegrator::new(ic).unwrap_or_else(|e| panic!("{e}"));
+    integrator.preprocess(scene);
+    build_cache(
+        scene,
+        camera,
+        &mut integrator,
+        settings,
+        ic.fill_samples,
+        false,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    integrator
+}
+
+/// Builds the cache and renders: the image and the number of level-0 records.
+pub fn ic_image(
+    scene: &Scene,
+    camera: &Camera,
+    ic: IcSettings,
+    settings: &RenderSettings,
+) -> (Image, usize) {
+    let integrator = built(scene, camera, ic, settings);
+    let image = render(scene, camera, &integrator, settings, false)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .image;
+    let records = integrator.cache(0).map_or(0, |c| c.len());
+    (image, records)
+}
+
+pub fn path_image(scene: &Scene, camera: &Camera, settings: &RenderSettings) -> Image {
+    let pt = PathTracer::new(PathSettings::default());
+    render(scene, camera, &pt, settings, false)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .image
+}
+
+/// The indirect part alone (`li_split().indirect`) of the path tracer or of the cache: the part
+/// the cache computes, free of the direct light's and the directly seen emitter's noise.
+pub struct Indirect<'a> {
+    pub path: Option<&'a PathTracer>,
+    pub ic: Option<&'a IrradianceCacheIntegrator>,
+}
+
+impl Integrator for Indirect<'_> {
+    fn name(&self) -> &'static str {
+        "indirect"
+    }
+    fn li(
+        &self,
+        scene: &Scene,
+        ray: &irr_geometry::Ray,
+        dims: &mut irr_sampling::rng::Dimensions,
+        rays: &mut irr_integrator::RayCounter,
+    ) -> Vec3 {
+        match (self.path, self.ic) {
+            (Some(p), _) => p.li_split(scene, ray, dims, rays).indirect,
+            (_, Some(c)) => c.li_split(scene, ray, dims, rays).indirect,
+            _ => Vec3::ZERO,
+        }
+    }
 }
