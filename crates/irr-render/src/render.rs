@@ -10,7 +10,10 @@
 //! # Determinism
 //! Sample `i` of pixel (x, y) uses only `SampleKey::pixel(seed, x, y, i)`: dimension 0 for the
 //! jitter of its position in the pixel (a correlated multi-jittered pattern over the pixel's spp
-//! samples, see [`raster_position`]), the dimensions from 1 on for the integrator. Each pixel's samples are
+//! samples, see [`raster_position`]), the dimensions from 1 on for the integrator: those come
+//! from the pixel's shuffled, Owen-scrambled Sobol sequence (`irr_sampling::sobol`), so the
+//! pixel's samples are stratified in every pair of dimensions (light choice and point, the BSDF
+//! direction, …) and direct light converges faster than with independent numbers. Each pixel's samples are
 //! summed in index order by one thread, in f64, so the image is the same bit for bit whatever
 //! the number of threads or the order in which tiles finish.
 

@@ -6,6 +6,9 @@
 //! # What it owns
 //! - [`rng`]: `uniform(key, dimension)`, a value that depends only on (seed, stream, sample index,
 //!   dimension): never on the thread, the order of calls or anything that happened before.
+//! - [`sobol`]: the shuffled, Owen-scrambled 2D Sobol sequence (Burley 2020) that a pixel's
+//!   key ([`SampleKey::pixel`]) draws its dimensions from: still a function of (seed, pixel,
+//!   sample index, dimension) alone, and stratified in every dimension pair.
 //! - [`warp`]: `sample_cosine_hemisphere(u)`, `cosine_hemisphere_pdf(cos_theta)`,
 //!   `invert_cosine_hemisphere(w)`, and the same for the uniform sphere and the uniform triangle.
 //! - [`Frame`]: an orthonormal basis around a normal (Duff et al. 2017), continuous and robust.
@@ -41,6 +44,7 @@
 pub mod cmj;
 mod frame;
 pub mod rng;
+pub mod sobol;
 mod strata;
 pub mod warp;
 

@@ -41,25 +41,54 @@ pub fn bits_to_unit_f32(bits: u32) -> f32 {
 
 /// The keys of one sample: which seed, which stream (pixel or record), which sample index.
 ///
-/// The key is hashed once at construction; each dimension costs one more mix.
+/// The key is hashed once at construction; each dimension costs one more mix. A pixel's key
+/// ([`SampleKey::pixel`]) also draws its [`uniform`](Self::uniform) and
+/// [`uniform_2d`](Self::uniform_2d) values from dimension 1 on from a low-discrepancy sequence
+/// (see [`crate::sobol`]): the pixel's samples then stratify every dimension pair together.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct SampleKey {
     hashed: u64,
+    /// For a pixel's key: the hash of (seed, pixel) that seeds its sequence, and the sample index.
+    sequence: Option<(u64, u32)>,
 }
 
+/// Mixed into a pixel's key to seed its low-discrepancy sequence, so the sequence's seeds are
+/// unrelated to the independent values' hashes.
+const SEQUENCE_TAG: u64 = 0x50b0_1000_0000_0001;
+
 impl SampleKey {
-    /// The key of sample `index` of `stream` under `seed`.
+    /// The key of sample `index` of `stream` under `seed`: independent uniform values per
+    /// dimension.
     #[inline]
     pub fn new(seed: u64, stream: u64, index: u64) -> Self {
         Self {
             hashed: hash_keys(&[seed, stream, index]),
+            sequence: None,
         }
     }
 
     /// The key of a pixel's sample: the stream is the pixel's position packed into 64 bits.
+    /// Dimension 0 is left independent (irr-render stratifies the position in the pixel itself);
+    /// dimensions 1 and up come from the pixel's shuffled, Owen-scrambled Sobol sequence
+    /// ([`crate::sobol`]), sample `index` of it (indices past 2³² − 1 wrap). Every value is still a
+    /// function of (seed, pixel, index, dimension) alone.
     #[inline]
     pub fn pixel(seed: u64, x: u32, y: u32, index: u64) -> Self {
-        Self::new(seed, (u64::from(y) << 32) | u64::from(x), index)
+        let stream = (u64::from(y) << 32) | u64::from(x);
+        Self {
+            sequence: Some((hash_keys(&[seed, stream, SEQUENCE_TAG]), index as u32)),
+            ..Self::new(seed, stream, index)
+        }
+    }
+
+    /// The same key with independent values in every dimension (the sequence dropped): for
+    /// comparisons with the low-discrepancy sequence.
+    #[inline]
+    pub fn independent(self) -> Self {
+        Self {
+            sequence: None,
+            ..self
+        }
     }
 
     /// 64 random bits for `dimension`.
@@ -71,18 +100,31 @@ impl SampleKey {
     /// A number uniform in [0, 1) for `dimension`.
     #[inline]
     pub fn uniform(self, dimension: u32) -> f32 {
-        bits_to_unit_f32((self.bits(dimension) >> 32) as u32)
+        match self.sequence {
+            Some((seed, index)) if dimension > 0 => {
+                crate::sobol::sobol_1d(index, mix64(seed ^ u64::from(dimension)))
+            }
+            _ => bits_to_unit_f32((self.bits(dimension) >> 32) as u32),
+        }
     }
 
     /// A point uniform in [0, 1)² for dimension `dimension`: both coordinates come from one hash
-    /// (its high and low 32 bits), so a 2D sample uses one dimension number.
+    /// (its high and low 32 bits), or one point of the pixel's sequence, so a 2D sample uses one
+    /// dimension number.
     #[inline]
     pub fn uniform_2d(self, dimension: u32) -> Vec2 {
-        let b = self.bits(dimension);
-        Vec2::new(
-            bits_to_unit_f32((b >> 32) as u32),
-            bits_to_unit_f32(b as u32),
-        )
+        match self.sequence {
+            Some((seed, index)) if dimension > 0 => {
+                crate::sobol::sobol_2d(index, mix64(seed ^ u64::from(dimension)))
+            }
+            _ => {
+                let b = self.bits(dimension);
+                Vec2::new(
+                    bits_to_unit_f32((b >> 32) as u32),
+                    bits_to_unit_f32(b as u32),
+                )
+            }
+        }
     }
 }
 

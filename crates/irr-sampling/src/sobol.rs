@@ -1,0 +1,226 @@
+//! A low-discrepancy sequence for the first dimensions of a pixel's samples: the first two
+//! dimensions of Sobol's sequence, Owen-scrambled and shuffled per pixel and per dimension
+//! (Burley, "Practical Hash-based Owen Scrambling", JCGT 9(4), 2020; pbrt-v4's
+//! `PaddedSobolSampler` does the same with another hash).
+//!
+//! # What it gives
+//! Sample `i` of a pixel's dimension `d` is the point `sobol(shuffle(i))` of the 2D Sobol
+//! sequence (van der Corput in x, Sobol's second dimension in y), each coordinate scrambled by a
+//! nested uniform (Owen) scramble, with `shuffle` itself an Owen scramble of the index's bits.
+//! The shuffle and both scrambles are seeded by a hash of (seed, pixel, dimension):
+//! - Owen scrambling keeps the Sobol points' stratification (every aligned power-of-two
+//!   prefix is a (0, m, 2)-net: one point in each of the 2ᵐ elementary intervals of every
+//!   shape) and makes each point uniformly distributed, so estimates stay unbiased;
+//! - the shuffle maps each aligned block of 2ᵏ indices onto another aligned block, so the first
+//!   `spp` samples of a pixel are still a net for any power-of-two `spp` (and well spread for
+//!   others), and, being different for every dimension, it decorrelates the dimensions: sample
+//!   `i` of the light-choice dimension is not tied to sample `i` of the BSDF dimension.
+//!
+//! Nothing is stored: a value depends only on (seed, pixel, index, dimension), like
+//! [`crate::SampleKey`]'s, so images stay the same bit for bit for any thread count.
+
+use glam::Vec2;
+
+/// Burley's hash-based Laine–Karras permutation of the bits of `x`, seeded by `seed`: applied to
+/// bit-reversed values it is a nested uniform scramble (each bit flipped by a hash of the bits
+/// above it).
+#[inline]
+fn laine_karras(mut x: u32, seed: u32) -> u32 {
+    x = x.wrapping_add(seed);
+    x ^= x.wrapping_mul(0x6c50_b47c);
+    x ^= x.wrapping_mul(0xb82f_1e52);
+    x ^= x.wrapping_mul(0xc7af_e638);
+    x ^= x.wrapping_mul(0x8d22_f6e6);
+    x
+}
+
+/// The nested uniform (Owen) scramble of the 32-bit fixed-point value `x` ∈ [0, 2³²).
+#[inline]
+pub fn owen_scramble(x: u32, seed: u32) -> u32 {
+    laine_karras(x.reverse_bits(), seed).reverse_bits()
+}
+
+/// Sobol's first dimension (the base-2 van der Corput sequence) at `index`, as 32-bit fixed
+/// point. (`sobol_2d` and `sobol_1d` fold it into the scramble; the tests check the identity.)
+#[cfg(test)]
+#[inline]
+fn sobol_0(index: u32) -> u32 {
+    index.reverse_bits()
+}
+
+/// The direction numbers of Sobol's second dimension: v₀ = 2³¹ and vₖ = vₖ₋₁ ⊕ (vₖ₋₁ ≫ 1)
+/// (primitive polynomial x + 1, m₁ = 1: the columns of Pascal's triangle mod 2).
+const fn direction_numbers() -> [u32; 32] {
+    let mut v = [0u32; 32];
+    v[0] = 1 << 31;
+    let mut k = 1;
+    while k < 32 {
+        v[k] = v[k - 1] ^ (v[k - 1] >> 1);
+        k += 1;
+    }
+    v
+}
+
+/// For each byte of an index (4) and each value of that byte (256), the XOR of the direction
+/// numbers of its set bits: one lookup per byte instead of one step per bit (a shuffled index
+/// has all 32 bits in play).
+const BYTE_TABLES: [[u32; 256]; 4] = {
+    let v = direction_numbers();
+    let mut t = [[0u32; 256]; 4];
+    let mut byte = 0;
+    while byte < 4 {
+        let mut value = 0;
+        while value < 256 {
+            let mut out = 0;
+            let mut bit = 0;
+            while bit < 8 {
+                if value & (1 << bit) != 0 {
+                    out ^= v[8 * byte + bit];
+                }
+                bit += 1;
+            }
+            t[byte][value] = out;
+            value += 1;
+        }
+        byte += 1;
+    }
+    t
+};
+
+/// Sobol's second dimension at `index`, as 32-bit fixed point: the XOR of the direction numbers
+/// vₖ for the set bits k of `index`.
+#[inline]
+fn sobol_1(index: u32) -> u32 {
+    let [b0, b1, b2, b3] = index.to_le_bytes();
+    BYTE_TABLES[0][usize::from(b0)]
+        ^ BYTE_TABLES[1][usize::from(b1)]
+        ^ BYTE_TABLES[2][usize::from(b2)]
+        ^ BYTE_TABLES[3][usize::from(b3)]
+}
+
+/// Maps 32-bit fixed point to a float in [0, 1) (the top 24 bits, so never 1.0).
+#[inline]
+fn to_unit(x: u32) -> f32 {
+    crate::rng::bits_to_unit_f32(x)
+}
+
+/// Sample `index` of the shuffled, Owen-scrambled 2D Sobol sequence seeded by `seed` (64 bits:
+/// the shuffle's and the two scrambles' 32-bit seeds are cut from it and its rehash).
+#[inline]
+pub fn sobol_2d(index: u32, seed: u64) -> Vec2 {
+    let s = crate::rng::mix64(seed);
+    let shuffled = owen_scramble(index, seed as u32);
+    // owen_scramble(sobol_0(i)) = reverse(LK(reverse(reverse(i)))) = reverse(LK(i)): two bit
+    // reversals saved, the same bits.
+    Vec2::new(
+        to_unit(laine_karras(shuffled, s as u32).reverse_bits()),
+        to_unit(owen_scramble(sobol_1(shuffled), (s >> 32) as u32)),
+    )
+}
+
+/// Sample `index` of the shuffled, Owen-scrambled van der Corput sequence seeded by `seed`.
+#[inline]
+pub fn sobol_1d(index: u32, seed: u64) -> f32 {
+    let s = crate::rng::mix64(seed);
+    let shuffled = owen_scramble(index, seed as u32);
+    to_unit(laine_karras(shuffled, s as u32).reverse_bits())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Sobol's second dimension, from its definition: the first points in natural (not Gray-code)
+    /// index order are 0, 1/2, 3/4, 1/4, 5/8, 1/8, 3/8, 7/8 (the XOR of v₁ = .1, v₂ = .11,
+    /// v₃ = .101 in binary); paired with van der Corput's 0, 1/2, 1/4, 3/4, 1/8, 5/8, 3/8, 7/8
+    /// they are the first eight points of Joe & Kuo's table, reordered.
+    #[test]
+    fn the_second_dimension_matches_the_published_points() {
+        let expected = [0.0, 0.5, 0.75, 0.25, 0.625, 0.125, 0.375, 0.875];
+        for (i, e) in expected.iter().enumerate() {
+            assert_eq!(
+                f64::from(sobol_1(i as u32)) / 2f64.powi(32),
+                *e,
+                "index {i}"
+            );
+        }
+    }
+
+    /// The (0, m, 2)-net property of the scrambled, shuffled sequence: for m ≤ 8, every
+    /// aligned block of 2ᵐ indices puts exactly one point in each elementary interval
+    /// [a/2ʲ, (a+1)/2ʲ) × [b/2ᵐ⁻ʲ, (b+1)/2ᵐ⁻ʲ), for every j. Exact: no tolerance.
+    #[test]
+    fn every_power_of_two_prefix_is_a_net() {
+        for seed in [0u64, 1, 0xdead_beef, u64::MAX] {
+            for m in 0..=8u32 {
+                let n = 1u32 << m;
+                for block in 0..3u32 {
+                    let points: Vec<Vec2> = (block * n..(block + 1) * n)
+                        .map(|i| sobol_2d(i, seed))
+                        .collect();
+                    for j in 0..=m {
+                        let (nx, ny) = (1u32 << j, 1u32 << (m - j));
+                        let mut seen = vec![false; n as usize];
+                        for p in &points {
+                            let cell = (p.x * nx as f32) as u32 * ny + (p.y * ny as f32) as u32;
+                            assert!(
+                                !std::mem::replace(&mut seen[cell as usize], true),
+                                "seed {seed}, m {m}, j {j}: two points in one interval"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    proptest! {
+        /// The shortcut in `sobol_2d`: scrambling van der Corput's point is one reversal of the
+        /// permuted index.
+        #[test]
+        fn the_first_dimension_shortcut_is_exact(index: u32, seed: u32) {
+            prop_assert_eq!(
+                owen_scramble(sobol_0(index), seed),
+                laine_karras(index, seed).reverse_bits()
+            );
+        }
+
+        /// The byte tables give the XOR of the direction numbers of the index's set bits.
+        #[test]
+        fn tables_match_the_bitwise_definition(index: u32) {
+            let v = direction_numbers();
+            let direct = (0..32).filter(|k| index & (1 << k) != 0).fold(0, |acc, k| acc ^ v[k]);
+            prop_assert_eq!(sobol_1(index), direct);
+        }
+
+        /// Values lie in [0, 1) and depend only on (index, seed).
+        #[test]
+        fn values_are_in_the_unit_square(index: u32, seed: u64) {
+            let p = sobol_2d(index, seed);
+            prop_assert!((0.0..1.0).contains(&p.x) && (0.0..1.0).contains(&p.y));
+            prop_assert_eq!(p, sobol_2d(index, seed));
+            let q = sobol_1d(index, seed);
+            prop_assert!((0.0..1.0).contains(&q));
+        }
+    }
+
+    /// Unbiased: over many seeds, the mean of one sample is 1/2 in each coordinate. With 4096
+    /// seeds the mean of a uniform variable has standard deviation √(1/12/4096) = 0.0045; the
+    /// bound is 5 of those.
+    #[test]
+    fn each_point_is_uniform_over_seeds() {
+        for index in [0u32, 1, 7, 1000] {
+            let n = 4096;
+            let (mut sx, mut sy) = (0.0f64, 0.0f64);
+            for s in 0..n {
+                let p = sobol_2d(index, crate::rng::hash_keys(&[s]));
+                sx += f64::from(p.x);
+                sy += f64::from(p.y);
+            }
+            let bound = 5.0 * (1.0 / 12.0 / n as f64).sqrt();
+            assert!((sx / n as f64 - 0.5).abs() < bound, "x of index {index}");
+            assert!((sy / n as f64 - 0.5).abs() < bound, "y of index {index}");
+        }
+    }
+}
