@@ -60,7 +60,7 @@ pub use ic::{
     BounceMode, CacheBuilder, CachedAmbientOcclusion, Candidate, CommitStats, GradientMode,
     IcMetric, IcSettings, IcSettingsError, IrradianceCacheIntegrator, LeakGuard, MetricKind, Probe,
 };
-pub use integrator::{Integrator, RayCounter};
+pub use integrator::{FirstHit, Integrator, RayCounter, first_hit};
 pub use light::{LightSample, LightSampler};
 pub use path::{PathSettings, PathTracer, Radiance};
 pub use scene::{Material, Scene, SceneError};
