@@ -285,7 +285,8 @@ fn plane_renders_from_another_folder_with_aovs_cameras_and_metadata() {
 }
 
 /// The colour's emitted, direct and indirect parts add up to it, for the path tracer and the
-/// irradiance cache, on the Cornell box (whose indirect light is far from zero).
+/// irradiance cache, on the Cornell box (whose indirect light is far from zero); and asking
+/// for them changes no bit of the colour, whatever the thread count.
 #[test]
 fn split_layers_sum_to_the_colour() {
     let work = temp();
@@ -331,6 +332,32 @@ fn split_layers_sum_to_the_colour() {
         }
         assert!(indirect > 0.0, "{integrator}: no indirect light anywhere");
         assert_eq!(exr.text("irr.integrator"), integrator);
+        // Without AOVs, and on one thread, the colour is the same to the last bit.
+        let plain = format!("{integrator}-plain.exr");
+        irr_ok(
+            work.path(),
+            &[
+                &scene,
+                "-o",
+                &plain,
+                "--integrator",
+                integrator,
+                "--width",
+                "12",
+                "--spp",
+                "2",
+                "--strata",
+                "4x16",
+                "--threads",
+                "1",
+            ],
+        );
+        let plain = Exr::read(&work.path().join(&plain));
+        assert_eq!(plain.names(), ["B", "G", "R"]);
+        for c in ["R", "G", "B"] {
+            let bits = |e: &Exr| e.channel(c).iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&plain), bits(&exr), "{integrator} {c}");
+        }
     }
 }
 
