@@ -1047,6 +1047,7 @@ mod tests {
     fn quick_compare_writes_a_sound_report() {
         let root = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
         let scene = crate::workspace_root()
+            .unwrap_or_else(|e| panic!("{e}"))
             .join("assets")
             .join("cornell-box.gltf");
         let args = CompareArgs {

@@ -9,7 +9,11 @@
 //! - `cargo xtask tidy`: checks the codebase's own rules (also run by `cargo test` through the
 //!   `#[test]`s in `tidy.rs`).
 //!
-//! The workspace root is found from `CARGO_MANIFEST_DIR`, so every command works from any folder.
+//! The workspace root is found at run time ([`workspace_root`]): from the folder that `cargo run`
+//! names in `CARGO_MANIFEST_DIR` (this crate's, in the checkout `cargo xtask` was typed in), else
+//! from the current directory, walking up to the first `Cargo.toml` with a `[workspace]` table.
+//! No path of the machine that compiled xtask is built in, so every command works from any folder
+//! of any checkout.
 
 use clap::{Parser, Subcommand};
 use std::path::{Path, PathBuf};
@@ -37,24 +41,75 @@ enum Command {
     Tidy,
 }
 
-/// The workspace root: the parent of this crate's folder.
-pub fn workspace_root() -> PathBuf {
-    let manifest_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
-    manifest_dir.parent().unwrap_or(manifest_dir).to_path_buf()
+/// The workspace root, found at run time (see the crate docs): the first folder at or above
+/// `CARGO_MANIFEST_DIR` (set by `cargo run` for the process it starts), or else above the
+/// current directory, whose `Cargo.toml` has a `[workspace]` table.
+pub fn workspace_root() -> Result<PathBuf, String> {
+    let start = match std::env::var_os("CARGO_MANIFEST_DIR") {
+        Some(dir) => PathBuf::from(dir),
+        None => std::env::current_dir()
+            .map_err(|e| format!("cannot read the current directory: {e}"))?,
+    };
+    find_workspace_root(&start).ok_or_else(|| {
+        format!(
+            "no Cargo workspace at or above {}: run cargo xtask inside the irr checkout",
+            start.display()
+        )
+    })
+}
+
+/// The first folder at or above `start` whose `Cargo.toml` has a `[workspace]` table.
+pub fn find_workspace_root(start: &Path) -> Option<PathBuf> {
+    start
+        .ancestors()
+        .find(|dir| {
+            std::fs::read_to_string(dir.join("Cargo.toml"))
+                .is_ok_and(|text| text.lines().any(|l| l.trim() == "[workspace]"))
+        })
+        .map(Path::to_path_buf)
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result = match cli.command {
-        Command::Render(args) => render::run(args, &workspace_root()),
-        Command::Compare(args) => compare::run(args, &workspace_root()),
-        Command::Tidy => tidy::run(&workspace_root()),
-    };
+    let result = workspace_root().and_then(|root| match cli.command {
+        Command::Render(args) => render::run(args, &root),
+        Command::Compare(args) => compare::run(args, &root),
+        Command::Tidy => tidy::run(&root),
+    });
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(message) => {
             eprintln!("error: {message}");
             ExitCode::FAILURE
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The root is found by walking up from any folder inside the workspace, and a folder
+    /// outside any workspace has none.
+    #[test]
+    fn workspace_root_is_found_from_inside_and_not_outside() {
+        let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let root = dir.path().join("ws");
+        let deep = root.join("crates/a/src");
+        std::fs::create_dir_all(&deep).unwrap_or_else(|e| panic!("{e}"));
+        std::fs::write(root.join("Cargo.toml"), "[workspace]\nmembers = []\n")
+            .unwrap_or_else(|e| panic!("{e}"));
+        // A member's own manifest has no [workspace] table: the walk goes past it.
+        std::fs::write(
+            root.join("crates/a/Cargo.toml"),
+            "[package]\nname = \"a\"\n",
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(find_workspace_root(&deep), Some(root.clone()));
+        assert_eq!(find_workspace_root(&root), Some(root));
+        assert_eq!(find_workspace_root(dir.path()), None);
+        // This checkout's root holds the default scene.
+        let this = workspace_root().unwrap_or_else(|e| panic!("{e}"));
+        assert!(this.join("assets/cornell-box.gltf").is_file());
     }
 }

@@ -1,5 +1,6 @@
-//! `cargo xtask render`: the `irr` command (irr-cli) with the workspace's defaults: the Cornell
-//! box in assets/ as the scene, and out/<scene stem>.exr as the output.
+//! `cargo xtask render`: the `irr` command (irr-cli's `run`, the same code and options) with the
+//! workspace's defaults: the Cornell box in assets/ as the scene, and out/<scene stem>.exr as
+//! the output, both under the workspace root found at run time.
 
 use clap::Args;
 use irr_cli::RenderArgs;
@@ -13,7 +14,7 @@ pub struct RenderCommand {
     pub scene: Option<PathBuf>,
     /// Output OpenEXR file; the PNG preview is written beside it with the same stem
     /// [default: out/<scene stem>.exr in the workspace]
-    #[arg(long)]
+    #[arg(short, long)]
     pub out: Option<PathBuf>,
     /// Every option of `irr`
     #[command(flatten)]

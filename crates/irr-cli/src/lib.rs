@@ -3,11 +3,15 @@
 //!
 //! # What it owns
 //! - [`RenderArgs`]: every render option (integrator, size, samples, seed, threads, exposure,
-//!   the irradiance cache's settings, `--cache`, `--show-records`, `--debug-pixel`,
-//!   `--asset-root`), parsed with clap, each checked with a one-line error naming the option.
-//! - [`run`]: load, build the cache, render, write; used by the `irr` binary (scene as a
-//!   positional argument, output `<scene stem>.exr` in the current directory by default) and by
-//!   `cargo xtask render` (the workspace's default scene, output in out/).
+//!   `--camera`, `--aov`, the irradiance cache's settings, `--cache`, `--show-records`,
+//!   `--debug-pixel`, `--asset-root`), parsed with clap, each checked with a one-line error
+//!   naming the option. A missing `--width` or `--height` follows from the other and the
+//!   camera's aspect ratio.
+//! - [`run`]: load, build the cache, render, write the EXR (colour, AOVs, chromaticities and
+//!   the render's metadata) and its PNG preview; used by the `irr` binary (scene as a positional
+//!   argument, output [`default_output`], `<scene stem>.exr` in the current directory, unless
+//!   `-o` says otherwise) and by `cargo xtask render` (the workspace's default scene, output in
+//!   out/).
 //!
 //! # What it must not know
 //! How anything is rendered: it turns options into irr-render's and irr-integrator's settings
@@ -34,4 +38,4 @@
 
 pub mod render;
 
-pub use render::{IcArgs, IntegratorChoice, RenderArgs, default_spp, run};
+pub use render::{IcArgs, IntegratorChoice, RenderArgs, default_output, default_spp, run};

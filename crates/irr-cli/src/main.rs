@@ -22,13 +22,9 @@ struct Cli {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let out = cli.out.unwrap_or_else(|| {
-        let stem = cli
-            .scene
-            .file_stem()
-            .map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
-        PathBuf::from(format!("{stem}.exr"))
-    });
+    let out = cli
+        .out
+        .unwrap_or_else(|| irr_cli::default_output(&cli.scene));
     match irr_cli::run(cli.args, &cli.scene, &out) {
         Ok(()) => ExitCode::SUCCESS,
         Err(message) => {

@@ -7,13 +7,15 @@
 
 use clap::{Args, ValueEnum};
 use irr_render::{
-    AmbientOcclusion, AoSettings, BounceMode, CacheBuilder, CachedAmbientOcclusion, GradientMode,
-    IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard, LoadOptions, MetricKind,
-    PathSettings, PathTracer, RenderSettings, build_cache, check_exposure, check_output,
-    fingerprint, load_scene_with, mark_records, mean_of_samples, pixel_samples, read_cache_file,
-    remove_partial_outputs_on_signals, render, write_cache_file, write_exr_and_png,
+    AmbientOcclusion, AoSettings, Aov, BounceMode, CacheBuilder, CachedAmbientOcclusion, Camera,
+    ExrMetadata, GradientMode, IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard,
+    LoadOptions, MetricKind, PathSettings, PathTracer, RenderSettings, build_cache, check_exposure,
+    check_output, fingerprint, load_scene_with, mark_records, mean_of_samples, pixel_samples,
+    read_cache_file, remove_partial_outputs_on_signals, render_with_aovs, write_cache_file,
+    write_exr_and_png, write_render,
 };
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 /// Which integrator estimates the radiance.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -190,12 +192,23 @@ pub struct RenderArgs {
     /// samples for anti-aliasing and direct light; the cache makes the indirect light smooth]
     #[arg(long, allow_negative_numbers = true)]
     pub spp: Option<i64>,
-    /// Image width in pixels (1 to 16384)
-    #[arg(long, default_value_t = RenderSettings::default().width.into(), allow_negative_numbers = true)]
-    pub width: i64,
-    /// Image height in pixels (1 to 16384)
-    #[arg(long, default_value_t = RenderSettings::default().height.into(), allow_negative_numbers = true)]
-    pub height: i64,
+    /// Image width in pixels (1 to 16384) [default: --height × the camera's aspect ratio, or
+    /// 256 without --height]
+    #[arg(long, allow_negative_numbers = true)]
+    pub width: Option<i64>,
+    /// Image height in pixels (1 to 16384) [default: the width ÷ the camera's aspect ratio
+    /// (glTF's aspectRatio, 1 for a camera without one)]
+    #[arg(long, allow_negative_numbers = true)]
+    pub height: Option<i64>,
+    /// The scene's perspective camera to render through, numbered from 0 in depth-first order
+    /// of the scene's nodes [default: 0, or a camera framing the scene if the file has none]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    pub camera: Option<usize>,
+    /// Auxiliary images written as further layers of the EXR, comma-separated, any of: albedo,
+    /// normal, depth, emitted, direct, indirect (layers albedo.R/G/B, normal.X/Y/Z, depth.Z,
+    /// emitted.R/G/B, …; each averaged over the pixel's samples like the colour)
+    #[arg(long, value_name = "AOV,...", value_delimiter = ',', value_parser = parse_aov)]
+    pub aov: Vec<Aov>,
     /// Worker threads; 0 means one per core
     #[arg(long, default_value_t = RenderSettings::default().threads as i64, allow_negative_numbers = true)]
     pub threads: i64,
@@ -236,6 +249,18 @@ pub const MAX_CACHE_FILE_BYTES: u64 = 4 << 30;
 /// Camera samples per pixel of the irradiance cache by default (see `default_spp`).
 pub const IC_DEFAULT_SPP: i64 = 64;
 
+fn parse_aov(text: &str) -> Result<Aov, String> {
+    Aov::from_name(text)
+}
+
+/// The output `irr SCENE` writes without `-o`: `<scene stem>.exr` in the current directory.
+pub fn default_output(scene: &Path) -> PathBuf {
+    let stem = scene
+        .file_stem()
+        .map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
+    PathBuf::from(format!("{stem}.exr"))
+}
+
 fn parse_pixel(text: &str) -> Result<(u32, u32), String> {
     let (x, y) = text
         .split_once(',')
@@ -252,9 +277,12 @@ fn parse_pixel(text: &str) -> Result<(u32, u32), String> {
 /// line naming the file or option and the problem.
 pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String> {
     let spp = args.spp.unwrap_or_else(|| default_spp(args.integrator));
-    let settings =
-        RenderSettings::from_options(args.width, args.height, spp, args.seed, args.threads)
-            .map_err(|e| e.to_string())?;
+    // Every option checked before the scene is loaded; the size is final once the camera's
+    // aspect ratio is known.
+    let (width, height) =
+        RenderSettings::image_size(args.width, args.height, None).map_err(|e| e.to_string())?;
+    RenderSettings::from_options(width.into(), height.into(), spp, args.seed, args.threads)
+        .map_err(|e| e.to_string())?;
     check_exposure(args.exposure).map_err(|e| e.to_string())?;
     let ic_settings = match args.integrator {
         IntegratorChoice::Ic | IntegratorChoice::IcAo => Some(args.ic.settings(args.max_depth)?),
@@ -277,7 +305,7 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
             scene_path.display()
         ));
         spinner.enable_steady_tick(std::time::Duration::from_millis(100));
-        let started = std::time::Instant::now();
+        let started = Instant::now();
         let loaded = load_scene_with(&scene_path, &options);
         spinner.finish_and_clear();
         if started.elapsed().as_secs_f64() > 1.0 {
@@ -292,16 +320,48 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
     for w in &loaded.warnings {
         eprintln!("warning: {w}");
     }
-    if let Some(note) = loaded.aspect_note(settings.width, settings.height) {
+    let file_camera = loaded
+        .choose_camera(args.camera)
+        .map_err(|e| e.to_string())?;
+    let (width, height) = RenderSettings::image_size(
+        args.width,
+        args.height,
+        file_camera.and_then(|c| c.aspect_ratio_in_file),
+    )
+    .map_err(|e| e.to_string())?;
+    let settings =
+        RenderSettings::from_options(width.into(), height.into(), spp, args.seed, args.threads)
+            .map_err(|e| e.to_string())?;
+    if let Some(note) = file_camera.and_then(|c| loaded.aspect_note(&c, width, height)) {
         eprintln!("warning: {note}");
     }
-    if loaded.camera.is_none() {
+    if loaded.cameras.len() > 1 {
+        let i = args.camera.unwrap_or(0);
+        let which = loaded
+            .cameras
+            .get(i)
+            .map(|c| c.describe())
+            .unwrap_or_default();
         eprintln!(
-            "note: {} has no camera: irr frames the scene's bounds from +Z with a 45° vertical field of view",
-            scene_path.display()
+            "note: {} has {} perspective cameras; rendering through camera {i} ({which}); --camera N picks another",
+            scene_path.display(),
+            loaded.cameras.len()
         );
     }
-    let camera = loaded.camera_for(settings.width, settings.height);
+    let camera = match file_camera {
+        Some(c) => c,
+        None => {
+            eprintln!(
+                "note: {} has no camera: irr frames the scene's bounds from +Z with a 45° vertical field of view",
+                scene_path.display()
+            );
+            Camera::framing(
+                loaded.bounds.0,
+                loaded.bounds.1,
+                width as f32 / height as f32,
+            )
+        }
+    };
     if args.ic.cache.is_some() && args.integrator != IntegratorChoice::Ic {
         return Err("--cache: a persistent cache works with --integrator ic only".into());
     }
@@ -345,6 +405,7 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
         ),
         _ => None,
     };
+    let started = Instant::now();
     let mut plain: Box<dyn Integrator> = match args.integrator {
         IntegratorChoice::Ao => Box::new(AmbientOcclusion::new(AoSettings::default())),
         _ => Box::new(PathTracer::new(PathSettings {
@@ -394,8 +455,16 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
 
     // From here on temporary output files may exist: delete them if the user interrupts.
     remove_partial_outputs_on_signals()?;
-    let output =
-        render(&loaded.scene, &camera, integrator, &settings, true).map_err(|e| e.to_string())?;
+    let output = render_with_aovs(
+        &loaded.scene,
+        &camera,
+        integrator,
+        &settings,
+        &args.aov,
+        true,
+    )
+    .map_err(|e| e.to_string())?;
+    let render_seconds = started.elapsed().as_secs_f64();
     eprintln!("{}", output.stats.summary());
     let mean = output.image.mean();
     eprintln!("image mean radiance: {} {} {}", mean.x, mean.y, mean.z);
@@ -414,8 +483,34 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
             output.stats.non_finite_samples
         );
     }
-    let (exr, png) =
-        write_exr_and_png(&output.image, &out, args.exposure).map_err(|e| e.to_string())?;
+    let metadata = ExrMetadata {
+        software: format!("irr {}", env!("CARGO_PKG_VERSION")),
+        scene: scene_path
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
+        integrator: output.stats.integrator.to_string(),
+        settings: match (args.integrator, ic_settings) {
+            (IntegratorChoice::Ic, Some(s)) => format!("{s:?}"),
+            (IntegratorChoice::IcAo, Some(s)) => format!(
+                "{s:?}, ambient occlusion max_distance: {}",
+                AoSettings::default().max_distance
+            ),
+            (IntegratorChoice::Ao, _) => format!("{:?}", AoSettings::default()),
+            _ => format!(
+                "{:?}",
+                PathSettings {
+                    max_depth: args.max_depth,
+                    ..PathSettings::default()
+                }
+            ),
+        },
+        spp: settings.spp,
+        seed: settings.seed,
+        render_seconds,
+        camera,
+    };
+    let (exr, png) = write_render(&output.image, &output.aovs, &metadata, &out, args.exposure)
+        .map_err(|e| e.to_string())?;
     println!("wrote {} and {}", exr.display(), png.display());
     if let (true, Some(b)) = (args.ic.show_records, builder) {
         let view = mark_records(&output.image, &camera, &b.records_for_display());
@@ -453,9 +548,15 @@ mod tests {
     fn defaults_and_negative_numbers_parse() {
         let cli = Cli::try_parse_from(["render"]).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(
-            (cli.args.width, cli.args.height, cli.args.spp),
-            (256, 256, None)
+            (
+                cli.args.width,
+                cli.args.height,
+                cli.args.spp,
+                cli.args.camera
+            ),
+            (None, None, None, None)
         );
+        assert!(cli.args.aov.is_empty());
         assert_eq!(cli.args.integrator, IntegratorChoice::Ic);
         assert_eq!(default_spp(IntegratorChoice::Path), 256);
         assert_eq!(
@@ -503,6 +604,28 @@ mod tests {
             .unwrap_or_default();
         assert!(e.contains("'-1'") && e.contains("--seed"), "{e}");
         assert!(!e.contains("unexpected argument"), "{e}");
+    }
+
+    /// `--aov` takes a comma-separated list; a name it does not know is refused by the parser,
+    /// naming the option, the bad value and every valid name.
+    #[test]
+    fn aov_lists_parse_and_bad_names_list_the_valid_ones() {
+        let cli = Cli::try_parse_from(["render", "--aov", "albedo,normal", "--aov", "depth"])
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(cli.args.aov, [Aov::Albedo, Aov::Normal, Aov::Depth]);
+        let e = Cli::try_parse_from(["render", "--aov", "albedo,foo"])
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("--aov") && e.contains("'foo'"), "{e}");
+        assert!(
+            e.contains("albedo, normal, depth, emitted, direct, indirect"),
+            "{e}"
+        );
+        assert_eq!(
+            default_output(Path::new("/a/b/scene.gltf")),
+            Path::new("scene.exr")
+        );
     }
 
     #[test]

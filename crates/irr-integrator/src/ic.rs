@@ -1130,6 +1130,16 @@ impl Integrator for IrradianceCacheIntegrator {
     fn li(&self, scene: &Scene, ray: &Ray, dims: &mut Dimensions, rays: &mut RayCounter) -> Vec3 {
         self.li_split(scene, ray, dims, rays).total()
     }
+
+    fn li_split(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        dims: &mut Dimensions,
+        rays: &mut RayCounter,
+    ) -> Radiance {
+        IrradianceCacheIntegrator::li_split(self, scene, ray, dims, rays)
+    }
 }
 
 impl CacheBuilder for IrradianceCacheIntegrator {

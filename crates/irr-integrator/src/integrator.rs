@@ -1,5 +1,7 @@
-//! The interface every integrator implements, and the ray counter it reports into.
+//! The interface every integrator implements, the ray counter it reports into, and what a
+//! camera ray sees first ([`first_hit`], for a renderer's auxiliary images).
 
+use crate::path::{Radiance, ShadingPoint};
 use crate::scene::Scene;
 use glam::Vec3;
 use irr_geometry::Ray;
@@ -45,4 +47,54 @@ pub trait Integrator: Sync {
     /// −`ray.direction`). Every random number comes from `dims`, so the estimate depends only on
     /// the sample's key; `rays` counts the rays traced.
     fn li(&self, scene: &Scene, ray: &Ray, dims: &mut Dimensions, rays: &mut RayCounter) -> Vec3;
+
+    /// [`Integrator::li`] split by the light paths each part carries: `emitted` (the first
+    /// surface's own emission), `direct` (light reflected once, there) and `indirect` (reflected
+    /// at least twice); see [`Radiance`]. It draws the same random numbers as `li`, and
+    /// `li_split(…).total()` is `li(…)` bit for bit, so a renderer may take the colour from either.
+    ///
+    /// The default, for an integrator with no such split (ambient occlusion), puts the whole
+    /// estimate in `emitted`.
+    fn li_split(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        dims: &mut Dimensions,
+        rays: &mut RayCounter,
+    ) -> Radiance {
+        Radiance {
+            emitted: self.li(scene, ray, dims, rays),
+            direct: Vec3::ZERO,
+            indirect: Vec3::ZERO,
+        }
+    }
+}
+
+/// What a ray meets first: the surface data a denoiser or a compositor reads beside the
+/// radiance (albedo, normal, depth).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FirstHit {
+    /// The hit's parameter along the ray, in units of the direction's length: the distance
+    /// from the ray's origin in scene units for a unit direction (camera rays have one).
+    pub distance: f32,
+    /// The diffuse reflectance ρ of the surface hit, in [0, 1].
+    pub albedo: Vec3,
+    /// The unit shading normal at the hit, in world space, turned to the side the ray comes
+    /// from (reflection is two-sided; Cycles' normal pass does the same).
+    pub normal: Vec3,
+}
+
+/// The first surface along `ray`, or `None` if it hits nothing: one closest-hit query,
+/// counted in `rays`. Uses no random numbers, so calling it beside an integrator leaves the
+/// integrator's estimate unchanged.
+pub fn first_hit(scene: &Scene, ray: &Ray, rays: &mut RayCounter) -> Option<FirstHit> {
+    rays.closest += 1;
+    let hit = scene.geometry().intersect(ray)?;
+    let surface = scene.geometry().surface(ray, &hit);
+    let x = ShadingPoint::new(&surface, -ray.direction);
+    Some(FirstHit {
+        distance: hit.t,
+        albedo: scene.material_of(surface.triangle).albedo,
+        normal: x.ns,
+    })
 }

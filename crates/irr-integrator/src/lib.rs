@@ -4,7 +4,9 @@
 //! - [`Scene`]: geometry plus Lambertian [`Material`]s (albedo, emission, sidedness) and the
 //!   [`LightSampler`] over emitting triangles (by power, then uniformly by area).
 //! - The [`Integrator`] interface (pbrt-v4's `RayIntegrator::Li`): radiance along one ray, with
-//!   random numbers from an `irr_sampling::rng::Dimensions` cursor.
+//!   random numbers from an `irr_sampling::rng::Dimensions` cursor, whole (`li`) or split by
+//!   bounce count (`li_split`); and [`first_hit`], what a camera ray meets first (albedo,
+//!   shading normal, distance) for a renderer's auxiliary images.
 //! - [`PathTracer`]: the unbiased reference (NEE + BSDF sampling with MIS, Russian roulette). Its
 //!   estimate splits into emitted, direct and indirect parts ([`Radiance`]); the module `path`
 //!   documents exactly which light paths each carries, so the irradiance cache can replace the
@@ -60,7 +62,7 @@ pub use ic::{
     BounceMode, CacheBuilder, CachedAmbientOcclusion, Candidate, CommitStats, GradientMode,
     IcMetric, IcSettings, IcSettingsError, IrradianceCacheIntegrator, LeakGuard, MetricKind, Probe,
 };
-pub use integrator::{Integrator, RayCounter};
+pub use integrator::{FirstHit, Integrator, RayCounter, first_hit};
 pub use light::{LightSample, LightSampler};
 pub use path::{PathSettings, PathTracer, Radiance};
 pub use scene::{Material, Scene, SceneError};

@@ -313,4 +313,14 @@ impl Integrator for PathTracer {
     fn li(&self, scene: &Scene, ray: &Ray, dims: &mut Dimensions, rays: &mut RayCounter) -> Vec3 {
         self.li_split(scene, ray, dims, rays).total()
     }
+
+    fn li_split(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        dims: &mut Dimensions,
+        rays: &mut RayCounter,
+    ) -> Radiance {
+        PathTracer::li_split(self, scene, ray, dims, rays)
+    }
 }

@@ -11,8 +11,14 @@
 //!
 //! Clipping planes: rays start on the near plane (z = −znear in camera space) and end on the far
 //! plane when the file gives one, as a rasteriser using the same projection would clip.
+//!
+//! # Matrices for the OpenEXR header
+//! [`Camera::world_to_camera`] and [`Camera::world_to_ndc`] follow OpenEXR's standard attributes
+//! `worldToCamera` and `worldToNDC` (RenderMan's spaces): camera space is left-handed with +x to
+//! the right of the image, +y up and +z along the view direction; NDC has (0, 0) at the image's
+//! top-left corner and (1, 1) at its bottom-right, reached after the homogeneous divide.
 
-use glam::{Mat4, Vec2, Vec3};
+use glam::{DMat4, DVec4, Mat4, Vec2, Vec3};
 
 /// A pinhole camera in world space (metres).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -44,6 +50,30 @@ pub struct CameraRay {
     pub direction: Vec3,
     /// Distance along `direction` to the far plane (infinite without one).
     pub t_max: f32,
+    /// Distance from the centre of projection to `origin` (0 without a near plane): a hit at
+    /// parameter t along the ray is `origin_distance + t` from the camera.
+    pub origin_distance: f32,
+}
+
+/// One of a glTF file's perspective cameras, with the node that holds it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NamedCamera {
+    /// The index of the node in the file's `nodes`.
+    pub node: usize,
+    /// The node's `name`, if it has one (as the file spells it: escape it before printing).
+    pub name: Option<String>,
+    /// The camera, placed by the node's world transform.
+    pub camera: Camera,
+}
+
+impl NamedCamera {
+    /// `2 "Side view"` (index and escaped name), or `2` for a node without a name.
+    pub fn describe(&self) -> String {
+        match &self.name {
+            Some(n) => format!("node {} \"{}\"", self.node, crate::error::one_line(n)),
+            None => format!("node {}", self.node),
+        }
+    }
 }
 
 impl Camera {
@@ -135,7 +165,50 @@ impl Camera {
             origin: self.position + d * self.znear,
             direction: d / length,
             t_max,
+            origin_distance: self.znear * length,
         }
+    }
+
+    /// OpenEXR's `worldToCamera` (see the module docs) as a matrix acting on column vectors:
+    /// `p_camera = M · (p, 1)`, with p_camera = ((p − position)·right, (p − position)·up,
+    /// (p − position)·forward). Computed in f64. OpenEXR stores the transpose (Imath multiplies
+    /// row vectors), which is this matrix's column-major array, `to_cols_array()`.
+    pub fn world_to_camera(&self) -> DMat4 {
+        let (r, u, f) = (
+            self.right.as_dvec3(),
+            self.up.as_dvec3(),
+            self.forward.as_dvec3(),
+        );
+        let p = self.position.as_dvec3();
+        DMat4::from_cols(
+            DVec4::new(r.x, u.x, f.x, 0.0),
+            DVec4::new(r.y, u.y, f.y, 0.0),
+            DVec4::new(r.z, u.z, f.z, 0.0),
+            DVec4::new(-r.dot(p), -u.dot(p), -f.dot(p), 1.0),
+        )
+    }
+
+    /// OpenEXR's `worldToNDC` for a `width` × `height` image, acting on column vectors: for a
+    /// world point p, `(X, Y, Z, W) = M · (p, 1)` and (X/W, Y/W) is its NDC position, `raster /
+    /// (width, height)` (the inverse of [`Camera::ray`]). Z/W is 0 on the near plane and 1 on the
+    /// far plane (1 − znear/z without one); OpenEXR readers discard it. Computed in f64.
+    pub fn world_to_ndc(&self, width: u32, height: u32) -> DMat4 {
+        let aspect = f64::from(width) / f64::from(height.max(1));
+        let tan_half = (0.5 * f64::from(self.yfov)).tan();
+        let (near, far) = (f64::from(self.znear), self.zfar.map(f64::from));
+        // Camera space (x, y, z) to homogeneous NDC with W = z: X/W = 0.5 + 0.5·x/(z·tan·aspect)
+        // and Y/W = 0.5 − 0.5·y/(z·tan) (y down), the maps of `ray` inverted.
+        let (a, b) = match far {
+            Some(f) => (f / (f - near), -f * near / (f - near)),
+            None => (1.0, -near),
+        };
+        let projection = DMat4::from_cols(
+            DVec4::new(0.5 / (tan_half * aspect), 0.0, 0.0, 0.0),
+            DVec4::new(0.0, -0.5 / tan_half, 0.0, 0.0),
+            DVec4::new(0.5, 0.5, a, 1.0),
+            DVec4::new(0.0, 0.0, b, 0.0),
+        );
+        projection * self.world_to_camera()
     }
 }
 
@@ -222,6 +295,53 @@ mod tests {
         // of a few operations on values of order 10: 1e-5).
         assert!((r.origin.z + 0.5).abs() < 1e-6);
         assert!((r.origin + r.direction * r.t_max).z + 10.0 < 1e-5);
+    }
+
+    /// The header matrices invert `ray`: a point along the ray through raster point (x, y)
+    /// lands at NDC (x/W, y/H), and in camera space at (·, ·, z > 0) on the view axis side.
+    /// Tolerance: f32 inputs (rays, a point at distance 3) carried through f64 matrices: a few
+    /// f32 ulps of the NDC coordinates, which are of order 1: 1e-5.
+    #[test]
+    fn header_matrices_invert_the_camera_rays() {
+        let world = Mat4::from_rotation_translation(
+            Quat::from_rotation_y(0.4) * Quat::from_rotation_x(-0.3),
+            Vec3::new(1.0, 2.0, -3.0),
+        );
+        let mut c = Camera::from_node(world, 0.8).unwrap_or_else(|| panic!("degenerate"));
+        c.znear = 0.1;
+        c.zfar = Some(50.0);
+        let (w, h) = (40, 30);
+        let to_ndc = c.world_to_ndc(w, h);
+        let to_camera = c.world_to_camera();
+        for raster in [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(13.5, 7.25),
+            Vec2::new(40.0, 30.0),
+        ] {
+            let r = c.ray(raster, w, h);
+            let p = (r.origin + r.direction * 3.0).as_dvec3();
+            let q = to_ndc * p.extend(1.0);
+            let ndc = Vec2::new((q.x / q.w) as f32, (q.y / q.w) as f32);
+            let expected = raster / Vec2::new(w as f32, h as f32);
+            assert!(
+                (ndc - expected).length() < 1e-5,
+                "{raster}: {ndc} vs {expected}"
+            );
+            // In camera space the point is in front (z > 0), right of centre iff x > W/2.
+            let pc = to_camera * p.extend(1.0);
+            assert!(pc.z > 0.0);
+            assert_eq!(pc.x > 1e-9, raster.x > 20.0);
+            // z/w: between the near plane (0) and the far plane (1).
+            assert!((0.0..1.0).contains(&(q.z / q.w)));
+        }
+        // The camera's own position is camera space's origin; one step forward is +z.
+        let origin = to_camera * c.position.as_dvec3().extend(1.0);
+        assert!(origin.truncate().length() < 1e-6);
+        let ahead = to_camera * (c.position + c.forward).as_dvec3().extend(1.0);
+        assert!((ahead.truncate() - glam::DVec3::Z).length() < 1e-6);
+        // The ray's origin on the near plane is origin_distance from the centre of projection.
+        let r = c.ray(Vec2::new(3.0, 4.0), w, h);
+        assert!(((r.origin - c.position).length() - r.origin_distance).abs() < 1e-6);
     }
 
     proptest! {

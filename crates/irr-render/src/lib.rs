@@ -3,18 +3,22 @@
 //!
 //! # What it owns
 //! - [`load_scene`] / [`load_gltf`]: glTF 2.0 (`.gltf` with external or `data:` buffers, `.glb`)
-//!   into world-space meshes, Lambertian [`Material`]s and a [`Camera`]; every ignored feature
-//!   becomes a [`Warning`] with a count, every unreadable input a one-line [`RenderError`].
+//!   into world-space meshes, Lambertian [`Material`]s and the file's cameras
+//!   ([`NamedCamera`]); every ignored feature becomes a [`Warning`] with a count, every
+//!   unreadable input a one-line [`RenderError`].
 //! - [`Camera`]: glTF's pinhole camera (looks down local −Z, `yfov` vertical, aspect ratio from
-//!   the image), or a default one framing the scene.
+//!   the image), or a default one framing the scene; its OpenEXR header matrices.
 //! - [`render`] and [`RenderSettings`]: the film (box filter, row 0 at the top), tiles on a
-//!   rayon pool, the progress bar and the summary ([`RenderStats`]); [`pixel_samples`] replays
-//!   one pixel.
+//!   rayon pool, the progress bar and the summary ([`RenderStats`]); [`render_with_aovs`] adds
+//!   auxiliary images ([`Aov`]: albedo, normal, depth, and the colour's emitted, direct and
+//!   indirect parts); [`pixel_samples`] replays one pixel; [`RenderSettings::image_size`]
+//!   derives a missing width or height from the camera's aspect ratio.
 //! - [`build_cache`]: the deterministic parallel passes that build an irradiance cache through an
 //!   integrator's [`CacheBuilder`] (the pixel order and the threads are irr-render's; the
 //!   records and their commit are the integrator's).
-//! - [`write_exr_and_png`]: linear f32 OpenEXR and an sRGB PNG preview, both written to
-//!   temporary files and renamed into place; [`Image`] with [`Image::read_exr`].
+//! - [`write_exr_and_png`] and [`write_render`]: linear f32 OpenEXR (chromaticities, and for a
+//!   render its AOVs and [`ExrMetadata`]) and an sRGB PNG preview, both written to temporary
+//!   files and renamed into place; [`Image`] with [`Image::read_exr`].
 //!
 //! # What it must not know
 //! How radiance is estimated: that is the [`Integrator`]'s business (irr-integrator). It never
@@ -48,6 +52,7 @@
 //! ```
 
 mod accessor;
+mod aov;
 mod cachefile;
 mod camera;
 mod error;
@@ -62,8 +67,9 @@ mod render;
 mod testutil;
 mod uri;
 
+pub use aov::{Aov, AovImages, normalise_aovs};
 pub use cachefile::{fingerprint, read_cache_file, write_cache_file};
-pub use camera::{Camera, CameraRay};
+pub use camera::{Camera, CameraRay, NamedCamera};
 pub use error::RenderError;
 pub use files::{LoadOptions, MAX_JSON_BYTES, MAX_SCENE_BYTES};
 pub use image::Image;
@@ -74,13 +80,13 @@ pub use irr_integrator::{
 };
 pub use load::{MAX_COORDINATE, SceneData, Warning, load_gltf, load_gltf_with};
 pub use output::{
-    check_exposure, check_output, png_path_for, remove_partial_outputs,
-    remove_partial_outputs_on_signals, tone_map, write_exr_and_png,
+    ExrMetadata, check_exposure, check_output, png_path_for, remove_partial_outputs,
+    remove_partial_outputs_on_signals, tone_map, write_exr_and_png, write_render,
 };
 pub use passes::{CacheBuildStats, PassStats, build_cache, mark_records, pixel_spread};
 pub use render::{
-    MAX_DIMENSION, MAX_THREADS, RenderOutput, RenderSettings, RenderStats, TILE_SIZE,
-    mean_of_samples, pixel_samples, raster_position, render,
+    DEFAULT_ASPECT_RATIO, MAX_DIMENSION, MAX_THREADS, RenderOutput, RenderSettings, RenderStats,
+    TILE_SIZE, mean_of_samples, pixel_samples, raster_position, render, render_with_aovs,
 };
 
 use glam::Vec3;
@@ -97,6 +103,8 @@ pub struct LoadedScene {
     pub scene: Scene,
     /// The file's first perspective camera, if it has one.
     pub camera: Option<Camera>,
+    /// Every perspective camera of the file, in depth-first order of the scene's nodes.
+    pub cameras: Vec<NamedCamera>,
     /// What the file uses that irr ignored, one entry per feature, and other notes (no
     /// emitter, degenerate triangles dropped).
     pub warnings: Vec<Warning>,
@@ -117,10 +125,51 @@ impl LoadedScene {
         })
     }
 
-    /// A note when the file's camera gives an `aspectRatio` that differs from the image's
-    /// (irr follows the image; the vertical field of view is kept).
-    pub fn aspect_note(&self, width: u32, height: u32) -> Option<String> {
-        let file = self.camera?.aspect_ratio_in_file?;
+    /// The file's camera number `index` (`--camera`; the first when `None`), or `None` for a
+    /// file without cameras when no number was asked for (then [`Camera::framing`] frames the
+    /// scene). A number the file does not have is an error that says how many it has.
+    pub fn choose_camera(&self, index: Option<usize>) -> Result<Option<Camera>, RenderError> {
+        let Some(i) = index else {
+            return Ok(self.cameras.first().map(|c| c.camera));
+        };
+        if let Some(c) = self.cameras.get(i) {
+            return Ok(Some(c.camera));
+        }
+        // At most ten listed: a file may hold thousands.
+        let listed: Vec<String> = self
+            .cameras
+            .iter()
+            .take(10)
+            .enumerate()
+            .map(|(n, c)| format!("{n}: {}", c.describe()))
+            .collect();
+        let more = if self.cameras.len() > listed.len() {
+            ", …"
+        } else {
+            ""
+        };
+        let problem = match self.cameras.len() {
+            0 => format!(
+                "{} has no perspective camera (irr frames the scene's bounds without one)",
+                self.path.display()
+            ),
+            n => format!(
+                "{} has {n} perspective camera{}, numbered from 0 ({}{more})",
+                self.path.display(),
+                if n == 1 { "" } else { "s" },
+                listed.join(", ")
+            ),
+        };
+        Err(RenderError::Setting {
+            option: "--camera",
+            problem: format!("there is no camera {i}: {problem}"),
+        })
+    }
+
+    /// A note when `camera` (one of the file's) gives an `aspectRatio` that differs from the
+    /// image's (irr follows the image; the vertical field of view is kept).
+    pub fn aspect_note(&self, camera: &Camera, width: u32, height: u32) -> Option<String> {
+        let file = camera.aspect_ratio_in_file?;
         let image = width as f32 / height.max(1) as f32;
         // Relative difference above 0.1 %: beyond the rounding of any sensible file value.
         ((file - image).abs() > 1e-3 * image).then(|| {
@@ -170,6 +219,7 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
         path: path.to_path_buf(),
         scene,
         camera: data.camera,
+        cameras: data.cameras,
         warnings,
         bounds,
     })

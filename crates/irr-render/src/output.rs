@@ -3,6 +3,22 @@
 //! and renamed into place only once both are complete, so a failed or interrupted write never
 //! leaves a half-written file and never destroys the previous output.
 //!
+//! # The OpenEXR file
+//! One part, scan lines from the top, ZIP compression (lossless), every channel 32-bit float:
+//! `R`, `G`, `B` (the colour) and the AOVs asked for, named as the module `aov` describes
+//! (`albedo.R`, `normal.X`, `depth.Z`, …). The header carries:
+//! - `chromaticities`: the primaries and white point of linear Rec.709 / sRGB (red 0.64, 0.33;
+//!   green 0.30, 0.60; blue 0.15, 0.06; white D65 0.3127, 0.3290), which OpenEXR assumes when the
+//!   attribute is missing; written so that no reader has to assume.
+//! - With [`ExrMetadata`] ([`write_render`]), what pbrt-v4 writes, under the same names:
+//!   `renderTimeSeconds` (float), `samplesPerPixel` (int), `worldToCamera` and `worldToNDC`
+//!   (m44f, OpenEXR's standard attributes: [`crate::Camera::world_to_camera`] and
+//!   [`crate::Camera::world_to_ndc`], stored transposed as Imath multiplies row vectors); and
+//!   `software` (OpenEXR's standard attribute: `irr <version>`), plus irr's own strings:
+//!   `irr.scene` (the scene's file name), `irr.integrator` (its name), `irr.settings` (its
+//!   settings, every field), `irr.seed` (a decimal string: OpenEXR has no 64-bit integer
+//!   attribute).
+//!
 //! # The preview's tone mapping
 //! `srgb8(clamp(L · 2^exposure, 0, 1))`: the radiance `L` of each channel is scaled by
 //! `2^exposure` (exposure in stops; 0 shows radiance 1 as white), clipped to [0, 1], and
@@ -16,6 +32,8 @@
 //! registry while it exists, and [`remove_partial_outputs_on_signals`] installs a SIGINT/SIGTERM
 //! (and Ctrl-C) handler that deletes the listed files before the process exits with status 130.
 
+use crate::aov::AovImages;
+use crate::camera::Camera;
 use crate::error::{RenderError, one_line};
 use crate::image::Image as IrrImage;
 use std::io::{BufWriter, Write};
@@ -204,26 +222,139 @@ pub fn tone_map(radiance: f32, exposure: f32) -> u8 {
     (srgb_encode(v.min(1.0)) * 255.0).round() as u8
 }
 
-fn encode_exr(image: &IrrImage, file: &std::fs::File) -> Result<(), String> {
+/// What a render's OpenEXR header records about how it was made (see the module docs for the
+/// attribute each field becomes).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExrMetadata {
+    /// The program and its version, e.g. `irr 0.1.0` (attribute `software`).
+    pub software: String,
+    /// The scene's file name (attribute `irr.scene`).
+    pub scene: String,
+    /// The integrator's name, e.g. `ic` (attribute `irr.integrator`).
+    pub integrator: String,
+    /// The integrator's settings, every field (attribute `irr.settings`).
+    pub settings: String,
+    /// Samples per pixel (attribute `samplesPerPixel`; a double beyond `i32::MAX`).
+    pub spp: u32,
+    /// The seed of every random number (attribute `irr.seed`).
+    pub seed: u64,
+    /// Wall-clock seconds the render took (attribute `renderTimeSeconds`).
+    pub render_seconds: f64,
+    /// The camera rendered through (attributes `worldToCamera` and `worldToNDC`).
+    pub camera: Camera,
+}
+
+/// An OpenEXR text from a Rust string: its UTF-8 bytes (OpenEXR strings are byte strings, read
+/// as UTF-8 by current readers), never a panic on characters beyond Latin-1.
+fn exr_text(text: &str) -> exr::meta::attribute::Text {
+    exr::meta::attribute::Text::from_slice_unchecked(text.as_bytes())
+}
+
+/// Linear Rec.709 / sRGB primaries with the D65 white point (ITU-R BT.709-6, item 1.3–1.4).
+fn rec709_chromaticities() -> exr::meta::attribute::Chromaticities {
+    use exr::math::Vec2;
+    exr::meta::attribute::Chromaticities {
+        red: Vec2(0.64, 0.33),
+        green: Vec2(0.30, 0.60),
+        blue: Vec2(0.15, 0.06),
+        white: Vec2(0.3127, 0.3290),
+    }
+}
+
+/// The header attributes of `metadata` for an image of `width` × `height`.
+fn metadata_attributes(
+    metadata: &ExrMetadata,
+    width: u32,
+    height: u32,
+    layer: &mut exr::meta::header::LayerAttributes,
+) {
+    use exr::meta::attribute::AttributeValue;
+    let to_cols = |m: glam::DMat4| m.to_cols_array().map(|v| v as f32);
+    // Imath multiplies row vectors (p' = p·M) and stores M row by row: the transpose of irr's
+    // column-vector matrix, which is that matrix's column-major array.
+    layer.world_to_camera = Some(to_cols(metadata.camera.world_to_camera()));
+    layer.world_to_normalized_device = Some(to_cols(metadata.camera.world_to_ndc(width, height)));
+    layer.software_name = Some(exr_text(&metadata.software));
+    let spp = i32::try_from(metadata.spp).map_or_else(
+        |_| AttributeValue::F64(f64::from(metadata.spp)),
+        AttributeValue::I32,
+    );
+    let attributes = [
+        (
+            "renderTimeSeconds",
+            AttributeValue::F32(metadata.render_seconds as f32),
+        ),
+        ("samplesPerPixel", spp),
+        ("irr.scene", AttributeValue::Text(exr_text(&metadata.scene))),
+        (
+            "irr.integrator",
+            AttributeValue::Text(exr_text(&metadata.integrator)),
+        ),
+        (
+            "irr.settings",
+            AttributeValue::Text(exr_text(&metadata.settings)),
+        ),
+        (
+            "irr.seed",
+            AttributeValue::Text(exr_text(&metadata.seed.to_string())),
+        ),
+    ];
+    for (name, value) in attributes {
+        layer.other.insert(exr_text(name), value);
+    }
+}
+
+fn encode_exr(
+    image: &IrrImage,
+    aovs: &AovImages,
+    metadata: Option<&ExrMetadata>,
+    file: &std::fs::File,
+) -> Result<(), String> {
     use exr::prelude::*;
     let (w, h) = (image.width() as usize, image.height() as usize);
-    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
-        let p = image.pixels()[y * w + x];
-        (p.x, p.y, p.z)
-    });
+    // One channel of an image: its values row by row, row 0 (the top) first, which is
+    // OpenEXR's increasing-y order.
+    let channel = |name: &str, source: &IrrImage, c: usize| {
+        let values: Vec<f32> = source.pixels().iter().map(|p| p[c]).collect();
+        AnyChannel::new(exr_text(name), FlatSamples::F32(values))
+    };
+    let mut channels: Vec<AnyChannel<FlatSamples>> = ["R", "G", "B"]
+        .into_iter()
+        .enumerate()
+        .map(|(c, name)| channel(name, image, c))
+        .collect();
+    for (aov, layer) in aovs.iter() {
+        if (layer.width(), layer.height()) != (image.width(), image.height()) {
+            return Err(format!(
+                "the {aov} image is {}×{}, the colour {}×{}",
+                layer.width(),
+                layer.height(),
+                image.width(),
+                image.height()
+            ));
+        }
+        for (c, name) in aov.channels().iter().enumerate() {
+            channels.push(channel(name, layer, c));
+        }
+    }
+    // No layer name: a one-part file needs none, and Blender would take it as a prefix of every
+    // channel's name.
+    let mut attributes = LayerAttributes::default();
+    if let Some(m) = metadata {
+        metadata_attributes(m, image.width(), image.height(), &mut attributes);
+    }
     let mut layer = Layer::new(
         (w, h),
-        LayerAttributes::named("irr"),
+        attributes,
         Encoding::SMALL_LOSSLESS,
-        channels,
+        AnyChannels::sort(SmallVec::from_vec(channels)),
     );
     // Row 0 of `image` is the top; OpenEXR's increasing-Y line order stores it first.
     layer.encoding.line_order = LineOrder::Increasing;
+    let mut exr_image = Image::from_layer(layer);
+    exr_image.attributes.chromaticities = Some(rec709_chromaticities());
     let mut out = BufWriter::new(file);
-    Image::from_layer(layer)
-        .write()
-        .to_buffered(&mut out)
-        .map_err(one_line)?;
+    exr_image.write().to_buffered(&mut out).map_err(one_line)?;
     out.flush().map_err(one_line)
 }
 
@@ -244,15 +375,38 @@ fn encode_png(image: &IrrImage, exposure: f32, file: &std::fs::File) -> Result<(
     out.flush().map_err(one_line)
 }
 
-/// Writes `image` to `exr_path` (OpenEXR, f32 RGB, lossless ZIP compression) and its preview to
-/// [`png_path_for`]`(exr_path)`, tone mapped with `exposure` stops (see the module docs). Returns
-/// the two paths written.
+/// Writes `image` to `exr_path` (OpenEXR, f32 RGB, lossless ZIP compression, with the
+/// `chromaticities` attribute) and its preview to [`png_path_for`]`(exr_path)`, tone mapped with
+/// `exposure` stops (see the module docs). Returns the two paths written.
 ///
 /// Both files are first written to temporary files in the destination folder, flushed and
 /// synced, and only then renamed over the destination, the PNG first and the EXR last: if
 /// anything fails, the temporary files are deleted and any earlier output stays as it was.
 pub fn write_exr_and_png(
     image: &IrrImage,
+    exr_path: &Path,
+    exposure: f32,
+) -> Result<(PathBuf, PathBuf), RenderError> {
+    write_files(image, &AovImages::new(), None, exr_path, exposure)
+}
+
+/// [`write_exr_and_png`] for a whole render: the colour, its AOVs as further channels of the
+/// same part, and `metadata` in the header (see the module docs). The PNG preview shows the
+/// colour only. Written atomically, like [`write_exr_and_png`].
+pub fn write_render(
+    image: &IrrImage,
+    aovs: &AovImages,
+    metadata: &ExrMetadata,
+    exr_path: &Path,
+    exposure: f32,
+) -> Result<(PathBuf, PathBuf), RenderError> {
+    write_files(image, aovs, Some(metadata), exr_path, exposure)
+}
+
+fn write_files(
+    image: &IrrImage,
+    aovs: &AovImages,
+    metadata: Option<&ExrMetadata>,
     exr_path: &Path,
     exposure: f32,
 ) -> Result<(PathBuf, PathBuf), RenderError> {
@@ -264,7 +418,7 @@ pub fn write_exr_and_png(
     let png_path = png_path_for(exr_path);
     let folder = folder_of(exr_path);
     let exr_tmp = temp_in(folder, exr_path)?;
-    encode_exr(image, exr_tmp.as_file())
+    encode_exr(image, aovs, metadata, exr_tmp.as_file())
         .and_then(|()| exr_tmp.as_file().sync_all().map_err(one_line))
         .map_err(|e| RenderError::write(exr_path, e))?;
     let png_tmp = temp_in(folder, &png_path)?;
@@ -328,6 +482,145 @@ mod tests {
         let mode = |p: &Path| std::fs::metadata(p).map(|m| m.permissions()).ok();
         assert_eq!(mode(&exr), mode(&plain));
         assert_eq!(mode(&png), mode(&plain));
+    }
+
+    /// A render's EXR: one part with the colour as R, G, B and each AOV's channels, every
+    /// value back to the last bit; the chromaticities; the metadata under pbrt-v4's and
+    /// OpenEXR's names; no layer name.
+    #[test]
+    fn render_exr_carries_aovs_chromaticities_and_metadata() {
+        use crate::aov::Aov;
+        use exr::meta::attribute::{AttributeValue, Text};
+        use exr::prelude::{ReadChannels, ReadLayers};
+        let dir = temp_dir();
+        let path = dir.path().join("r.exr");
+        let image = sample_image();
+        let mut aovs = AovImages::new();
+        let mut albedo = Image::new(5, 3);
+        albedo.set(2, 1, Vec3::new(0.25, 0.5, 0.75));
+        let mut depth = Image::new(5, 3);
+        depth.set(0, 2, Vec3::splat(7.5));
+        depth.set(1, 2, Vec3::INFINITY);
+        aovs.insert(Aov::Depth, depth.clone());
+        aovs.insert(Aov::Albedo, albedo.clone());
+        let camera = Camera::look_at(Vec3::new(1.0, 2.0, 3.0), Vec3::ZERO, Vec3::Y, 0.7)
+            .unwrap_or_else(|| panic!("degenerate"));
+        let metadata = ExrMetadata {
+            software: "irr 9.9.9".into(),
+            scene: "scène.gltf".into(),
+            integrator: "path".into(),
+            settings: "PathSettings { max_depth: 3, rr_start: 3 }".into(),
+            spp: 16,
+            seed: u64::MAX,
+            render_seconds: 1.5,
+            camera,
+        };
+        write_render(&image, &aovs, &metadata, &path, 0.0).unwrap_or_else(|e| panic!("{e}"));
+        // The colour reads back as before.
+        assert_eq!(
+            Image::read_exr(&path).unwrap_or_else(|e| panic!("{e}")),
+            image
+        );
+        let read = exr::prelude::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .all_layers()
+            .all_attributes()
+            .from_file(&path)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(read.layer_data.len(), 1);
+        let layer = &read.layer_data[0];
+        assert_eq!(layer.attributes.layer_name, None);
+        let names: Vec<String> = layer
+            .channel_data
+            .list
+            .iter()
+            .map(|c| c.name.to_string())
+            .collect();
+        assert_eq!(
+            names,
+            ["B", "G", "R", "albedo.B", "albedo.G", "albedo.R", "depth.Z"]
+        );
+        let channel = |name: &str| -> Vec<f32> {
+            layer
+                .channel_data
+                .list
+                .iter()
+                .find(|c| c.name == Text::from_slice_unchecked(name.as_bytes()))
+                .map(|c| c.sample_data.values_as_f32().collect())
+                .unwrap_or_else(|| panic!("no channel {name}"))
+        };
+        let column =
+            |img: &Image, c: usize| -> Vec<f32> { img.pixels().iter().map(|p| p[c]).collect() };
+        assert_eq!(channel("R"), column(&image, 0));
+        assert_eq!(channel("albedo.G"), column(&albedo, 1));
+        assert_eq!(channel("depth.Z"), column(&depth, 0));
+        assert_eq!(
+            read.attributes.chromaticities,
+            Some(rec709_chromaticities())
+        );
+        let a = &layer.attributes;
+        assert_eq!(a.software_name, Some(exr_text("irr 9.9.9")));
+        let other = |name: &str| a.other.get(&exr_text(name)).cloned();
+        assert_eq!(other("samplesPerPixel"), Some(AttributeValue::I32(16)));
+        assert_eq!(other("renderTimeSeconds"), Some(AttributeValue::F32(1.5)));
+        assert_eq!(
+            other("irr.seed"),
+            Some(AttributeValue::Text(exr_text("18446744073709551615")))
+        );
+        assert_eq!(
+            other("irr.integrator"),
+            Some(AttributeValue::Text(exr_text("path")))
+        );
+        // A name beyond Latin-1 is stored as its UTF-8 bytes.
+        assert_eq!(
+            other("irr.scene"),
+            Some(AttributeValue::Text(exr_text("scène.gltf")))
+        );
+        // The matrices, as Imath stores them (row-vector convention): a point times
+        // worldToCamera is the camera-space point; the camera's position goes to the origin.
+        let m = a
+            .world_to_camera
+            .unwrap_or_else(|| panic!("no worldToCamera"));
+        let p = [1.0f32, 2.0, 3.0, 1.0];
+        let row_times = |m: &[f32; 16], v: [f32; 4]| -> [f32; 4] {
+            std::array::from_fn(|c| (0..4).map(|r| v[r] * m[4 * r + c]).sum())
+        };
+        let q = row_times(&m, p);
+        assert!(
+            q[..3].iter().all(|v| v.abs() < 1e-6) && q[3] == 1.0,
+            "{q:?}"
+        );
+        // The point the camera looks at projects to the image's centre, NDC (0.5, 0.5).
+        let ndc = a
+            .world_to_normalized_device
+            .unwrap_or_else(|| panic!("no worldToNDC"));
+        let q = row_times(&ndc, [0.0, 0.0, 0.0, 1.0]);
+        assert!((q[0] / q[3] - 0.5).abs() < 1e-6 && (q[1] / q[3] - 0.5).abs() < 1e-6);
+        // The plain writer has the chromaticities too, and no metadata.
+        let plain = dir.path().join("plain.exr");
+        write_exr_and_png(&image, &plain, 0.0).unwrap_or_else(|e| panic!("{e}"));
+        let meta =
+            exr::meta::MetaData::read_from_file(&plain, false).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            meta.headers[0].shared_attributes.chromaticities,
+            Some(rec709_chromaticities())
+        );
+        assert!(meta.headers[0].own_attributes.other.is_empty());
+        // An AOV of the wrong size is refused, and the earlier file stays as it was.
+        let before = std::fs::read(&path).unwrap_or_else(|e| panic!("{e}"));
+        let mut bad = AovImages::new();
+        bad.insert(Aov::Normal, Image::new(2, 2));
+        let e = write_render(&image, &bad, &metadata, &path, 0.0)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("the normal image is 2×2, the colour 5×3"), "{e}");
+        assert_eq!(
+            std::fs::read(&path).unwrap_or_else(|e| panic!("{e}")),
+            before
+        );
     }
 
     #[test]

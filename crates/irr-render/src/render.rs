@@ -15,14 +15,16 @@
 //! pixel's samples are stratified in every pair of dimensions (light choice and point, the BSDF
 //! direction, …) and direct light converges faster than with independent numbers. Each pixel's samples are
 //! summed in index order by one thread, in f64, so the image is the same bit for bit whatever
-//! the number of threads or the order in which tiles finish.
+//! the number of threads or the order in which tiles finish. The AOVs ([`render_with_aovs`])
+//! are summed the same way, sample by sample beside the colour.
 
+use crate::aov::{Aov, AovImages, normalise_aovs};
 use crate::camera::Camera;
 use crate::error::RenderError;
 use crate::image::Image;
 use glam::{Vec2, Vec3};
 use irr_geometry::Ray;
-use irr_integrator::{Integrator, RayCounter, Scene};
+use irr_integrator::{FirstHit, Integrator, Radiance, RayCounter, Scene, first_hit};
 use irr_sampling::rng::Dimensions;
 use irr_sampling::{SampleKey, correlated_multi_jitter};
 use rayon::prelude::*;
@@ -39,6 +41,10 @@ pub const MAX_DIMENSION: u32 = 1 << 14;
 
 /// The largest thread count accepted.
 pub const MAX_THREADS: usize = 1024;
+
+/// The aspect ratio (width / height) assumed for a camera without glTF's `aspectRatio` when only
+/// one of width and height is given: square.
+pub const DEFAULT_ASPECT_RATIO: f32 = 1.0;
 
 /// How to render: image size, samples per pixel, seed and threads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -98,6 +104,53 @@ impl RenderSettings {
             seed,
             threads: in_range("--threads", threads, 0, MAX_THREADS as i64)? as usize,
         })
+    }
+
+    /// The image size from `--width` and `--height` as given, either possibly missing, and the
+    /// camera's aspect ratio (width / height; glTF's `aspectRatio`, `None` for a camera without
+    /// one): both given, both kept; one given, the other is it divided (or multiplied) by the
+    /// aspect ratio, rounded, at least 1; neither, the default width (256) and the height from
+    /// the aspect ratio. Without a usable aspect ratio (missing, not finite or not positive),
+    /// [`DEFAULT_ASPECT_RATIO`]. A given size out of range, or a derived one beyond
+    /// [`MAX_DIMENSION`], is an error naming the option.
+    pub fn image_size(
+        width: Option<i64>,
+        height: Option<i64>,
+        aspect: Option<f32>,
+    ) -> Result<(u32, u32), RenderError> {
+        let dim = i64::from(MAX_DIMENSION);
+        let width = width.map(|w| in_range("--width", w, 1, dim)).transpose()?;
+        let height = height
+            .map(|h| in_range("--height", h, 1, dim))
+            .transpose()?;
+        let aspect = f64::from(
+            aspect
+                .filter(|a| a.is_finite() && *a > 0.0)
+                .unwrap_or(DEFAULT_ASPECT_RATIO),
+        );
+        let derive = |option: &'static str, given: i64, other: &str, value: f64| {
+            // Round to the nearest pixel, at least one.
+            let n = value.round().max(1.0);
+            if n > dim as f64 {
+                return Err(RenderError::Setting {
+                    option,
+                    problem: format!(
+                        "{given} with the camera's aspect ratio {aspect} gives a {other} of {n}, more than {dim}; give --{other} too"
+                    ),
+                });
+            }
+            Ok(n as i64)
+        };
+        let (w, h) = match (width, height) {
+            (Some(w), Some(h)) => (w, h),
+            (Some(w), None) => (w, derive("--width", w, "height", w as f64 / aspect)?),
+            (None, Some(h)) => (derive("--height", h, "width", h as f64 * aspect)?, h),
+            (None, None) => {
+                let w = i64::from(Self::default().width);
+                (w, derive("--width", w, "height", w as f64 / aspect)?)
+            }
+        };
+        Ok((w as u32, h as u32))
     }
 
     /// Checks every field against its documented range.
@@ -163,6 +216,8 @@ impl RenderStats {
 pub struct RenderOutput {
     /// The image: radiance, row 0 at the top.
     pub image: Image,
+    /// The AOVs asked of [`render_with_aovs`] (none from [`render`]).
+    pub aovs: AovImages,
     /// Time and rays.
     pub stats: RenderStats,
 }
@@ -179,6 +234,24 @@ pub fn raster_position(settings: &RenderSettings, x: u32, y: u32, index: u32) ->
     Vec2::new(x as f32, y as f32) + u
 }
 
+/// The camera ray of sample `index` of pixel (x, y), and its distance from the centre of
+/// projection to its origin.
+fn camera_ray(
+    camera: &Camera,
+    settings: &RenderSettings,
+    (x, y, index): (u32, u32, u32),
+) -> (Ray, f32) {
+    // Dimension 0: the point inside the pixel (box filter).
+    let raster = raster_position(settings, x, y, index);
+    let r = camera.ray(raster, settings.width, settings.height);
+    let ray = Ray {
+        origin: r.origin,
+        direction: r.direction,
+        t_max: r.t_max,
+    };
+    (ray, r.origin_distance)
+}
+
 /// One sample of one pixel: the radiance along the camera ray through a uniformly chosen point
 /// of the pixel. Non-finite results are returned as they are (the caller counts them).
 fn sample(
@@ -190,17 +263,83 @@ fn sample(
     rays: &mut RayCounter,
 ) -> Vec3 {
     let key = SampleKey::pixel(settings.seed, x, y, u64::from(index));
-    // Dimension 0: the point inside the pixel (box filter).
-    let raster = raster_position(settings, x, y, index);
-    let r = camera.ray(raster, settings.width, settings.height);
-    let ray = Ray {
-        origin: r.origin,
-        direction: r.direction,
-        t_max: r.t_max,
-    };
+    let (ray, _) = camera_ray(camera, settings, (x, y, index));
     // Dimensions 1 and up: the integrator's.
     let mut dims = Dimensions::starting_at(key, 1);
     integrator.li(scene, &ray, &mut dims, rays)
+}
+
+/// What the AOVs need of each sample.
+#[derive(Clone, Copy, Debug, Default)]
+struct Wants {
+    /// The integrator's split of the colour.
+    split: bool,
+    /// The camera ray's first hit.
+    first_hit: bool,
+}
+
+impl Wants {
+    fn of(aovs: &[Aov]) -> Self {
+        Self {
+            split: aovs.iter().any(|a| a.needs_split()),
+            first_hit: aovs.iter().any(|a| a.needs_first_hit()),
+        }
+    }
+}
+
+/// One sample with what the AOVs need: the colour (`li`, or the split's total when the split is
+/// wanted: the same value bit for bit), the split, and the first hit with its distance from the
+/// centre of projection.
+fn sample_with_aovs(
+    scene: &Scene,
+    camera: &Camera,
+    integrator: &dyn Integrator,
+    settings: &RenderSettings,
+    wants: Wants,
+    (x, y, index): (u32, u32, u32),
+    rays: &mut RayCounter,
+) -> (Radiance, Option<FirstHit>) {
+    let key = SampleKey::pixel(settings.seed, x, y, u64::from(index));
+    let (ray, origin_distance) = camera_ray(camera, settings, (x, y, index));
+    let mut dims = Dimensions::starting_at(key, 1);
+    let radiance = if wants.split {
+        integrator.li_split(scene, &ray, &mut dims, rays)
+    } else {
+        Radiance {
+            emitted: integrator.li(scene, &ray, &mut dims, rays),
+            ..Radiance::default()
+        }
+    };
+    // The first hit draws no random numbers: the integrator's estimate is unchanged.
+    let hit = wants
+        .first_hit
+        .then(|| first_hit(scene, &ray, rays))
+        .flatten()
+        .map(|h| FirstHit {
+            distance: origin_distance + h.distance,
+            ..h
+        });
+    (radiance, hit)
+}
+
+/// Per-channel sums in f64, added to in sample order.
+#[derive(Clone, Copy, Debug, Default)]
+struct Sum3([f64; 3]);
+
+impl Sum3 {
+    fn add(&mut self, v: Vec3) {
+        for (s, c) in self.0.iter_mut().zip(v.to_array()) {
+            *s += f64::from(c);
+        }
+    }
+
+    fn mean(&self, n: f64) -> Vec3 {
+        Vec3::new(
+            (self.0[0] / n) as f32,
+            (self.0[1] / n) as f32,
+            (self.0[2] / n) as f32,
+        )
+    }
 }
 
 /// A pixel's value: the mean of its samples, summed in index order in f64. Returns the value
@@ -213,25 +352,74 @@ fn pixel(
     (x, y): (u32, u32),
     rays: &mut RayCounter,
 ) -> (Vec3, u64) {
-    let mut sum = [0.0f64; 3];
+    let mut sum = Sum3::default();
     let mut bad = 0;
     for i in 0..settings.spp {
         let l = sample(scene, camera, integrator, settings, (x, y, i), rays);
         if l.is_finite() {
-            for (s, c) in sum.iter_mut().zip(l.to_array()) {
-                *s += f64::from(c);
-            }
+            sum.add(l);
         } else {
             bad += 1;
         }
     }
+    (sum.mean(f64::from(settings.spp)), bad)
+}
+
+/// [`pixel`] with AOVs: the colour (the same bits as `pixel` gives) and one value per entry of
+/// `aovs`, pushed onto `out` in that order (see the module docs of `aov` for what each is).
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the render's context (scene, camera, integrator, settings) plus this pixel's outputs"
+)]
+fn pixel_with_aovs(
+    scene: &Scene,
+    camera: &Camera,
+    integrator: &dyn Integrator,
+    settings: &RenderSettings,
+    aovs: &[Aov],
+    (x, y): (u32, u32),
+    rays: &mut RayCounter,
+    out: &mut Vec<Vec3>,
+) -> (Vec3, u64) {
+    let wants = Wants::of(aovs);
+    let [mut colour, mut emitted, mut direct, mut indirect] = [Sum3::default(); 4];
+    let (mut albedo, mut normal) = (Sum3::default(), Sum3::default());
+    let (mut depth, mut hits) = (0.0f64, 0u32);
+    let mut bad = 0;
+    for i in 0..settings.spp {
+        let (r, hit) =
+            sample_with_aovs(scene, camera, integrator, settings, wants, (x, y, i), rays);
+        let l = if wants.split { r.total() } else { r.emitted };
+        // A non-finite colour counts as black, in its parts too (if the sum is finite, so is
+        // every part: an infinite or NaN part makes the sum infinite or NaN).
+        if l.is_finite() {
+            colour.add(l);
+            emitted.add(r.emitted);
+            direct.add(r.direct);
+            indirect.add(r.indirect);
+        } else {
+            bad += 1;
+        }
+        if let Some(h) = hit {
+            albedo.add(h.albedo);
+            normal.add(h.normal);
+            depth += f64::from(h.distance);
+            hits += 1;
+        }
+    }
     let n = f64::from(settings.spp);
-    let mean = Vec3::new(
-        (sum[0] / n) as f32,
-        (sum[1] / n) as f32,
-        (sum[2] / n) as f32,
-    );
-    (mean, bad)
+    for aov in aovs {
+        out.push(match aov {
+            Aov::Albedo => albedo.mean(n),
+            Aov::Normal => normal.mean(n),
+            Aov::Depth if hits == 0 => Vec3::INFINITY,
+            Aov::Depth => Vec3::splat((depth / f64::from(hits)) as f32),
+            Aov::Emitted => emitted.mean(n),
+            Aov::Direct => direct.mean(n),
+            Aov::Indirect => indirect.mean(n),
+        });
+    }
+    (colour.mean(n), bad)
 }
 
 /// A rectangle of pixels `[x0, x1) × [y0, y1)`.
@@ -302,7 +490,22 @@ pub fn render(
     settings: &RenderSettings,
     progress: bool,
 ) -> Result<RenderOutput, RenderError> {
+    render_with_aovs(scene, camera, integrator, settings, &[], progress)
+}
+
+/// [`render`], plus the AOVs in `aovs` (repeats ignored) in [`RenderOutput::aovs`]. The colour
+/// is the same, bit for bit, with or without AOVs; albedo, normal and depth trace each camera
+/// ray once more (counted in the statistics' rays).
+pub fn render_with_aovs(
+    scene: &Scene,
+    camera: &Camera,
+    integrator: &dyn Integrator,
+    settings: &RenderSettings,
+    aovs: &[Aov],
+    progress: bool,
+) -> Result<RenderOutput, RenderError> {
     settings.validate()?;
+    let aovs = normalise_aovs(aovs);
     let tiles = tiles(settings.width, settings.height);
     let bar = progress_bar(tiles.len(), progress);
     let start = Instant::now();
@@ -312,37 +515,64 @@ pub fn render(
             .map(|tile| {
                 let mut rays = RayCounter::default();
                 let mut bad = 0;
-                let mut values =
-                    Vec::with_capacity(((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize);
+                let count = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
+                let mut values = Vec::with_capacity(count);
+                let mut extra = Vec::with_capacity(count * aovs.len());
                 for y in tile.y0..tile.y1 {
                     for x in tile.x0..tile.x1 {
-                        let (v, b) = pixel(scene, camera, integrator, settings, (x, y), &mut rays);
+                        let (v, b) = if aovs.is_empty() {
+                            pixel(scene, camera, integrator, settings, (x, y), &mut rays)
+                        } else {
+                            pixel_with_aovs(
+                                scene,
+                                camera,
+                                integrator,
+                                settings,
+                                &aovs,
+                                (x, y),
+                                &mut rays,
+                                &mut extra,
+                            )
+                        };
                         values.push(v);
                         bad += b;
                     }
                 }
                 bar.inc(1);
-                (values, rays, bad)
+                (values, extra, rays, bad)
             })
             .collect::<Vec<_>>()
     })?;
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let mut image = Image::new(settings.width, settings.height);
+    let mut layers: Vec<Image> = aovs
+        .iter()
+        .map(|_| Image::new(settings.width, settings.height))
+        .collect();
     let mut rays = RayCounter::default();
     let mut non_finite_samples = 0;
-    for (tile, (values, r, bad)) in tiles.iter().zip(results) {
+    for (tile, (values, extra, r, bad)) in tiles.iter().zip(results) {
         let mut v = values.into_iter();
+        let mut e = extra.into_iter();
         for y in tile.y0..tile.y1 {
             for x in tile.x0..tile.x1 {
                 image.set(x, y, v.next().unwrap_or(Vec3::NAN));
+                for layer in &mut layers {
+                    layer.set(x, y, e.next().unwrap_or(Vec3::NAN));
+                }
             }
         }
         rays += r;
         non_finite_samples += bad;
     }
+    let mut images = AovImages::new();
+    for (aov, layer) in aovs.iter().zip(layers) {
+        images.insert(*aov, layer);
+    }
     Ok(RenderOutput {
         image,
+        aovs: images,
         stats: RenderStats {
             integrator: integrator.name(),
             width: settings.width,
@@ -403,7 +633,216 @@ pub fn mean_of_samples(samples: &[Vec3]) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Mat4;
+    use irr_geometry::{Geometry, TriangleMesh};
+    use irr_integrator::{AmbientOcclusion, AoSettings, Material, PathSettings, PathTracer};
     use proptest::prelude::*;
+
+    /// The unit roundoff of f32, 2⁻²⁴.
+    const U: f32 = f32::EPSILON / 2.0;
+
+    /// A 400 m square at z = −`distance`, facing +z, of albedo `albedo`, with an emitting
+    /// square of radiance 1 far behind the camera (at z = +50, facing −z) so the split parts are
+    /// not all zero; and a camera at the origin looking down −z (yfov 0.5 rad, `znear`).
+    fn plane_scene(distance: f32, albedo: Vec3, znear: f32) -> (Scene, Camera) {
+        let square = |z: f32, half: f32, material: u32, flip: bool| TriangleMesh {
+            positions: vec![
+                Vec3::new(-half, -half, z),
+                Vec3::new(half, -half, z),
+                Vec3::new(half, half, z),
+                Vec3::new(-half, half, z),
+            ],
+            indices: if flip {
+                vec![[0, 2, 1], [0, 3, 2]]
+            } else {
+                vec![[0, 1, 2], [0, 2, 3]]
+            },
+            normals: None,
+            material_ids: vec![material; 2],
+        };
+        let meshes = [
+            square(-distance, 200.0, 0, false),
+            square(50.0, 5.0, 1, true),
+        ];
+        let geometry = Geometry::build(&meshes).unwrap_or_else(|e| panic!("{e}"));
+        let light = Material {
+            albedo: Vec3::ZERO,
+            emission: Vec3::ONE,
+            two_sided: false,
+        };
+        let scene = Scene::new(geometry, vec![Material::diffuse(albedo), light])
+            .unwrap_or_else(|e| panic!("{e}"));
+        let mut camera =
+            Camera::from_node(Mat4::IDENTITY, 0.5).unwrap_or_else(|| panic!("degenerate"));
+        camera.znear = znear;
+        (scene, camera)
+    }
+
+    fn small(threads: usize) -> RenderSettings {
+        RenderSettings {
+            width: 9,
+            height: 7,
+            spp: 5,
+            seed: 3,
+            threads,
+        }
+    }
+
+    /// Albedo, normal and depth of a plane of known albedo at a known distance, facing the
+    /// camera, which every camera ray hits.
+    #[test]
+    fn first_hit_aovs_of_a_plane_are_its_albedo_normal_and_distance() {
+        let (albedo, distance, znear) = (Vec3::new(0.2, 0.5, 0.8), 3.0, 0.25);
+        let (scene, camera) = plane_scene(distance, albedo, znear);
+        let settings = small(2);
+        let pt = PathTracer::new(PathSettings::default());
+        let all = [Aov::Albedo, Aov::Normal, Aov::Depth];
+        let out = render_with_aovs(&scene, &camera, &pt, &settings, &all, false)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let get = |aov| out.aovs.get(aov).unwrap_or_else(|| panic!("no {aov}"));
+        for y in 0..settings.height {
+            for x in 0..settings.width {
+                // Every sample sees the same albedo: the f64 sum of spp copies divided by spp
+                // is exact, so the mean is the albedo to the last bit.
+                assert_eq!(get(Aov::Albedo).get(x, y), albedo);
+                // The normal of an axis-aligned triangle, normalised: (0, 0, k/√(k²)), one
+                // rounding in k², one in the square root and one in the division: within 3
+                // ulps of 1, under 4·2⁻²³ = 4.8e-7.
+                let n = get(Aov::Normal).get(x, y);
+                assert!(
+                    (n - Vec3::Z).abs().max_element() < 4.8e-7,
+                    "({x}, {y}): {n}"
+                );
+                // Depth: the distance from the centre of projection to the plane along each
+                // sample's ray, distance / cos θ, averaged over the samples. The reference
+                // takes each ray's f32 direction (relative error ~2u in cos θ); the renderer's
+                // hit distance carries the intersection's few-ulp bound plus the near-plane
+                // offset, and both means round once: 16u relative covers the lot.
+                let expected: f64 = (0..settings.spp)
+                    .map(|i| {
+                        let r = camera.ray(
+                            raster_position(&settings, x, y, i),
+                            settings.width,
+                            settings.height,
+                        );
+                        f64::from(distance) / f64::from(-r.direction.z)
+                    })
+                    .sum::<f64>()
+                    / f64::from(settings.spp);
+                let d = get(Aov::Depth).get(x, y);
+                assert_eq!(d.x, d.y);
+                let error = (f64::from(d.x) - expected).abs() / expected;
+                assert!(error < 16.0 * f64::from(U), "({x}, {y}): {d} vs {expected}");
+            }
+        }
+        // A camera facing away from the plane (and the light's back) meets nothing: albedo and
+        // normal are 0 and depth is +∞.
+        let away = Camera {
+            position: Vec3::new(0.0, 0.0, 60.0),
+            forward: Vec3::Z,
+            right: Vec3::NEG_X,
+            ..camera
+        };
+        let out = render_with_aovs(&scene, &away, &pt, &settings, &all, false)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert!(
+            out.aovs
+                .get(Aov::Albedo)
+                .is_some_and(|i| i.pixels().iter().all(|p| *p == Vec3::ZERO))
+        );
+        assert!(
+            out.aovs
+                .get(Aov::Normal)
+                .is_some_and(|i| i.pixels().iter().all(|p| *p == Vec3::ZERO))
+        );
+        assert!(
+            out.aovs
+                .get(Aov::Depth)
+                .is_some_and(|i| i.pixels().iter().all(|p| *p == Vec3::INFINITY))
+        );
+    }
+
+    /// The split parts sum to the colour within f32 rounding, the colour is the same bits with
+    /// and without AOVs, and every AOV is the same bits for one thread or three.
+    #[test]
+    fn split_aovs_sum_to_the_colour_and_nothing_depends_on_threads() {
+        let (scene, camera) = plane_scene(3.0, Vec3::splat(0.7), 0.0);
+        let pt = PathTracer::new(PathSettings::default());
+        let all = Aov::ALL;
+        let one = render_with_aovs(&scene, &camera, &pt, &small(1), &all, false)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let three = render_with_aovs(&scene, &camera, &pt, &small(3), &all, false)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let plain =
+            render(&scene, &camera, &pt, &small(2), false).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(one.image, plain.image);
+        assert_eq!(three.image, plain.image);
+        assert_eq!(one.aovs, three.aovs);
+        let part = |a| one.aovs.get(a).unwrap_or_else(|| panic!("no {a}")).pixels();
+        let mut lit = 0;
+        for (i, c) in plain.image.pixels().iter().enumerate() {
+            let sum = part(Aov::Emitted)[i] + part(Aov::Direct)[i] + part(Aov::Indirect)[i];
+            // Every part is ≥ 0. Per sample the colour is fl(fl(e + d) + i): within 2u of the
+            // exact sum; the f64 sums add ~spp·2⁻⁵³ (negligible); the colour and each part's
+            // mean are rounded to f32 once (u each, relative to at most the total); the sum
+            // above rounds twice more (2u). In all under 6u of the total, and 8u bounds it.
+            let bound = 8.0 * U * c.max(sum);
+            assert!(
+                ((sum - *c).abs() - bound).max_element() <= 0.0,
+                "pixel {i}: {sum} vs {c}"
+            );
+            lit += usize::from(part(Aov::Direct)[i].max_element() > 0.0);
+        }
+        // The light behind the camera lights the plane: the direct part is not empty.
+        assert!(lit > 0, "no direct light anywhere: the test checks nothing");
+        // Ambient occlusion has no split: all of it is `emitted`.
+        let ao = AmbientOcclusion::new(AoSettings::default());
+        let out = render_with_aovs(&scene, &camera, &ao, &small(2), &all, false)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(out.aovs.get(Aov::Emitted), Some(&out.image));
+        assert!(
+            out.aovs
+                .get(Aov::Direct)
+                .is_some_and(|i| i.pixels().iter().all(|p| *p == Vec3::ZERO))
+        );
+        let plain =
+            render(&scene, &camera, &ao, &small(2), false).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(out.image, plain.image);
+    }
+
+    #[test]
+    fn image_size_follows_the_aspect_ratio() {
+        let size =
+            |w, h, aspect| RenderSettings::image_size(w, h, aspect).map_err(|e| e.to_string());
+        assert_eq!(size(Some(320), None, Some(16.0 / 9.0)), Ok((320, 180)));
+        assert_eq!(size(None, Some(180), Some(16.0 / 9.0)), Ok((320, 180)));
+        assert_eq!(size(None, None, Some(2.0)), Ok((256, 128)));
+        assert_eq!(size(None, None, None), Ok((256, 256)));
+        // Both given: both kept, whatever the camera says.
+        assert_eq!(size(Some(10), Some(30), Some(2.0)), Ok((10, 30)));
+        // No usable aspect ratio: square.
+        for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            assert_eq!(size(Some(64), None, Some(bad)), Ok((64, 64)));
+        }
+        // At least one pixel.
+        assert_eq!(size(Some(3), None, Some(1000.0)), Ok((3, 1)));
+        let e = |r: Result<(u32, u32), String>| r.err().unwrap_or_default();
+        assert_eq!(
+            e(size(Some(0), None, None)),
+            "--width: must be between 1 and 16384, got 0"
+        );
+        assert_eq!(
+            e(size(Some(8), Some(-2), None)),
+            "--height: must be between 1 and 16384, got -2"
+        );
+        let too_tall = e(size(Some(16384), None, Some(0.5)));
+        assert!(
+            too_tall.starts_with(
+                "--width: 16384 with the camera's aspect ratio 0.5 gives a height of 32768"
+            ),
+            "{too_tall}"
+        );
+    }
 
     proptest! {
         /// The tiles cover every pixel exactly once.

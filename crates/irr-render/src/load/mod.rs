@@ -12,7 +12,8 @@
 //!   radiance in W·sr⁻¹·m⁻²; `doubleSided` says whether a surface emits from both faces or only
 //!   from its front face (counter-clockwise winding). A primitive without a material gets glTF's
 //!   default material (white, albedo 1), with a warning.
-//! - The first perspective camera met in a depth-first walk of the scene's nodes.
+//! - Every perspective camera, in the order of a depth-first walk of the scene's nodes, with its
+//!   node's name (the first is the default; `--camera N` picks another).
 //!
 //! # What irr ignores, always with a warning
 //! Textures and images, metallic reflection (`metallicFactor > 0`), transparency (`alphaMode`
@@ -38,7 +39,7 @@ mod tests;
 
 use json::{count_extensions, prevalidate, validate};
 
-use crate::camera::Camera;
+use crate::camera::{Camera, NamedCamera};
 use crate::error::{RenderError, one_line};
 use crate::files::{Budget, Confinement, LoadOptions, MAX_JSON_BYTES, read_scene_file};
 use crate::glb;
@@ -88,8 +89,10 @@ pub struct SceneData {
     /// The materials, in the file's order, plus glTF's default material at the end if a
     /// primitive has none.
     pub materials: Vec<Material>,
-    /// The file's first perspective camera, if any.
+    /// The file's first perspective camera, if any: `cameras[0]`'s.
     pub camera: Option<Camera>,
+    /// Every perspective camera of the default scene, in depth-first order of its nodes.
+    pub cameras: Vec<NamedCamera>,
     /// Everything irr ignored, one entry per feature.
     pub warnings: Vec<Warning>,
     /// The number of triangles whose material emits (a scene with none renders black under the
@@ -269,22 +272,24 @@ impl<'a> Loader<'a> {
         let buffers = self.load_buffers(blob)?;
         let (mut materials, default_material) = self.materials()?;
         let mut meshes = Vec::new();
-        let mut camera = None;
+        let camera_nodes = self
+            .document
+            .nodes()
+            .filter(|n| n.camera().is_some())
+            .count();
+        let mut cameras = self
+            .budget
+            .vec::<NamedCamera>("the cameras", camera_nodes)
+            .map_err(|e| self.err(e))?;
         let mut used_default_material = 0;
         for (node, world) in self.walk_nodes()? {
             if let Some(cam) = node.camera() {
                 match cam.projection() {
-                    gltf::camera::Projection::Perspective(p) if camera.is_none() => {
-                        camera = Some(self.camera(&node, world, &p)?);
-                    }
-                    gltf::camera::Projection::Perspective(_) => {
-                        self.warnings.add("extra-cameras", 1, |n| {
-                            format!(
-                                "{} ignored (irr renders through the first perspective camera)",
-                                plural(n, "more camera", "more cameras")
-                            )
-                        })
-                    }
+                    gltf::camera::Projection::Perspective(p) => cameras.push(NamedCamera {
+                        node: node.index(),
+                        name: node.name().map(str::to_string),
+                        camera: self.camera(&node, world, &p)?,
+                    }),
                     gltf::camera::Projection::Orthographic(_) => {
                         self.warnings.add("orthographic", 1, |n| {
                             format!(
@@ -321,7 +326,7 @@ impl<'a> Loader<'a> {
                 )
             });
         }
-        if self.document.cameras().len() > 0 && camera.is_none() {
+        if self.document.cameras().len() > 0 && cameras.is_empty() {
             self.warnings.add("unplaced-camera", 1, |_| {
                 "no perspective camera is attached to a node of the scene: irr frames the scene's bounds instead".to_string()
             });
@@ -353,7 +358,8 @@ impl<'a> Loader<'a> {
             path: self.path.to_path_buf(),
             meshes,
             materials,
-            camera,
+            camera: cameras.first().map(|c| c.camera),
+            cameras,
             warnings: self.warnings.finish(),
             emissive_triangles,
             bounds,

@@ -1,0 +1,412 @@
+//! The `irr` binary as a user runs it: from a folder other than the scene's, with `--camera`,
+//! a size from the camera's aspect ratio, `--aov`, and bad options. Each test runs the built
+//! binary (`CARGO_BIN_EXE_irr`) and reads the EXR it wrote with the `exr` crate.
+
+use exr::meta::attribute::{AttributeValue, Text};
+use exr::prelude::{ReadChannels, ReadLayers};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The unit roundoff of f32, 2⁻²⁴.
+const U: f32 = f32::EPSILON / 2.0;
+
+/// The albedo of the test plane.
+const ALBEDO: [f32; 3] = [0.25, 0.5, 0.75];
+
+fn temp() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn cornell() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/cornell-box.gltf")
+}
+
+/// A 200 m square in the plane z = 0, facing +z, of albedo [`ALBEDO`], in `dir/plane.gltf`
+/// (buffer `plane.bin`), with the perspective cameras `cameras` (JSON objects) on nodes
+/// `nodes` (JSON text of the `nodes` array, the mesh on node 0) and scene roots `roots`.
+fn write_plane(dir: &Path, name: &str, cameras: &str, nodes: &str, roots: &str) -> PathBuf {
+    let h = 100.0f32;
+    let positions = [[-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0], [-h, h, 0.0]];
+    let indices = [0u32, 1, 2, 0, 2, 3];
+    let mut bin: Vec<u8> = positions
+        .iter()
+        .flat_map(|p| p.iter().flat_map(|c| c.to_le_bytes()))
+        .collect();
+    bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+    let bin_name = format!("{name}.bin");
+    std::fs::write(dir.join(&bin_name), &bin).unwrap_or_else(|e| panic!("{e}"));
+    let [r, g, b] = ALBEDO;
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":{roots}}}],
+        "nodes":{nodes},"cameras":{cameras},
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1,"material":0}}]}}],
+        "materials":[{{"pbrMetallicRoughness":{{"baseColorFactor":[{r},{g},{b},1],"metallicFactor":0}}}}],
+        "buffers":[{{"byteLength":{},"uri":"{bin_name}"}}],
+        "bufferViews":[{{"buffer":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":24}}],
+        "accessors":[
+          {{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-{h},-{h},0],"max":[{h},{h},0]}},
+          {{"bufferView":1,"componentType":5125,"count":6,"type":"SCALAR"}}]}}"#,
+        bin.len()
+    );
+    let path = dir.join(format!("{name}.gltf"));
+    std::fs::write(&path, json).unwrap_or_else(|e| panic!("{e}"));
+    path
+}
+
+/// The plane with two cameras looking down −z at it: node 1 "near" (2 m away, no aspectRatio),
+/// a child of node 0, met first in depth-first order; and node 2 "far" (5 m away, aspectRatio
+/// 2), a root listed after node 0.
+fn two_camera_plane(dir: &Path) -> PathBuf {
+    write_plane(
+        dir,
+        "plane",
+        r#"[{"type":"perspective","perspective":{"yfov":0.5,"znear":0.01}},
+            {"type":"perspective","perspective":{"yfov":0.5,"znear":0.01,"aspectRatio":2.0}}]"#,
+        r#"[{"mesh":0,"children":[1]},
+            {"name":"near","camera":0,"translation":[0,0,2]},
+            {"name":"far","camera":1,"translation":[0,0,5]}]"#,
+        "[0, 2]",
+    )
+}
+
+/// Runs `irr args…` in `cwd`.
+fn irr(cwd: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_irr"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run irr: {e}"))
+}
+
+/// Runs `irr`, which must succeed.
+fn irr_ok(cwd: &Path, args: &[&str]) {
+    let out = irr(cwd, args);
+    assert!(
+        out.status.success(),
+        "irr {args:?} failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// An EXR as the tests see it: size, every channel by name, the shared chromaticities and the
+/// part's attributes.
+struct Exr {
+    width: usize,
+    height: usize,
+    channels: BTreeMap<String, Vec<f32>>,
+    chromaticities: Option<exr::meta::attribute::Chromaticities>,
+    attributes: exr::meta::header::LayerAttributes,
+}
+
+impl Exr {
+    fn read(path: &Path) -> Self {
+        let image = exr::prelude::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .all_layers()
+            .all_attributes()
+            .from_file(path)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert_eq!(image.layer_data.len(), 1, "one part");
+        let layer = &image.layer_data[0];
+        Self {
+            width: layer.size.width(),
+            height: layer.size.height(),
+            channels: layer
+                .channel_data
+                .list
+                .iter()
+                .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+                .collect(),
+            chromaticities: image.attributes.chromaticities,
+            attributes: layer.attributes.clone(),
+        }
+    }
+
+    fn names(&self) -> Vec<&str> {
+        self.channels.keys().map(String::as_str).collect()
+    }
+
+    fn channel(&self, name: &str) -> &[f32] {
+        self.channels
+            .get(name)
+            .unwrap_or_else(|| panic!("no channel {name}: {:?}", self.names()))
+    }
+
+    /// Channel `name` at pixel (x, y), row 0 at the top.
+    fn at(&self, name: &str, x: usize, y: usize) -> f32 {
+        self.channel(name)[y * self.width + x]
+    }
+
+    fn attribute(&self, name: &str) -> Option<&AttributeValue> {
+        self.attributes
+            .other
+            .get(&Text::from_slice_unchecked(name.as_bytes()))
+    }
+
+    fn text(&self, name: &str) -> String {
+        match self.attribute(name) {
+            Some(AttributeValue::Text(t)) => String::from_utf8_lossy(t.as_slice()).into_owned(),
+            other => panic!("{name}: {other:?}"),
+        }
+    }
+}
+
+/// Issue 13, items 4 and 5: `irr plane.gltf` run from another folder writes `plane.exr` there;
+/// with `--aov albedo,normal,depth` it has those layers, named for tev, Nuke and Blender, the
+/// chromaticities and pbrt-v4's metadata; the AOVs of a plane are its albedo, its normal and
+/// its distance; `--camera 1` renders from the file's second camera; a missing width or height
+/// follows the camera's aspect ratio.
+#[test]
+fn plane_renders_from_another_folder_with_aovs_cameras_and_metadata() {
+    let scenes = temp();
+    let scene = two_camera_plane(scenes.path());
+    let scene_arg = scene.to_string_lossy().into_owned();
+    let work = temp();
+    let common = [
+        "--integrator",
+        "ao",
+        "--spp",
+        "2",
+        "--aov",
+        "albedo,normal,depth",
+    ];
+
+    // The default camera (node "near", 2 m, no aspectRatio) and --height only: square.
+    let mut args = vec![scene_arg.as_str(), "--height", "8"];
+    args.extend(common);
+    irr_ok(work.path(), &args);
+    let near = Exr::read(&work.path().join("plane.exr"));
+    assert!(work.path().join("plane.png").is_file());
+    assert!(!scenes.path().join("plane.exr").exists());
+    assert_eq!((near.width, near.height), (8, 8));
+
+    // --camera 1 (node "far", 5 m, aspectRatio 2) and --width only: 32 × 16.
+    let out = work.path().join("far.exr");
+    let out_arg = out.to_string_lossy().into_owned();
+    let mut args = vec![
+        scene_arg.as_str(),
+        "--camera",
+        "1",
+        "--width",
+        "32",
+        "-o",
+        &out_arg,
+    ];
+    args.extend(common);
+    irr_ok(work.path(), &args);
+    let far = Exr::read(&out);
+    assert_eq!((far.width, far.height), (32, 16));
+
+    for (exr, distance) in [(&near, 2.0f32), (&far, 5.0)] {
+        assert_eq!(
+            exr.names(),
+            [
+                "B", "G", "R", "albedo.B", "albedo.G", "albedo.R", "depth.Z", "normal.X",
+                "normal.Y", "normal.Z"
+            ]
+        );
+        // The plane fills the view: every sample sees albedo ALBEDO, so each pixel's mean (spp
+        // equal values summed in f64, divided by spp) is ALBEDO exactly.
+        assert!(exr.channel("albedo.R").iter().all(|&v| v == ALBEDO[0]));
+        assert!(exr.channel("albedo.G").iter().all(|&v| v == ALBEDO[1]));
+        assert!(exr.channel("albedo.B").iter().all(|&v| v == ALBEDO[2]));
+        // The normal of the plane is +z, towards the cameras: three roundings in normalising
+        // (0, 0, k) keep it within 4.8e-7 of 1, and x, y are exactly 0.
+        assert!(
+            exr.channel("normal.Z")
+                .iter()
+                .all(|&v| (v - 1.0).abs() < 4.8e-7)
+        );
+        assert!(exr.channel("normal.X").iter().all(|&v| v == 0.0));
+        // Depth: distance / cos θ along each ray, from the centre of projection. The four
+        // pixels around the image's centre reach at most one pixel from the axis in x and y;
+        // a pixel spans 2/H in NDC, so for yfov 0.5 and H ≥ 8 rows, tan θ ≤ √2·tan(0.25)·2/8 =
+        // 0.0903 and 1/cos θ = √(1 + tan² θ) ≤ 1.0041. Every pixel is at least `distance` (to
+        // f32 rounding, 1e-5 relative).
+        let (cx, cy) = (exr.width / 2, exr.height / 2);
+        for (x, y) in [(cx - 1, cy - 1), (cx, cy - 1), (cx - 1, cy), (cx, cy)] {
+            let d = exr.at("depth.Z", x, y);
+            assert!(
+                d >= distance * (1.0 - 1e-5) && d <= distance * 1.0041,
+                "({x}, {y}): {d}"
+            );
+        }
+        assert!(
+            exr.channel("depth.Z")
+                .iter()
+                .all(|&d| d >= distance * (1.0 - 1e-5))
+        );
+        // The header: linear Rec.709 primaries, D65 white.
+        let c = exr
+            .chromaticities
+            .unwrap_or_else(|| panic!("no chromaticities"));
+        assert_eq!(
+            (c.red, c.green, c.blue, c.white),
+            (
+                exr::math::Vec2(0.64, 0.33),
+                exr::math::Vec2(0.30, 0.60),
+                exr::math::Vec2(0.15, 0.06),
+                exr::math::Vec2(0.3127, 0.3290)
+            )
+        );
+        let software = exr.attributes.software_name.as_ref().map(|t| t.to_string());
+        assert_eq!(
+            software.as_deref(),
+            Some(concat!("irr ", env!("CARGO_PKG_VERSION")))
+        );
+        assert_eq!(
+            exr.attribute("samplesPerPixel"),
+            Some(&AttributeValue::I32(2))
+        );
+        assert!(matches!(
+            exr.attribute("renderTimeSeconds"),
+            Some(AttributeValue::F32(t)) if *t >= 0.0
+        ));
+        assert_eq!(exr.text("irr.seed"), "0");
+        assert_eq!(exr.text("irr.integrator"), "ao");
+        assert_eq!(exr.text("irr.scene"), "plane.gltf");
+        assert!(exr.text("irr.settings").contains("max_distance"));
+        // worldToCamera (Imath's row-vector form) takes the camera's position, (0, 0, d), to
+        // the origin and the plane's centre to (0, 0, d) in front of it.
+        let m = exr
+            .attributes
+            .world_to_camera
+            .unwrap_or_else(|| panic!("no worldToCamera"));
+        let times = |v: [f32; 4]| -> [f32; 4] {
+            std::array::from_fn(|c| (0..4).map(|r| v[r] * m[4 * r + c]).sum())
+        };
+        assert_eq!(times([0.0, 0.0, distance, 1.0]), [0.0, 0.0, 0.0, 1.0]);
+        assert_eq!(times([0.0, 0.0, 0.0, 1.0]), [0.0, 0.0, distance, 1.0]);
+        assert!(exr.attributes.world_to_normalized_device.is_some());
+    }
+}
+
+/// The colour's emitted, direct and indirect parts add up to it, for the path tracer and the
+/// irradiance cache, on the Cornell box (whose indirect light is far from zero); and asking
+/// for them changes no bit of the colour, whatever the thread count.
+#[test]
+fn split_layers_sum_to_the_colour() {
+    let work = temp();
+    let scene = cornell().to_string_lossy().into_owned();
+    for integrator in ["path", "ic"] {
+        let out = format!("{integrator}.exr");
+        irr_ok(
+            work.path(),
+            &[
+                &scene,
+                "-o",
+                &out,
+                "--integrator",
+                integrator,
+                "--width",
+                "12",
+                "--spp",
+                "2",
+                "--strata",
+                "4x16",
+                "--aov",
+                "emitted,direct,indirect",
+            ],
+        );
+        let exr = Exr::read(&work.path().join(&out));
+        assert_eq!((exr.width, exr.height), (12, 12));
+        let mut indirect = 0.0f32;
+        for c in ["R", "G", "B"] {
+            let colour = exr.channel(c);
+            let parts = ["emitted", "direct", "indirect"].map(|p| exr.channel(&format!("{p}.{c}")));
+            for (i, &l) in colour.iter().enumerate() {
+                let sum = parts[0][i] + parts[1][i] + parts[2][i];
+                // All parts ≥ 0. Per sample the colour is fl(fl(e + d) + i), within 2u of the
+                // exact sum; the f64 sums add ~spp·2⁻⁵³; the colour and each part's mean round
+                // once (u each, relative to at most the total); the sum here rounds twice (2u):
+                // under 6u of the total, so 8u bounds it.
+                assert!(
+                    (sum - l).abs() <= 8.0 * U * l.max(sum),
+                    "{integrator} {c}[{i}]: {sum} vs {l}"
+                );
+                indirect = indirect.max(parts[2][i]);
+            }
+        }
+        assert!(indirect > 0.0, "{integrator}: no indirect light anywhere");
+        assert_eq!(exr.text("irr.integrator"), integrator);
+        // Without AOVs, and on one thread, the colour is the same to the last bit.
+        let plain = format!("{integrator}-plain.exr");
+        irr_ok(
+            work.path(),
+            &[
+                &scene,
+                "-o",
+                &plain,
+                "--integrator",
+                integrator,
+                "--width",
+                "12",
+                "--spp",
+                "2",
+                "--strata",
+                "4x16",
+                "--threads",
+                "1",
+            ],
+        );
+        let plain = Exr::read(&work.path().join(&plain));
+        assert_eq!(plain.names(), ["B", "G", "R"]);
+        for c in ["R", "G", "B"] {
+            let bits = |e: &Exr| e.channel(c).iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&plain), bits(&exr), "{integrator} {c}");
+        }
+    }
+}
+
+/// Bad options are one-line errors that say what is wrong, never a panic, and write nothing.
+#[test]
+fn bad_options_are_clear_errors() {
+    let scenes = temp();
+    let one = write_plane(
+        scenes.path(),
+        "one",
+        r#"[{"type":"perspective","perspective":{"yfov":0.5,"znear":0.01}}]"#,
+        r#"[{"mesh":0,"children":[1]},{"name":"cam","camera":0,"translation":[0,0,2]}]"#,
+        "[0]",
+    );
+    let one = one.to_string_lossy().into_owned();
+    let work = temp();
+    let cases: [(&[&str], &str); 4] = [
+        (
+            &["--aov", "albedo,foo"],
+            "unknown AOV 'foo'; the valid ones are albedo, normal, depth, emitted, direct, indirect",
+        ),
+        (
+            &["--camera", "7"],
+            "error: --camera: there is no camera 7: ",
+        ),
+        (
+            &["--width", "0"],
+            "error: --width: must be between 1 and 16384, got 0",
+        ),
+        (&["--camera", "-1"], "invalid value '-1' for '--camera <N>'"),
+    ];
+    for (options, expected) in cases {
+        let mut args = vec![one.as_str(), "--spp", "1"];
+        args.extend(options);
+        let out = irr(work.path(), &args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{options:?} succeeded");
+        assert!(stderr.contains(expected), "{options:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{options:?}: {stderr}");
+        assert!(
+            std::fs::read_dir(work.path()).is_ok_and(|mut d| d.next().is_none()),
+            "{options:?} left files behind"
+        );
+    }
+    // The camera error says how many cameras the file has, and names them.
+    let out = irr(work.path(), &[&one, "--camera", "7"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("has 1 perspective camera, numbered from 0 (0: node 1 \"cam\")"),
+        "{stderr}"
+    );
+}
