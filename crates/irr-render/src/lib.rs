@@ -72,7 +72,7 @@ pub use irr_integrator::{
     IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard, Material, MetricKind,
     PathSettings, PathTracer, RayCounter, Scene,
 };
-pub use load::{MAX_COORDINATE, SceneData, Warning, load_gltf, load_gltf_with};
+pub use load::{MAX_COORDINATE, MAX_IMAGE_SIDE, SceneData, Warning, load_gltf, load_gltf_with};
 pub use output::{
     check_exposure, check_output, png_path_for, remove_partial_outputs,
     remove_partial_outputs_on_signals, tone_map, write_exr_and_png,
@@ -164,7 +164,9 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
         });
     }
     let bounds = geometry.bounds();
-    let scene = Scene::new(geometry, data.materials)
+    let tex_coords = load::tex_coords_by_id(&data.meshes, &data.materials, &data.tex_coords)
+        .map_err(|e| RenderError::scene(path, e))?;
+    let scene = Scene::with_textures(geometry, data.materials, data.textures, tex_coords)
         .map_err(|e| RenderError::scene(path, e.to_string()))?;
     Ok(LoadedScene {
         path: path.to_path_buf(),
