@@ -11,3 +11,4 @@ mod render;
 mod sampling;
 mod signals;
 mod support;
+mod textures;

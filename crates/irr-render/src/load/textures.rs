@@ -486,6 +486,86 @@ pub(crate) fn tex_coords_by_id(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::files::LoadOptions;
+    use crate::load::{SceneData, load_gltf, load_gltf_with};
+    use crate::testutil::{Gltf, base64, write};
+    use crate::uri::decode_base64;
+    use std::path::Path;
+
+    /// The linear value of 8-bit sRGB code `c`, as the loader computes it.
+    fn lin(c: u8) -> f32 {
+        srgb_to_linear(f64::from(c) / 255.0) as f32
+    }
+
+    /// A PNG of `data` (rows from the top), through the png crate's encoder.
+    pub(crate) fn png_bytes(
+        width: u32,
+        height: u32,
+        color: png::ColorType,
+        depth: png::BitDepth,
+        palette: Option<&[u8]>,
+        data: &[u8],
+    ) -> Vec<u8> {
+        let mut out = Vec::new();
+        {
+            let mut e = png::Encoder::new(&mut out, width, height);
+            e.set_color(color);
+            e.set_depth(depth);
+            if let Some(p) = palette {
+                e.set_palette(p.to_vec());
+            }
+            let mut w = e.write_header().unwrap_or_else(|e| panic!("{e}"));
+            w.write_image_data(data).unwrap_or_else(|e| panic!("{e}"));
+        }
+        out
+    }
+
+    /// CRC-32 of PNG chunks (ISO 3309, as PNG §5.3 specifies), bit by bit.
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut c = 0xffff_ffffu32;
+        for &b in bytes {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 == 1 {
+                    0xedb8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
+            }
+        }
+        !c
+    }
+
+    /// A valid 1×1 RGB PNG whose header claims `width` × `height` (with a correct CRC, so only
+    /// the size is wrong).
+    pub(crate) fn png_claiming(width: u32, height: u32) -> Vec<u8> {
+        let mut p = png_bytes(
+            1,
+            1,
+            png::ColorType::Rgb,
+            png::BitDepth::Eight,
+            None,
+            &[1, 2, 3],
+        );
+        p[16..20].copy_from_slice(&width.to_be_bytes());
+        p[20..24].copy_from_slice(&height.to_be_bytes());
+        let crc = crc32(&p[12..29]);
+        p[29..33].copy_from_slice(&crc.to_be_bytes());
+        p
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Texture, String> {
+        let mut budget = Budget::for_input(bytes.len() as u64);
+        budget.allow_images();
+        decode_image(bytes, &mut budget)
+    }
+
+    fn texels(t: &Texture) -> Vec<Vec3> {
+        (0..i64::from(t.height()))
+            .flat_map(|y| (0..i64::from(t.width())).map(move |x| (x, y)))
+            .map(|(x, y)| t.texel(x, y))
+            .collect()
+    }
 
     #[test]
     fn srgb_eotf_matches_the_standard() {
@@ -524,5 +604,505 @@ mod tests {
         assert_eq!(format_of(&[0xff, 0xd8, 0xff, 0xe0]), Some(Format::Jpeg));
         assert_eq!(format_of(b"GIF89a"), None);
         assert_eq!(format_of(&[]), None);
+        let e = decode(b"GIF89a....").err().unwrap_or_default();
+        assert!(e.contains("neither PNG nor JPEG"), "{e}");
+    }
+
+    #[test]
+    fn every_png_colour_type_and_depth_decodes_to_linear_rgb() {
+        use png::{BitDepth, ColorType};
+        let expect = |got: &Texture, want: &[[u8; 3]]| {
+            let want: Vec<Vec3> = want
+                .iter()
+                .map(|c| Vec3::new(lin(c[0]), lin(c[1]), lin(c[2])))
+                .collect();
+            assert_eq!(texels(got), want);
+        };
+        let rgb = png_bytes(
+            2,
+            1,
+            ColorType::Rgb,
+            BitDepth::Eight,
+            None,
+            &[0, 128, 255, 10, 20, 30],
+        );
+        expect(
+            &decode(&rgb).unwrap_or_else(|e| panic!("{e}")),
+            &[[0, 128, 255], [10, 20, 30]],
+        );
+        // Alpha is dropped, whatever its value.
+        let rgba = png_bytes(
+            1,
+            2,
+            ColorType::Rgba,
+            BitDepth::Eight,
+            None,
+            &[1, 2, 3, 0, 4, 5, 6, 255],
+        );
+        expect(
+            &decode(&rgba).unwrap_or_else(|e| panic!("{e}")),
+            &[[1, 2, 3], [4, 5, 6]],
+        );
+        let grey = png_bytes(2, 1, ColorType::Grayscale, BitDepth::Eight, None, &[7, 200]);
+        expect(
+            &decode(&grey).unwrap_or_else(|e| panic!("{e}")),
+            &[[7, 7, 7], [200, 200, 200]],
+        );
+        let grey_alpha = png_bytes(
+            1,
+            1,
+            ColorType::GrayscaleAlpha,
+            BitDepth::Eight,
+            None,
+            &[99, 0],
+        );
+        expect(
+            &decode(&grey_alpha).unwrap_or_else(|e| panic!("{e}")),
+            &[[99, 99, 99]],
+        );
+        let palette = [255, 0, 0, 0, 0, 255];
+        let indexed = png_bytes(
+            2,
+            1,
+            ColorType::Indexed,
+            BitDepth::Eight,
+            Some(&palette),
+            &[1, 0],
+        );
+        expect(
+            &decode(&indexed).unwrap_or_else(|e| panic!("{e}")),
+            &[[0, 0, 255], [255, 0, 0]],
+        );
+        // 1-bit grey: 0b10 in the row's first byte's top bits → white, black.
+        let bits = png_bytes(
+            2,
+            1,
+            ColorType::Grayscale,
+            BitDepth::One,
+            None,
+            &[0b1000_0000],
+        );
+        expect(
+            &decode(&bits).unwrap_or_else(|e| panic!("{e}")),
+            &[[255, 255, 255], [0, 0, 0]],
+        );
+        // 16 bits per sample (big-endian): 0x8000 is 32768/65535 before the EOTF.
+        let deep = png_bytes(
+            1,
+            1,
+            ColorType::Rgb,
+            BitDepth::Sixteen,
+            None,
+            &[0x80, 0, 0xff, 0xff, 0, 0],
+        );
+        let t = decode(&deep).unwrap_or_else(|e| panic!("{e}"));
+        let half = srgb_to_linear(32768.0 / 65535.0) as f32;
+        assert_eq!(texels(&t), vec![Vec3::new(half, 1.0, 0.0)]);
+    }
+
+    /// 16×16 JPEGs, left half sRGB (200, 100, 50), right half (20, 60, 240), made by libjpeg
+    /// (`cjpeg -quality 100 -sample 1x1 -baseline`, and `-progressive`).
+    const JPEG_BASELINE: &str = "/9j/4AAQSkZJRgABAQAAAQABAAD/2wBDAAEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQH/2wBDAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQH/wAARCAAQABADAREAAhEBAxEB/8QAHwAAAQUBAQEBAQEAAAAAAAAAAAECAwQFBgcICQoL/8QAtRAAAgEDAwIEAwUFBAQAAAF9AQIDAAQRBRIhMUEGE1FhByJxFDKBkaEII0KxwRVS0fAkM2JyggkKFhcYGRolJicoKSo0NTY3ODk6Q0RFRkdISUpTVFVWV1hZWmNkZWZnaGlqc3R1dnd4eXqDhIWGh4iJipKTlJWWl5iZmqKjpKWmp6ipqrKztLW2t7i5usLDxMXGx8jJytLT1NXW19jZ2uHi4+Tl5ufo6erx8vP09fb3+Pn6/8QAHwEAAwEBAQEBAQEBAQAAAAAAAAECAwQFBgcICQoL/8QAtREAAgECBAQDBAcFBAQAAQJ3AAECAxEEBSExBhJBUQdhcRMiMoEIFEKRobHBCSMzUvAVYnLRChYkNOEl8RcYGRomJygpKjU2Nzg5OkNERUZHSElKU1RVVldYWVpjZGVmZ2hpanN0dXZ3eHl6goOEhYaHiImKkpOUlZaXmJmaoqOkpaanqKmqsrO0tba3uLm6wsPExcbHyMnK0tPU1dbX2Nna4uPk5ebn6Onq8vP09fb3+Pn6/9oADAMBAAIRAxEAPwDn6/yvP9sD8R6/9Fg/5Nz9uK/86c/6yD8R6/8ARYP+Tc//2Q==";
+    const JPEG_PROGRESSIVE: &str = "/9j/4AAQSkZJRgABAQAAAQABAAD/2wBDAAEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQH/2wBDAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQH/wgARCAAQABADAREAAhEBAxEB/8QAFQABAQAAAAAAAAAAAAAAAAAACAX/xAAWAQEBAQAAAAAAAAAAAAAAAAAJCgj/2gAMAwEAAhADEAAAAZ+V9sCOiwm25OmsgjosJv8A/8QAFBABAAAAAAAAAAAAAAAAAAAAIP/aAAgBAQABBQIf/8QAFBEBAAAAAAAAAAAAAAAAAAAAIP/aAAgBAwEBPwEf/8QAFBEBAAAAAAAAAAAAAAAAAAAAIP/aAAgBAgEBPwEf/8QAFBABAAAAAAAAAAAAAAAAAAAAIP/aAAgBAQAGPwIf/8QAFBABAAAAAAAAAAAAAAAAAAAAIP/aAAgBAQABPyEf/9oADAMBAAIAAwAAABAAD//EABQRAQAAAAAAAAAAAAAAAAAAACD/2gAIAQMBAT8QH//EABQRAQAAAAAAAAAAAAAAAAAAACD/2gAIAQIBAT8QH//EABQQAQAAAAAAAAAAAAAAAAAAACD/2gAIAQEAAT8QH//Z";
+
+    #[test]
+    fn jpegs_decode_to_linear_rgb() {
+        for (name, text) in [
+            ("baseline", JPEG_BASELINE),
+            ("progressive", JPEG_PROGRESSIVE),
+        ] {
+            let bytes = decode_base64(text).unwrap_or_else(|e| panic!("{e}"));
+            let t = decode(&bytes).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!((t.width(), t.height()), (16, 16));
+            // JPEG is lossy: at quality 100 without chroma subsampling libjpeg's own decoder
+            // returns these blocks within 1 code of the input, and IDCTs may differ by one
+            // more code (ITU-T T.83's accuracy bound), so each channel is within ±2 codes.
+            for (x, want) in [(2, [200u8, 100, 50]), (13, [20, 60, 240])] {
+                let got = t.texel(x, 5);
+                for c in 0..3 {
+                    let (lo, hi) = (
+                        lin(want[c].saturating_sub(2)),
+                        lin(want[c].saturating_add(2)),
+                    );
+                    assert!(
+                        (lo..=hi).contains(&got[c]),
+                        "{name}: texel {x}, channel {c}: {} not in [{lo}, {hi}]",
+                        got[c]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn absurd_or_damaged_images_are_refused_before_decoding() {
+        let e = decode(&png_claiming(100_000, 100_000))
+            .err()
+            .unwrap_or_default();
+        assert!(e.contains("100000×100000") && e.contains("16384"), "{e}");
+        let e = decode(&png_claiming(0, 5)).err().unwrap_or_default();
+        assert!(e.contains("empty"), "{e}");
+        // Within the side limit, but the 1×1 image's data cannot fill it: refused by the
+        // decoder before the budget is asked for 16000²·(3 + 12) bytes.
+        let e = decode(&png_claiming(16000, 16000))
+            .err()
+            .unwrap_or_default();
+        assert!(e.starts_with("PNG: "), "{e}");
+        // Past the budget: a 1200² RGB image is 4.3 MB decoded plus 17.3 MB of f32 texels, more
+        // than the 16 MiB a scene gets without the image allowance; refused before its texels
+        // are allocated, and decoded with the allowance.
+        let big = png_bytes(
+            1200,
+            1200,
+            png::ColorType::Rgb,
+            png::BitDepth::Eight,
+            None,
+            &vec![0; 1200 * 1200 * 3],
+        );
+        let e = decode_image(&big, &mut Budget::for_input(0))
+            .err()
+            .unwrap_or_default();
+        assert!(
+            e.starts_with("its linear texels needs 1440000 elements"),
+            "{e}"
+        );
+        assert!(decode(&big).is_ok());
+        // A truncated PNG: the decoder's error, not a panic.
+        let whole = png_bytes(
+            64,
+            64,
+            png::ColorType::Rgb,
+            png::BitDepth::Eight,
+            None,
+            &(0..64 * 64 * 3)
+                .map(|i| (i * 7 % 251) as u8)
+                .collect::<Vec<u8>>(),
+        );
+        for cut in [whole.len() / 2, 40, 20, 9] {
+            let e = decode(&whole[..cut]).err().unwrap_or_default();
+            assert!(e.starts_with("PNG: "), "cut at {cut}: {e}");
+        }
+        // A truncated JPEG is decoded as far as it goes or refused, never a panic.
+        let jpeg = decode_base64(JPEG_BASELINE).unwrap_or_else(|e| panic!("{e}"));
+        for cut in [jpeg.len() / 2, 20, 3] {
+            let _ = decode(&jpeg[..cut]);
+        }
+    }
+
+    /// A 4-vertex quad with TEXCOORD_0 (normalized u8) and TEXCOORD_1 (float), and `rest` (the
+    /// images, textures, samplers and materials), written as `dir/name`.
+    fn textured_quad(dir: &Path, name: &str, g: &mut Gltf, rest: &str) -> std::path::PathBuf {
+        let p = g.vec3(&[
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ]);
+        let uv0 = g.accessor(
+            &[0, 0, 255, 0, 255, 255, 0, 51],
+            r#""componentType":5121,"normalized":true,"count":4,"type":"VEC2""#,
+        );
+        let uv1_floats: Vec<u8> = [0.0f32, 0.0, 2.0, 0.0, 2.0, -1.0, 0.0, -1.0]
+            .iter()
+            .flat_map(|f| f.to_le_bytes())
+            .collect();
+        let uv1 = g.accessor(
+            &uv1_floats,
+            r#""componentType":5126,"count":4,"type":"VEC2""#,
+        );
+        let i = g.indices(&[0, 1, 2, 0, 2, 3], 5123);
+        let json = g.json(&format!(
+            r#""scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+            "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p},"TEXCOORD_0":{uv0},"TEXCOORD_1":{uv1}}},"indices":{i},"material":0}}]}}],
+            {rest}"#
+        ));
+        write(dir, name, json)
+    }
+
+    #[test]
+    fn a_textured_material_reads_its_images_samplers_and_coordinates() {
+        let d = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let red_green = png_bytes(
+            2,
+            1,
+            png::ColorType::Rgb,
+            png::BitDepth::Eight,
+            None,
+            &[255, 0, 0, 0, 255, 0],
+        );
+        let grey = png_bytes(
+            1,
+            1,
+            png::ColorType::Grayscale,
+            png::BitDepth::Eight,
+            None,
+            &[128],
+        );
+        write(d.path(), "grey file.png", &grey);
+        let mut g = Gltf::default();
+        let view = g.view_of(&red_green);
+        let rest = format!(
+            r#""extensionsUsed":["KHR_texture_transform"],
+            "images":[{{"bufferView":{view},"mimeType":"image/png"}},
+                      {{"uri":"data:image/png;base64,{}"}},
+                      {{"uri":"grey%20file.png","name":"grey"}}],
+            "samplers":[{{"magFilter":9728,"minFilter":9728,"wrapS":33071,"wrapT":33648}},
+                        {{"magFilter":9729,"minFilter":9987}}],
+            "textures":[{{"source":0,"sampler":0}},{{"source":1}},{{"source":2,"sampler":1}}],
+            "materials":[{{"pbrMetallicRoughness":{{"baseColorFactor":[0.5,0.5,0.5,1],
+                "baseColorTexture":{{"index":0,"texCoord":1}}}},
+                "emissiveFactor":[1,1,1],
+                "emissiveTexture":{{"index":2,"extensions":{{"KHR_texture_transform":
+                    {{"offset":[0.5,0],"scale":[2,2],"texCoord":0}}}}}}}}]"#,
+            base64(&grey)
+        );
+        let path = textured_quad(d.path(), "t.gltf", &mut g, &rest);
+        let s: SceneData = load_gltf(&path).unwrap_or_else(|e| panic!("{e}"));
+        // Textures 0 and 2 are read; texture 1 (and with it image 1) is not.
+        assert_eq!(s.textures.len(), 2);
+        let m = s.materials[0];
+        assert_eq!(m.albedo_texture, Some(TextureRef::new(0, 1)));
+        let e = m
+            .emission_texture
+            .unwrap_or_else(|| panic!("no emission texture"));
+        assert_eq!((e.texture, e.tex_coord), (1, 0));
+        assert_eq!(e.transform, texture_transform([0.5, 0.0], 0.0, [2.0, 2.0]));
+        assert_eq!(
+            s.textures[0].sampler(),
+            Sampler {
+                wrap_s: Wrap::ClampToEdge,
+                wrap_t: Wrap::MirroredRepeat,
+                filter: Filter::Nearest
+            }
+        );
+        assert_eq!(s.textures[1].sampler(), Sampler::default());
+        assert_eq!(texels(&s.textures[0]), vec![Vec3::X, Vec3::Y]);
+        assert_eq!(texels(&s.textures[1]), vec![Vec3::splat(lin(128))]);
+        let got: Vec<(&str, usize)> = s
+            .warnings
+            .iter()
+            .map(|w| (w.feature.as_str(), w.count))
+            .collect();
+        for expected in [("textures", 1), ("images", 1), ("min-filter", 1)] {
+            assert!(got.contains(&expected), "missing {expected:?} in {got:?}");
+        }
+        assert!(
+            !got.iter().any(|(f, _)| f.contains("KHR_texture_transform")),
+            "{got:?}"
+        );
+        // The material reads set 1 (albedo), then set 0 (emission): two triples per triangle,
+        // u8 coordinates normalized by 255.
+        let uv0 = [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(0.0, 0.2),
+        ];
+        let uv1 = [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(2.0, 0.0),
+            Vec2::new(2.0, -1.0),
+            Vec2::new(0.0, -1.0),
+        ];
+        let tri = |uv: &[Vec2; 4], t: [usize; 3]| t.map(|i| uv[i]);
+        assert_eq!(
+            s.tex_coords,
+            vec![vec![
+                tri(&uv1, [0, 1, 2]),
+                tri(&uv0, [0, 1, 2]),
+                tri(&uv1, [0, 2, 3]),
+                tri(&uv0, [0, 2, 3]),
+            ]]
+        );
+        // The whole scene builds: the texture coordinates follow the triangles' ids.
+        let loaded = crate::load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+        // Vertex 1 of triangle 0 has TEXCOORD_1 (2, 0): clamped in u to the green texel.
+        assert_eq!(loaded.scene.albedo(0, 1.0, 0.0), Vec3::new(0.0, 0.5, 0.0));
+        // Its centre, TEXCOORD_1 (4/3, −1/3): mirrored in v, still the green column.
+        assert_eq!(
+            loaded.scene.albedo(0, 1.0 / 3.0, 1.0 / 3.0),
+            Vec3::new(0.0, 0.5, 0.0)
+        );
+        assert_eq!(
+            loaded.scene.emitted(0, 0.0, 0.0, Vec3::Z, Vec3::Z),
+            Vec3::splat(lin(128))
+        );
+    }
+
+    #[test]
+    fn bad_textures_are_refused_naming_the_file_and_the_image() {
+        let d = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        std::fs::create_dir(d.path().join("scene")).unwrap_or_else(|e| panic!("{e}"));
+        let grey = png_bytes(
+            1,
+            1,
+            png::ColorType::Grayscale,
+            png::BitDepth::Eight,
+            None,
+            &[128],
+        );
+        write(d.path(), "outside.png", &grey);
+        let material = r#""materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}}]"#;
+        for (case, rest, needles) in [
+            (
+                "index",
+                format!(
+                    r#""images":[{{"uri":"a.png"}}],"textures":[{{"source":0}}],"materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":5}}}}}}]"#
+                ),
+                vec!["baseColorTexture.index", "Index out of bounds"],
+            ),
+            (
+                "outside",
+                format!(
+                    r#""images":[{{"uri":"../outside.png"}}],"textures":[{{"source":0}}],{material}"#
+                ),
+                vec!["image 0", "outside the folder irr reads images from"],
+            ),
+            (
+                "absolute",
+                format!(
+                    r#""images":[{{"uri":"/etc/passwd"}}],"textures":[{{"source":0}}],{material}"#
+                ),
+                vec!["image 0", "absolute path"],
+            ),
+            (
+                "missing",
+                format!(
+                    r#""images":[{{"uri":"nothing.png","name":"wood"}}],"textures":[{{"source":0}}],{material}"#
+                ),
+                vec!["image 0 \"wood\"", "nothing.png", "points nowhere"],
+            ),
+            (
+                "scheme",
+                format!(
+                    r#""images":[{{"uri":"https://example.com/a.png"}}],"textures":[{{"source":0}}],{material}"#
+                ),
+                vec!["image 0", "scheme 'https:'"],
+            ),
+            (
+                "not-an-image",
+                format!(
+                    r#""images":[{{"uri":"data:image/png;base64,{}"}}],"textures":[{{"source":0}}],{material}"#,
+                    base64(b"hello")
+                ),
+                vec!["image 0", "neither PNG nor JPEG"],
+            ),
+            (
+                "huge",
+                format!(
+                    r#""images":[{{"uri":"data:image/png;base64,{}"}}],"textures":[{{"source":0}}],{material}"#,
+                    base64(&png_claiming(100_000, 100_000))
+                ),
+                vec!["image 0", "100000×100000", "16384"],
+            ),
+            (
+                "transform",
+                format!(
+                    r#""extensionsUsed":["KHR_texture_transform"],"images":[{{"uri":"data:image/png;base64,{}"}}],"textures":[{{"source":0}}],
+                    "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0,"extensions":{{"KHR_texture_transform":{{"scale":[1e39,1]}}}}}}}}}}]"#,
+                    base64(&grey)
+                ),
+                vec!["baseColorTexture", "KHR_texture_transform is not finite"],
+            ),
+        ] {
+            let mut g = Gltf::default();
+            let path = textured_quad(
+                &d.path().join("scene"),
+                &format!("{case}.gltf"),
+                &mut g,
+                &rest,
+            );
+            let e = match load_gltf_with(&path, &LoadOptions::default()) {
+                Ok(_) => panic!("{case}: loaded"),
+                Err(e) => e.to_string(),
+            };
+            assert!(e.contains(&format!("{case}.gltf")), "{case}: {e}");
+            assert!(!e.contains('\n'), "{case}: {e}");
+            for n in needles {
+                assert!(e.contains(n), "{case}: no '{n}' in: {e}");
+            }
+        }
+    }
+
+    #[test]
+    fn texture_coordinates_must_be_readable_and_a_missing_set_reads_zero() {
+        let d = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let grey = base64(&png_bytes(
+            1,
+            1,
+            png::ColorType::Grayscale,
+            png::BitDepth::Eight,
+            None,
+            &[9],
+        ));
+        let mut g = Gltf::default();
+        let p = g.vec3(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+        let raw_u8 = g.accessor(&[0; 6], r#""componentType":5121,"count":3,"type":"VEC2""#);
+        let short = g.accessor(&[0; 8], r#""componentType":5126,"count":1,"type":"VEC2""#);
+        let nan: Vec<u8> = [0.0f32, f32::NAN, 0.0, 0.0, 0.0, 0.0]
+            .iter()
+            .flat_map(|f| f.to_le_bytes())
+            .collect();
+        let nan = g.accessor(&nan, r#""componentType":5126,"count":3,"type":"VEC2""#);
+        let u16s: Vec<u8> = [0u16, 65535, 32768, 0, 0, 0]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let u16s = g.accessor(
+            &u16s,
+            r#""componentType":5123,"normalized":true,"count":3,"type":"VEC2""#,
+        );
+        let rest = |texcoord: &str| {
+            g.json(&format!(
+                r#""scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+                "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p}{texcoord}}},"material":0}}]}}],
+                "images":[{{"uri":"data:image/png;base64,{grey}"}}],"textures":[{{"source":0}}],
+                "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0}}}}}}]"#
+            ))
+        };
+        for (case, attribute, needle) in [
+            ("raw", format!(r#","TEXCOORD_0":{raw_u8}"#), "normalized"),
+            (
+                "count",
+                format!(r#","TEXCOORD_0":{short}"#),
+                "TEXCOORD_0 has 1 elements but POSITION has 3",
+            ),
+            (
+                "nan",
+                format!(r#","TEXCOORD_0":{nan}"#),
+                "TEXCOORD_0 element 0 is not finite",
+            ),
+        ] {
+            let e = match load_gltf(&write(d.path(), &format!("{case}.gltf"), rest(&attribute))) {
+                Ok(_) => panic!("{case}: loaded"),
+                Err(e) => e.to_string(),
+            };
+            assert!(e.contains(needle), "{case}: {e}");
+        }
+        let ok = load_gltf(&write(
+            d.path(),
+            "u16.gltf",
+            rest(&format!(r#","TEXCOORD_0":{u16s}"#)),
+        ))
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            ok.tex_coords,
+            vec![vec![[
+                Vec2::new(0.0, 1.0),
+                Vec2::new(32768.0 / 65535.0, 0.0),
+                Vec2::ZERO
+            ]]]
+        );
+        let missing =
+            load_gltf(&write(d.path(), "none.gltf", rest(""))).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(missing.tex_coords, vec![vec![[Vec2::ZERO; 3]]]);
+        assert!(
+            missing
+                .warnings
+                .iter()
+                .any(|w| w.feature == "missing-texcoord"),
+            "{:?}",
+            missing.warnings
+        );
     }
 }
