@@ -441,6 +441,226 @@ mod tests {
         assert!(Arc::ptr_eq(&shared.texels, &t.texels));
     }
 
+    /// The unit square at z = 0 as two triangles, facing +z.
+    fn square(material: u32) -> irr_geometry::TriangleMesh {
+        irr_geometry::TriangleMesh {
+            positions: vec![
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::new(1.0, 1.0, 0.0),
+                Vec3::new(0.0, 1.0, 0.0),
+            ],
+            indices: vec![[0, 1, 2], [0, 2, 3]],
+            normals: None,
+            material_ids: vec![material; 2],
+        }
+    }
+
+    fn scene(
+        meshes: &[irr_geometry::TriangleMesh],
+        materials: Vec<crate::Material>,
+        textures: Vec<Texture>,
+        tex_coords: TexCoords,
+    ) -> Result<crate::Scene, crate::SceneError> {
+        let geometry = irr_geometry::Geometry::build(meshes).unwrap_or_else(|e| panic!("{e}"));
+        crate::Scene::with_textures(geometry, materials, textures, tex_coords)
+    }
+
+    #[test]
+    fn scene_reads_albedo_and_emission_at_the_point() {
+        let nearest = Sampler {
+            filter: Filter::Nearest,
+            ..Sampler::default()
+        };
+        let albedo = Texture::new(
+            2,
+            2,
+            vec![Vec3::ZERO, Vec3::new(1.0, 0.0, 1.0), Vec3::Y, Vec3::ONE],
+            nearest,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let values = Texture::new(1, 2, vec![Vec3::splat(0.25), Vec3::ONE], nearest)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let shift = Affine2::from_translation(Vec2::new(0.5, 0.0));
+        let material = crate::Material {
+            albedo: Vec3::new(0.5, 0.5, 0.05),
+            emission: Vec3::splat(2.0),
+            two_sided: false,
+            albedo_texture: Some(TextureRef::new(1, 3)),
+            emission_texture: Some(TextureRef {
+                transform: shift,
+                ..TextureRef::new(0, 0)
+            }),
+        };
+        assert_eq!(material.tex_coord_sets().collect::<Vec<_>>(), [3, 0]);
+        // Set 3 (albedo) spans the square's corners as uv = (x, y); set 0 (emission) is (y, x).
+        let corners = |t: [usize; 3], f: fn(Vec2) -> Vec2| {
+            let c = [Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y];
+            t.map(|i| f(c[i]))
+        };
+        let mut tex_coords = TexCoords::default();
+        for t in [[0, 1, 2], [0, 2, 3]] {
+            tex_coords
+                .push(&[corners(t, |c| c), corners(t, |c| Vec2::new(c.y, c.x))])
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
+        // Textures in the order the material names them: 0 is `values`, 1 is `albedo`.
+        let s = scene(
+            &[square(0)],
+            vec![material],
+            vec![values, albedo],
+            tex_coords,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        // Triangle 0 at barycentrics (b1, b2) = (0.5, 0.25): the point (0.75, 0.25), albedo
+        // texel (1, 0) of the 2×2 (z = 1) times the factor.
+        assert_eq!(s.albedo(0, 0.5, 0.25), Vec3::new(0.5, 0.0, 0.05));
+        // Emission at set 0's (0.25, 0.75) shifted by (0.5, 0) to (0.75, 0.75): row 1 of the
+        // 1×2 texture (1), times 2; nothing from the back.
+        assert_eq!(s.emitted(0, 0.5, 0.25, Vec3::Z, Vec3::Z), Vec3::splat(2.0));
+        assert_eq!(s.emitted(0, 0.5, 0.25, Vec3::Z, -Vec3::Z), Vec3::ZERO);
+        // At (x, y) = (0.25, 0.25): albedo texel (0, 0) is black; emission row 0 is 0.25.
+        assert_eq!(s.albedo(0, 0.0, 0.25), Vec3::ZERO);
+        assert_eq!(s.emitted(0, 0.0, 0.25, Vec3::Z, Vec3::Z), Vec3::splat(0.5));
+        assert_eq!(
+            s.tex_coord(0, &TextureRef::new(1, 3), 0.0, 0.25),
+            Vec2::splat(0.25)
+        );
+        // The light sampler weighs the emitter by its factor × the texture's mean, 2 × 0.625.
+        let light = s.lights().pdf_area(0);
+        assert!(light > 0.0, "{light}");
+    }
+
+    #[test]
+    fn light_choice_weighs_a_textured_emitter_by_its_mean() {
+        // Two unit squares side by side: one emits 0.25 uniformly, the other 1 × a texture of
+        // mean 0.25 (black and white texels 1 : 3). Same power, so each is chosen with
+        // probability ½ and every point has density ½ per unit area.
+        let texture = Texture::new(
+            2,
+            2,
+            vec![Vec3::ONE, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO],
+            Sampler::default(),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let mut right = square(1);
+        for p in &mut right.positions {
+            p.x += 2.0;
+        }
+        let uniform = crate::Material {
+            emission: Vec3::splat(0.25),
+            ..crate::Material::diffuse(Vec3::ZERO)
+        };
+        let textured = crate::Material {
+            emission: Vec3::ONE,
+            emission_texture: Some(TextureRef::new(0, 0)),
+            ..uniform
+        };
+        let mut tex_coords = TexCoords::default();
+        for sets in [0, 0, 1, 1] {
+            tex_coords
+                .push(&vec![[Vec2::ZERO; 3]; sets])
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
+        let s = scene(
+            &[square(0), right],
+            vec![uniform, textured],
+            vec![texture],
+            tex_coords,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        for t in 0..4 {
+            assert_eq!(s.lights().pdf_area(t), 0.5, "triangle {t}");
+        }
+    }
+
+    #[test]
+    fn scene_refuses_inconsistent_textures() {
+        let texture = two_by_two(Wrap::Repeat, Filter::Linear);
+        let textured = crate::Material {
+            albedo_texture: Some(TextureRef::new(0, 0)),
+            ..crate::Material::diffuse(Vec3::ONE)
+        };
+        let two = || {
+            let mut c = TexCoords::default();
+            for _ in 0..2 {
+                c.push(&[[Vec2::ZERO; 3]]).unwrap_or_else(|e| panic!("{e}"));
+            }
+            c
+        };
+        // The 2×2 test texture has texels above 1: not an albedo.
+        let bright = scene(&[square(0)], vec![textured], vec![texture.clone()], two());
+        assert!(
+            matches!(
+                bright,
+                Err(crate::SceneError::InvalidTextureRef {
+                    what: "albedo texture",
+                    ..
+                })
+            ),
+            "{bright:?}"
+        );
+        let unit = Texture::new(1, 1, vec![Vec3::ONE], Sampler::default())
+            .unwrap_or_else(|e| panic!("{e}"));
+        let missing = scene(&[square(0)], vec![textured], vec![], two());
+        assert!(
+            matches!(missing, Err(crate::SceneError::InvalidTextureRef { .. })),
+            "{missing:?}"
+        );
+        let infinite = crate::Material {
+            albedo_texture: Some(TextureRef {
+                transform: Affine2::from_scale(Vec2::splat(f32::INFINITY)),
+                ..TextureRef::new(0, 0)
+            }),
+            ..textured
+        };
+        assert!(scene(&[square(0)], vec![infinite], vec![unit.clone()], two()).is_err());
+        let short = scene(
+            &[square(0)],
+            vec![textured],
+            vec![unit.clone()],
+            TexCoords::default(),
+        );
+        assert!(
+            matches!(
+                short,
+                Err(crate::SceneError::TexCoordCount {
+                    triangles: 2,
+                    found: 0
+                })
+            ),
+            "{short:?}"
+        );
+        let mut wrong = TexCoords::default();
+        wrong
+            .push(&[[Vec2::ZERO; 3]])
+            .unwrap_or_else(|e| panic!("{e}"));
+        wrong.push(&[]).unwrap_or_else(|e| panic!("{e}"));
+        let wrong = scene(&[square(0)], vec![textured], vec![unit.clone()], wrong);
+        assert!(
+            matches!(
+                wrong,
+                Err(crate::SceneError::TexCoords {
+                    triangle: 1,
+                    expected: 1,
+                    found: 0
+                })
+            ),
+            "{wrong:?}"
+        );
+        assert!(scene(&[square(0)], vec![textured], vec![unit], two()).is_ok());
+        // An untextured scene keeps no texture coordinates at all.
+        let plain = scene(
+            &[square(0)],
+            vec![crate::Material::diffuse(Vec3::ONE)],
+            vec![],
+            TexCoords::default(),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert!(plain.tex_coords().is_empty());
+        assert_eq!(plain.albedo(1, 0.3, 0.3), Vec3::ONE);
+    }
+
     #[test]
     fn tex_coords_interpolate_per_triangle_and_slot() {
         let mut c = TexCoords::default();

@@ -3,8 +3,10 @@
 //!
 //! # What it owns
 //! - [`load_scene`] / [`load_gltf`]: glTF 2.0 (`.gltf` with external or `data:` buffers, `.glb`)
-//!   into world-space meshes, Lambertian [`Material`]s and a [`Camera`]; every ignored feature
-//!   becomes a [`Warning`] with a count, every unreadable input a one-line [`RenderError`].
+//!   into world-space meshes, Lambertian [`Material`]s with their base-colour and emissive
+//!   textures (PNG and JPEG images, decoded and converted to linear RGB here) and a [`Camera`];
+//!   every ignored feature becomes a [`Warning`] with a count, every unreadable input a one-line
+//!   [`RenderError`].
 //! - [`Camera`]: glTF's pinhole camera (looks down local −Z, `yfov` vertical, aspect ratio from
 //!   the image), or a default one framing the scene.
 //! - [`render`] and [`RenderSettings`]: the film (box filter, row 0 at the top), tiles on a
@@ -87,8 +89,8 @@ use glam::Vec3;
 use irr_geometry::Geometry;
 use std::path::{Path, PathBuf};
 
-/// A scene ready to render: the integrator's [`Scene`] (geometry with its BVH, materials,
-/// emitters), the file's camera, and the warnings about what the file uses that irr ignored.
+/// A scene ready to render: the integrator's [`Scene`] (geometry with its BVH, materials and
+/// their textures, emitters), the file's camera, and the warnings about what the file uses that irr ignored.
 #[derive(Debug)]
 pub struct LoadedScene {
     /// The file it came from.

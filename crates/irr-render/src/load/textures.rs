@@ -1025,6 +1025,49 @@ mod tests {
     }
 
     #[test]
+    fn texture_coordinates_follow_the_ids_of_kept_triangles() {
+        // Mesh 0: a degenerate triangle (dropped by the geometry) between two good ones; mesh
+        // 1, untextured, then mesh 2, textured. Each triangle's coordinates name it.
+        let good = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let mesh = |tris: &[[Vec3; 3]], material: u32| TriangleMesh {
+            positions: tris.iter().flatten().copied().collect(),
+            indices: (0..tris.len() as u32)
+                .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+                .collect(),
+            normals: None,
+            material_ids: vec![material; tris.len()],
+        };
+        let meshes = [
+            mesh(&[good, [Vec3::ZERO, Vec3::X, Vec3::X * 2.0], good], 0),
+            mesh(&[good], 1),
+            mesh(&[good], 0),
+        ];
+        let tag = |k: f32| [Vec2::splat(k); 3];
+        let materials = [
+            Material {
+                albedo_texture: Some(TextureRef::new(0, 0)),
+                ..Material::diffuse(Vec3::ONE)
+            },
+            Material::diffuse(Vec3::ONE),
+        ];
+        let uv = vec![vec![tag(1.0), tag(2.0), tag(3.0)], vec![], vec![tag(4.0)]];
+        let c = tex_coords_by_id(&meshes, &materials, &uv).unwrap_or_else(|e| panic!("{e}"));
+        let geometry = irr_geometry::Geometry::build(&meshes).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(c.triangle_count(), geometry.triangle_count());
+        assert_eq!(c.of(0), [tag(1.0)]);
+        assert_eq!(c.of(1), [tag(3.0)]);
+        assert!(c.of(2).is_empty());
+        assert_eq!(c.of(3), [tag(4.0)]);
+        // No textured material: nothing stored.
+        let plain = [Material::diffuse(Vec3::ONE); 2];
+        assert!(
+            tex_coords_by_id(&meshes, &plain, &uv)
+                .unwrap_or_else(|e| panic!("{e}"))
+                .is_empty()
+        );
+    }
+
+    #[test]
     fn texture_coordinates_must_be_readable_and_a_missing_set_reads_zero() {
         let d = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
         let grey = base64(&png_bytes(
