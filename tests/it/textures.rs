@@ -60,6 +60,18 @@ fn write(path: &Path, bytes: impl AsRef<[u8]>) {
     std::fs::write(path, bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
 }
 
+/// A quad: its four corners (counter-clockwise seen from the front), its normal, and the
+/// texture coordinates of its corners.
+type Quad = ([[f32; 3]; 4], [f32; 3], [[f32; 2]; 4]);
+
+/// A hostile case: its name, the image file, an edit of the JSON, and what the error must say.
+type Case = (
+    &'static str,
+    Vec<u8>,
+    Box<dyn Fn(&mut Value)>,
+    &'static [&'static str],
+);
+
 /// Builds a glTF's binary buffer, views and accessors the way Blender's exporter does (one
 /// view per accessor, `target` set, `min`/`max` on positions).
 #[derive(Default)]
@@ -115,11 +127,7 @@ impl Builder {
 
     /// A mesh primitive from quads, each given by its four corners (counter-clockwise seen from
     /// the front), a normal and the texture coordinates of its corners.
-    fn quads(
-        &mut self,
-        quads: &[([[f32; 3]; 4], [f32; 3], [[f32; 2]; 4])],
-        material: usize,
-    ) -> Value {
+    fn quads(&mut self, quads: &[Quad], material: usize) -> Value {
         let (mut p, mut n, mut uv, mut idx) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for (corners, normal, coords) in quads {
             let base = p.len() as u16;
@@ -155,7 +163,7 @@ impl Builder {
 
 /// The six inward faces of the cube [−s, s]³ (the walls are double-sided, so the winding only
 /// matters for the normals Blender would write).
-fn cube(s: f32) -> Vec<([[f32; 3]; 4], [f32; 3], [[f32; 2]; 4])> {
+fn cube(s: f32) -> Vec<Quad> {
     let mut faces = Vec::new();
     for axis in 0..3 {
         for sign in [-1.0f32, 1.0] {
@@ -187,7 +195,7 @@ fn cube(s: f32) -> Vec<([[f32; 3]; 4], [f32; 3], [[f32; 2]; 4])> {
 /// The quad [−½, ½]² at z = 0 facing +z, with texture coordinates u = 3(x + ½) − 1 and
 /// v = 3(½ − y) − 1: three periods of the texture, from −1 to 2, v growing downwards as image
 /// rows do.
-const QUAD: ([[f32; 3]; 4], [f32; 3], [[f32; 2]; 4]) = (
+const QUAD: Quad = (
     [
         [-0.5, -0.5, 0.0],
         [0.5, -0.5, 0.0],
@@ -427,7 +435,7 @@ fn hostile_textures_are_refused_with_clear_errors() {
     huge[20..24].copy_from_slice(&100_000u32.to_be_bytes());
     let truncated = good[..good.len() - 20].to_vec();
     let material = json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}});
-    let cases: [(&str, Vec<u8>, Box<dyn Fn(&mut Value)>, &[&str]); 5] = [
+    let cases: [Case; 5] = [
         (
             "huge",
             huge,

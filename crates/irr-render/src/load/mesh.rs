@@ -6,6 +6,9 @@ use crate::error::RenderError;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use irr_geometry::TriangleMesh;
 
+/// A primitive instance in world space and the texture coordinates of its triangles.
+type Primitive = (TriangleMesh, Vec<[Vec2; 3]>);
+
 impl Loader<'_> {
     /// One primitive instance in world space with material `material.0`, and the texture
     /// coordinates of its triangles for the sets `material.1` its material reads (see
@@ -18,7 +21,7 @@ impl Loader<'_> {
         world: Mat4,
         material: (u32, &[u32]),
         buffers: &[Vec<u8>],
-    ) -> Result<Option<(TriangleMesh, Vec<[Vec2; 3]>)>, RenderError> {
+    ) -> Result<Option<Primitive>, RenderError> {
         let (material_id, sets) = material;
         use gltf::mesh::Mode;
         let what = format!(

@@ -946,9 +946,8 @@ mod tests {
         for (case, rest, needles) in [
             (
                 "index",
-                format!(
-                    r#""images":[{{"uri":"a.png"}}],"textures":[{{"source":0}}],"materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":5}}}}}}]"#
-                ),
+                r#""images":[{"uri":"a.png"}],"textures":[{"source":0}],"materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":5}}}]"#
+                    .to_string(),
                 vec!["baseColorTexture.index", "Index out of bounds"],
             ),
             (
