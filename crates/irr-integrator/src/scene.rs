@@ -200,19 +200,7 @@ impl Scene {
             }
         }
         check_textures(&geometry, &materials, &textures, &tex_coords)?;
-        // The light sampler weighs each emitter by its material's `emission`: for a textured
-        // one, the factor × the texture's mean.
-        let weights: Vec<Material> = materials
-            .iter()
-            .map(|m| match m.emission_texture {
-                Some(t) => Material {
-                    emission: m.emission * textures[t.texture as usize].mean(),
-                    ..*m
-                },
-                None => *m,
-            })
-            .collect();
-        let lights = LightSampler::new(&geometry, &weights);
+        let lights = LightSampler::new(&geometry, &light_weights(&materials, &textures));
         Ok(Self {
             geometry,
             materials,
@@ -303,6 +291,21 @@ impl Scene {
     pub fn emitter_count(&self) -> usize {
         self.lights.len()
     }
+}
+
+/// The materials as the light sampler weighs them, by their `emission`: for a textured
+/// emitter, the factor × the texture's mean (every [`TextureRef`] checked to be in range).
+fn light_weights(materials: &[Material], textures: &[Texture]) -> Vec<Material> {
+    materials
+        .iter()
+        .map(|m| match m.emission_texture {
+            Some(t) => Material {
+                emission: m.emission * textures[t.texture as usize].mean(),
+                ..*m
+            },
+            None => *m,
+        })
+        .collect()
 }
 
 /// The checks of [`Scene::with_textures`] on textures and texture coordinates.

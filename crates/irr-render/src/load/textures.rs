@@ -789,6 +789,58 @@ mod tests {
         }
     }
 
+    /// Damaged images (bytes flipped, set to extreme values, or cut short, a few at a time,
+    /// from a fixed counter-based generator) are refused or decoded, never a panic (a decoded
+    /// one went through `Texture::new`, which checks its texel count against its size).
+    #[test]
+    fn damaged_images_never_panic() {
+        let png = png_bytes(
+            16,
+            16,
+            png::ColorType::Rgba,
+            png::BitDepth::Eight,
+            None,
+            &(0..16 * 16 * 4)
+                .map(|i| (i * 13 % 256) as u8)
+                .collect::<Vec<u8>>(),
+        );
+        let jpegs = [JPEG_BASELINE, JPEG_PROGRESSIVE]
+            .map(|t| decode_base64(t).unwrap_or_else(|e| panic!("{e}")));
+        // SplitMix64 (Steele et al. 2014), one stream per case.
+        let next = |state: &mut u64| {
+            *state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = *state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            z ^ (z >> 31)
+        };
+        for (name, original) in [
+            ("png", &png),
+            ("baseline", &jpegs[0]),
+            ("progressive", &jpegs[1]),
+        ] {
+            for case in 0..300u64 {
+                let mut state = case;
+                let mut bytes = original.clone();
+                for _ in 0..1 + next(&mut state) % 4 {
+                    let at = (next(&mut state) % bytes.len() as u64) as usize;
+                    match next(&mut state) % 4 {
+                        0 => bytes[at] ^= 1 << (next(&mut state) % 8),
+                        1 => bytes[at] = 0xff,
+                        2 => bytes[at] = 0,
+                        _ => bytes.truncate(at.max(1)),
+                    }
+                }
+                let result = std::panic::catch_unwind(|| decode(&bytes));
+                match result {
+                    Err(_) => panic!("{name} case {case}: the decoder panicked"),
+                    Ok(Ok(t)) => assert!(t.width() >= 1 && t.height() >= 1),
+                    Ok(Err(_)) => {}
+                }
+            }
+        }
+    }
+
     /// A 4-vertex quad with TEXCOORD_0 (normalized u8) and TEXCOORD_1 (float), and `rest` (the
     /// images, textures, samplers and materials), written as `dir/name`.
     fn textured_quad(dir: &Path, name: &str, g: &mut Gltf, rest: &str) -> std::path::PathBuf {
