@@ -31,6 +31,8 @@ fn light(le: f32) -> Material {
         albedo: Vec3::ZERO,
         emission: Vec3::splat(le),
         two_sided: false,
+        albedo_texture: None,
+        emission_texture: None,
     }
 }
 
@@ -312,6 +314,8 @@ fn an_emitter_a_tenth_of_a_millimetre_from_a_wall() {
                 albedo: Vec3::splat(0.8),
                 emission: Vec3::splat(50.0),
                 two_sided: false,
+                albedo_texture: None,
+                emission_texture: None,
             },
             light(10.0),
         ],
@@ -444,6 +448,8 @@ fn back_faces_reflect_and_double_sided_emitters_emit() {
             albedo: Vec3::splat(0.5),
             emission: Vec3::splat(3.0),
             two_sided: true,
+            albedo_texture: None,
+            emission_texture: None,
         }],
     );
     let camera = Camera::look_at(Vec3::new(0.0, -1.0, 0.0), Vec3::ZERO, Vec3::Z, 0.5)

@@ -222,6 +222,8 @@ fn a_tiny_bright_emitter_gives_the_known_direct_light() {
             albedo: Vec3::ZERO,
             emission: Vec3::splat(1e6),
             two_sided: false,
+            albedo_texture: None,
+            emission_texture: None,
         },
     ];
     let scene = Scene::new(geometry, materials).unwrap_or_else(|e| panic!("{e}"));

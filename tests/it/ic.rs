@@ -130,6 +130,8 @@ fn two_rooms() -> Scene {
             albedo: Vec3::ZERO,
             emission: Vec3::splat(20.0),
             two_sided: false,
+            albedo_texture: None,
+            emission_texture: None,
         },
     ];
     Scene::new(geometry, materials).unwrap_or_else(|e| panic!("{e}"))

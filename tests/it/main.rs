@@ -12,3 +12,4 @@ mod render;
 mod sampling;
 mod signals;
 mod support;
+mod textures;

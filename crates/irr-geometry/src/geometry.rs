@@ -45,6 +45,11 @@ pub struct SurfacePoint {
     pub material_id: u32,
     /// The triangle id.
     pub triangle: u32,
+    /// Barycentric coordinate of vertex 1 (the hit's [`Hit::b1`]): with `b2`, what a caller
+    /// interpolates its own per-vertex data with (texture coordinates, say).
+    pub b1: f32,
+    /// Barycentric coordinate of vertex 2 (the hit's [`Hit::b2`]).
+    pub b2: f32,
 }
 
 /// Which BVH layout [`Geometry`] builds and traverses. All come from the same BVH2 build (see
@@ -197,15 +202,15 @@ impl Geometry {
         for mesh in meshes {
             for (t, idx) in mesh.indices.iter().enumerate() {
                 let p = idx.map(|i| mesh.positions[i as usize]);
-                if !p.iter().all(|v| v.is_finite()) {
-                    report.dropped_non_finite += 1;
+                if !Triangle::is_kept(&p) {
+                    if p.iter().all(|v| v.is_finite()) {
+                        report.dropped_degenerate += 1;
+                    } else {
+                        report.dropped_non_finite += 1;
+                    }
                     continue;
                 }
                 let n = cross_f64(p);
-                if n == glam::DVec3::ZERO {
-                    report.dropped_degenerate += 1;
-                    continue;
-                }
                 triangles.push(Triangle {
                     p,
                     material_id: mesh.material_ids[t],
@@ -438,6 +443,8 @@ impl Geometry {
             shading_normal,
             material_id: tri.material_id,
             triangle: hit.triangle,
+            b1: hit.b1,
+            b2: hit.b2,
         }
     }
 

@@ -32,6 +32,15 @@ pub struct Triangle {
 }
 
 impl Triangle {
+    /// Whether [`Geometry::build`](crate::Geometry::build) keeps a triangle with these
+    /// vertices: every coordinate finite and a non-zero area. A caller that keeps its own
+    /// per-triangle data (texture coordinates, say) walks its input with this to learn each
+    /// kept triangle's id: ids run over the kept triangles, mesh after mesh, in input order.
+    #[must_use]
+    pub fn is_kept(p: &[Vec3; 3]) -> bool {
+        p.iter().all(|v| v.is_finite()) && cross_f64(*p) != DVec3::ZERO
+    }
+
     /// The point with barycentric coordinates `(1 − b1 − b2, b1, b2)`, evaluated as
     /// `p0 + b1·(p1 − p0) + b2·(p2 − p0)` in `f64` and rounded once to `f32`.
     ///

@@ -780,7 +780,7 @@ impl<V: IcValue> Core<V> {
             return None;
         }
         let (x, t) = self.walk(scene, level, ray, key, rays)?;
-        if level > 0 && scene.material_of(x.triangle).albedo == Vec3::ZERO {
+        if level > 0 && scene.albedo(x.triangle, x.b1, x.b2) == Vec3::ZERO {
             // A black surface reflects nothing: the level above never looks it up.
             return None;
         }
@@ -940,7 +940,7 @@ pub fn direct_nee(
     dims: &mut Dimensions,
     rays: &mut RayCounter,
 ) -> Vec3 {
-    let albedo = scene.material_of(x.triangle).albedo;
+    let albedo = scene.albedo(x.triangle, x.b1, x.b2);
     if albedo == Vec3::ZERO || scene.lights().is_empty() {
         return Vec3::ZERO;
     }
@@ -1028,12 +1028,20 @@ impl IrradianceCacheIntegrator {
         };
         let surface = scene.geometry().surface(ray, &hit);
         let wo = -ray.direction.normalize();
-        let material = scene.material_of(surface.triangle);
-        let emitted = material.emitted(surface.geometric_normal, wo);
+        let emitted = scene.emitted(
+            surface.triangle,
+            surface.b1,
+            surface.b2,
+            surface.geometric_normal,
+            wo,
+        );
         let x = ShadingPoint::new(&surface, wo);
         // Direct light: NEE at x₀.
         let direct = direct_nee(scene, &x, self.core.settings.direct_samples, dims, rays);
-        if material.albedo == Vec3::ZERO {
+        // The cache holds irradiance, so the (textured) albedo of x₀ itself multiplies it,
+        // never a record's.
+        let albedo = scene.albedo(x.triangle, x.b1, x.b2);
+        if albedo == Vec3::ZERO {
             return Radiance {
                 emitted,
                 direct,
@@ -1055,7 +1063,7 @@ impl IrradianceCacheIntegrator {
         Radiance {
             emitted,
             direct,
-            indirect: material.albedo * FRAC_1_PI * e,
+            indirect: albedo * FRAC_1_PI * e,
         }
     }
 
@@ -1083,7 +1091,7 @@ impl IrradianceCacheIntegrator {
         // that cache has no record, a path-traced continuation (unbiased) instead.
         let x = ShadingPoint::new(surface, -w);
         let direct = direct_nee(scene, &x, 1, &mut dims, rays);
-        let albedo = scene.material_of(x.triangle).albedo;
+        let albedo = scene.albedo(x.triangle, x.b1, x.b2);
         if albedo == Vec3::ZERO {
             return direct;
         }

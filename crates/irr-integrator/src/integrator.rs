@@ -94,7 +94,7 @@ pub fn first_hit(scene: &Scene, ray: &Ray, rays: &mut RayCounter) -> Option<Firs
     let x = ShadingPoint::new(&surface, -ray.direction);
     Some(FirstHit {
         distance: hit.t,
-        albedo: scene.material_of(surface.triangle).albedo,
+        albedo: scene.albedo(surface.triangle, surface.b1, surface.b2),
         normal: x.ns,
     })
 }

@@ -1,8 +1,11 @@
 //! irr's integrators: given a scene and a ray, estimate the radiance arriving along it.
 //!
 //! # What it owns
-//! - [`Scene`]: geometry plus Lambertian [`Material`]s (albedo, emission, sidedness) and the
-//!   [`LightSampler`] over emitting triangles (by power, then uniformly by area).
+//! - [`Scene`]: geometry plus Lambertian [`Material`]s (albedo, emission, sidedness, each factor
+//!   optionally times a [`Texture`] read at the point's [`TexCoords`]) and the [`LightSampler`]
+//!   over emitting triangles (by power, then uniformly by area). Integrators read a point's
+//!   albedo and emission through [`Scene::albedo`] and [`Scene::emitted`].
+//! - [`Texture`]: linear RGB images with glTF's wrap modes and nearest or bilinear filtering.
 //! - The [`Integrator`] interface (pbrt-v4's `RayIntegrator::Li`): radiance along one ray, with
 //!   random numbers from an `irr_sampling::rng::Dimensions` cursor, whole (`li`) or split by
 //!   bounce count (`li_split`); and [`first_hit`], what a camera ray meets first (albedo,
@@ -56,6 +59,7 @@ mod integrator;
 mod light;
 pub mod path;
 mod scene;
+mod texture;
 
 pub use ao::{AmbientOcclusion, AoSettings};
 pub use ic::{
@@ -66,6 +70,9 @@ pub use integrator::{FirstHit, Integrator, RayCounter, first_hit};
 pub use light::{LightSample, LightSampler};
 pub use path::{PathSettings, PathTracer, Radiance};
 pub use scene::{Material, Scene, SceneError};
+pub use texture::{
+    Filter, Sampler, TexCoords, Texture, TextureError, TextureRef, TooManyTexCoords, Wrap,
+};
 
 #[cfg(test)]
 mod tests;

@@ -3,7 +3,9 @@
 //! A light sample picks one emitting triangle with probability proportional to its emitted power,
 //! then a point uniformly by area on it (pbrt-v4's `PowerLightSampler` followed by
 //! `Triangle::Sample`). The power of a triangle of area A emitting radiance Le from s sides
-//! (1 or 2) is Φ = π·A·s·Le; the channels are averaged into one scalar for the choice.
+//! (1 or 2) is Φ = π·A·s·Le; the channels are averaged into one scalar for the choice. (For a
+//! textured emitter, `Scene` passes Le = the emission factor × the texture's mean: the choice
+//! only, the sampled point's radiance is read from the texture.)
 
 use crate::scene::Material;
 use glam::{Vec2, Vec3};
@@ -19,6 +21,10 @@ pub struct LightSample {
     pub normal: Vec3,
     /// The emitting triangle's id.
     pub triangle: u32,
+    /// The point's barycentric coordinate of vertex 1 (an emissive texture is read there).
+    pub b1: f32,
+    /// The point's barycentric coordinate of vertex 2.
+    pub b2: f32,
     /// Probability density of choosing this point, per unit area (choice of triangle × 1/area).
     pub pdf_area: f32,
 }
@@ -117,6 +123,8 @@ impl LightSampler {
             position: tri.point(b[1], b[2]),
             normal: self.normals[i],
             triangle: id,
+            b1: b[1],
+            b2: b[2],
             pdf_area: self.probabilities[i] * uniform_triangle_pdf(self.areas[i]),
         })
     }

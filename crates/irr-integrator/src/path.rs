@@ -100,6 +100,10 @@ pub struct ShadingPoint {
     pub ns: Vec3,
     /// The triangle.
     pub triangle: u32,
+    /// The point's barycentric coordinate of vertex 1 (textures are read there).
+    pub b1: f32,
+    /// The point's barycentric coordinate of vertex 2.
+    pub b2: f32,
 }
 
 impl ShadingPoint {
@@ -121,6 +125,8 @@ impl ShadingPoint {
             ng,
             ns,
             triangle: surface.triangle,
+            b1: surface.b1,
+            b2: surface.b2,
         }
     }
 }
@@ -155,7 +161,7 @@ pub fn sample_light(
     let wi = to_light / dist2.sqrt();
     let cos_surface = wi.dot(x.ns);
     let cos_light = ls.normal.dot(wi).abs();
-    let le = scene.material_of(ls.triangle).emitted(ls.normal, -wi);
+    let le = scene.emitted(ls.triangle, ls.b1, ls.b2, ls.normal, -wi);
     // Only directions above both the shading and the geometric surface carry light.
     if !(cos_surface > 0.0
         && wi.dot(x.ng) > 0.0
@@ -204,9 +210,13 @@ impl PathTracer {
         };
         let surface = scene.geometry().surface(ray, &hit);
         let wo = -ray.direction.normalize();
-        let emitted = scene
-            .material_of(surface.triangle)
-            .emitted(surface.geometric_normal, wo);
+        let emitted = scene.emitted(
+            surface.triangle,
+            surface.b1,
+            surface.b2,
+            surface.geometric_normal,
+            wo,
+        );
         let mut out = self.reflected(scene, &surface, wo, dims, rays);
         out.emitted = emitted;
         out
@@ -232,7 +242,7 @@ impl PathTracer {
         for depth in 0..self.settings.max_depth {
             // Bounce number depth+1 reflects at x: light arriving here has reflected depth+1
             // times by the time it reaches the camera. Bounce 1 is "direct", later ones "indirect".
-            let albedo = scene.material_of(x.triangle).albedo;
+            let albedo = scene.albedo(x.triangle, x.b1, x.b2);
             if albedo == Vec3::ZERO {
                 break;
             }
@@ -261,9 +271,13 @@ impl PathTracer {
                 if let Some(hit) = scene.geometry().intersect(&ray) {
                     let surface = scene.geometry().surface(&ray, &hit);
                     // Emission found by the BSDF sample, weighted against NEE.
-                    let le = scene
-                        .material_of(surface.triangle)
-                        .emitted(surface.geometric_normal, -wi);
+                    let le = scene.emitted(
+                        surface.triangle,
+                        surface.b1,
+                        surface.b2,
+                        surface.geometric_normal,
+                        -wi,
+                    );
                     if le != Vec3::ZERO {
                         let dist2 = (surface.position - x.position).length_squared();
                         let cos_light = surface.geometric_normal.dot(wi).abs();

@@ -1,8 +1,10 @@
-//! What an integrator sees of a scene: the geometry, a Lambertian material per id, and the
+//! What an integrator sees of a scene: the geometry, a Lambertian material per id, the
+//! textures those materials read with the texture coordinates of their triangles, and the
 //! emitters with a sampler over them.
 
 use crate::light::LightSampler;
-use glam::Vec3;
+use crate::texture::{TexCoords, Texture, TextureRef};
+use glam::{Vec2, Vec3};
 use irr_geometry::Geometry;
 use thiserror::Error;
 
@@ -18,31 +20,59 @@ pub struct Material {
     /// the side that the counter-clockwise winding normal (p1−p0)×(p2−p0) points to. Reflection
     /// is two-sided either way.
     pub two_sided: bool,
+    /// glTF `baseColorTexture`: the albedo at a point is `albedo` × this texture there (linear
+    /// RGB in [0, 1]); `None`: `albedo` everywhere.
+    pub albedo_texture: Option<TextureRef>,
+    /// glTF `emissiveTexture`: the emitted radiance at a point is `emission` × this texture
+    /// there; `None`: `emission` everywhere.
+    pub emission_texture: Option<TextureRef>,
 }
 
 impl Material {
-    /// A non-emitting diffuse material.
+    /// A non-emitting, untextured diffuse material.
     pub fn diffuse(albedo: Vec3) -> Self {
         Self {
             albedo,
             emission: Vec3::ZERO,
             two_sided: true,
+            albedo_texture: None,
+            emission_texture: None,
         }
     }
 
-    /// Whether the material emits at all.
+    /// Whether the material's emission factor is non-zero (a texture can still make it black
+    /// in places).
     #[inline]
     pub fn is_emissive(&self) -> bool {
         self.emission.max_element() > 0.0
     }
 
-    /// Radiance emitted from a point with geometric normal `ng` (the winding normal) towards `wo`.
+    /// Whether a point with geometric normal `ng` (the winding normal) emits towards `wo` at
+    /// all: always for a two-sided material, else only from the front face. The radiance is
+    /// [`Scene::emitted`]'s (it reads the emissive texture).
     #[inline]
-    pub fn emitted(&self, ng: Vec3, wo: Vec3) -> Vec3 {
-        if self.two_sided || ng.dot(wo) > 0.0 {
-            self.emission
-        } else {
-            Vec3::ZERO
+    pub fn emits_towards(&self, ng: Vec3, wo: Vec3) -> bool {
+        self.two_sided || ng.dot(wo) > 0.0
+    }
+
+    /// The texture coordinate sets this material reads, in the order a triangle's entries of
+    /// [`TexCoords`] hold them: the albedo texture's set, then the emission texture's if it is
+    /// another one. Between 0 and 2 sets.
+    pub fn tex_coord_sets(&self) -> impl Iterator<Item = u32> {
+        let a = self.albedo_texture.map(|t| t.tex_coord);
+        let e = self
+            .emission_texture
+            .map(|t| t.tex_coord)
+            .filter(|&e| a != Some(e));
+        a.into_iter().chain(e)
+    }
+
+    /// The index among [`Material::tex_coord_sets`] of the set `texture` reads.
+    #[inline]
+    fn slot(&self, texture: &TextureRef) -> usize {
+        match self.albedo_texture {
+            Some(a) if a.tex_coord != texture.tex_coord => 1,
+            _ => 0,
         }
     }
 }
@@ -60,6 +90,40 @@ pub enum SceneError {
         /// How many materials there are.
         count: usize,
     },
+    /// A material names a texture the scene does not have, or a texture transform that is
+    /// not finite.
+    #[error("material {index}: its {what} {problem}")]
+    InvalidTextureRef {
+        /// The material's index.
+        index: usize,
+        /// `albedo texture` or `emission texture`.
+        what: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
+    /// A textured material's triangle lacks texture coordinates, or an untextured one has
+    /// some.
+    #[error(
+        "triangle {triangle} has {found} texture coordinate sets, but its material reads {expected}"
+    )]
+    TexCoords {
+        /// The triangle's id in the geometry.
+        triangle: u32,
+        /// How many sets its material reads.
+        expected: usize,
+        /// How many it has.
+        found: usize,
+    },
+    /// The texture coordinates do not cover the geometry's triangles one for one.
+    #[error(
+        "texture coordinates are given for {found} triangles, but the geometry has {triangles}"
+    )]
+    TexCoordCount {
+        /// The geometry's triangles.
+        triangles: usize,
+        /// The triangles the texture coordinates cover.
+        found: usize,
+    },
     /// A material has a negative or non-finite albedo or emission.
     #[error(
         "material {index} has an invalid value: {what} = {value} (albedo must lie in [0, 1], emission must be finite and ≥ 0)"
@@ -74,18 +138,38 @@ pub enum SceneError {
     },
 }
 
-/// Geometry, materials and the emitters: everything an integrator needs.
+/// Geometry, materials, textures and the emitters: everything an integrator needs.
 #[derive(Debug)]
 pub struct Scene {
     geometry: Geometry,
     materials: Vec<Material>,
+    textures: Vec<Texture>,
+    tex_coords: TexCoords,
     lights: LightSampler,
 }
 
 impl Scene {
-    /// Assembles a scene; every triangle's material id must index `materials`, albedos must lie in
-    /// [0, 1] (energy conservation) and emission must be finite and non-negative.
+    /// Assembles an untextured scene; every triangle's material id must index `materials`,
+    /// albedos must lie in [0, 1] (energy conservation) and emission must be finite and
+    /// non-negative.
     pub fn new(geometry: Geometry, materials: Vec<Material>) -> Result<Self, SceneError> {
+        Self::with_textures(geometry, materials, Vec::new(), TexCoords::default())
+    }
+
+    /// [`Scene::new`] with textures: every [`TextureRef`] must index `textures` with a finite
+    /// transform, an albedo texture must stay within [0, 1], and `tex_coords` must hold, for
+    /// every triangle by id, one triple per set its material reads
+    /// ([`Material::tex_coord_sets`]), or be empty when no material is textured.
+    ///
+    /// The light sampler chooses a textured emitter by its emission factor × the texture's
+    /// mean over the whole image (positive wherever the texture can emit, so every emitting
+    /// point keeps a non-zero density); the radiance of a sampled point is the texture's there.
+    pub fn with_textures(
+        geometry: Geometry,
+        materials: Vec<Material>,
+        textures: Vec<Texture>,
+        tex_coords: TexCoords,
+    ) -> Result<Self, SceneError> {
         for (index, m) in materials.iter().enumerate() {
             let valid_albedo = m.albedo.is_finite()
                 && m.albedo.min_element() >= 0.0
@@ -115,12 +199,67 @@ impl Scene {
                 });
             }
         }
-        let lights = LightSampler::new(&geometry, &materials);
+        check_textures(&geometry, &materials, &textures, &tex_coords)?;
+        let lights = LightSampler::new(&geometry, &light_weights(&materials, &textures));
         Ok(Self {
             geometry,
             materials,
+            textures,
+            tex_coords,
             lights,
         })
+    }
+
+    /// The diffuse reflectance ρ at barycentrics (b1, b2) of triangle `triangle`: the
+    /// material's albedo × its texture there.
+    #[inline]
+    pub fn albedo(&self, triangle: u32, b1: f32, b2: f32) -> Vec3 {
+        let m = self.material_of(triangle);
+        match &m.albedo_texture {
+            None => m.albedo,
+            Some(t) => m.albedo * self.lookup(triangle, t, b1, b2),
+        }
+    }
+
+    /// Radiance emitted from barycentrics (b1, b2) of triangle `triangle`, whose geometric
+    /// normal is `ng` (the winding normal), towards `wo`: the material's emission × its
+    /// emissive texture there, on the sides it emits from.
+    #[inline]
+    pub fn emitted(&self, triangle: u32, b1: f32, b2: f32, ng: Vec3, wo: Vec3) -> Vec3 {
+        let m = self.material_of(triangle);
+        if !m.emits_towards(ng, wo) {
+            return Vec3::ZERO;
+        }
+        match &m.emission_texture {
+            None => m.emission,
+            Some(t) => m.emission * self.lookup(triangle, t, b1, b2),
+        }
+    }
+
+    /// The coordinate at which `texture`, read by the material of `triangle`, is looked up at
+    /// barycentrics (b1, b2): the interpolated coordinate of its set, then its transform.
+    #[inline]
+    pub fn tex_coord(&self, triangle: u32, texture: &TextureRef, b1: f32, b2: f32) -> Vec2 {
+        let m = self.material_of(triangle);
+        let uv = self.tex_coords.at(triangle, m.slot(texture), b1, b2);
+        texture.transform.transform_point2(uv)
+    }
+
+    #[inline]
+    fn lookup(&self, triangle: u32, t: &TextureRef, b1: f32, b2: f32) -> Vec3 {
+        self.textures[t.texture as usize].lookup(self.tex_coord(triangle, t, b1, b2))
+    }
+
+    /// The textures, indexed by [`TextureRef::texture`].
+    #[inline]
+    pub fn textures(&self) -> &[Texture] {
+        &self.textures
+    }
+
+    /// The texture coordinates of the triangles of textured materials.
+    #[inline]
+    pub fn tex_coords(&self) -> &TexCoords {
+        &self.tex_coords
     }
 
     /// The triangles and their BVH.
@@ -152,4 +291,82 @@ impl Scene {
     pub fn emitter_count(&self) -> usize {
         self.lights.len()
     }
+}
+
+/// The materials as the light sampler weighs them, by their `emission`: for a textured
+/// emitter, the factor × the texture's mean (every [`TextureRef`] checked to be in range).
+fn light_weights(materials: &[Material], textures: &[Texture]) -> Vec<Material> {
+    materials
+        .iter()
+        .map(|m| match m.emission_texture {
+            Some(t) => Material {
+                emission: m.emission * textures[t.texture as usize].mean(),
+                ..*m
+            },
+            None => *m,
+        })
+        .collect()
+}
+
+/// The checks of [`Scene::with_textures`] on textures and texture coordinates.
+fn check_textures(
+    geometry: &Geometry,
+    materials: &[Material],
+    textures: &[Texture],
+    tex_coords: &TexCoords,
+) -> Result<(), SceneError> {
+    let mut textured = false;
+    for (index, m) in materials.iter().enumerate() {
+        for (what, r) in [
+            ("albedo texture", m.albedo_texture),
+            ("emission texture", m.emission_texture),
+        ] {
+            let Some(r) = r else { continue };
+            textured = true;
+            let problem = match textures.get(r.texture as usize) {
+                None => Some(format!(
+                    "is texture {}, but the scene has {} textures",
+                    r.texture,
+                    textures.len()
+                )),
+                Some(_) if !r.transform.is_finite() => {
+                    Some("has a texture transform that is not finite".to_string())
+                }
+                Some(t) if what == "albedo texture" && t.max_value() > 1.0 => Some(format!(
+                    "has a texel of {} (albedo must lie in [0, 1])",
+                    t.max_value()
+                )),
+                Some(_) => None,
+            };
+            if let Some(problem) = problem {
+                return Err(SceneError::InvalidTextureRef {
+                    index,
+                    what,
+                    problem,
+                });
+            }
+        }
+    }
+    if !textured && tex_coords.is_empty() {
+        return Ok(());
+    }
+    if tex_coords.triangle_count() != geometry.triangle_count() {
+        return Err(SceneError::TexCoordCount {
+            triangles: geometry.triangle_count(),
+            found: tex_coords.triangle_count(),
+        });
+    }
+    for triangle in 0..geometry.triangle_count() as u32 {
+        let m = &materials[geometry.triangle(triangle).material_id as usize];
+        let expected = m.tex_coord_sets().count();
+        let found = tex_coords.of(triangle).len();
+        if found != expected {
+            return Err(SceneError::TexCoords {
+                triangle,
+                expected,
+                found,
+            });
+        }
+    }
+    Ok(())
 }

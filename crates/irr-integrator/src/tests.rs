@@ -160,6 +160,8 @@ fn white_furnace_unbounded_depth_with_roulette() {
             albedo: Vec3::splat(rho),
             emission: Vec3::splat(le),
             two_sided: true,
+            albedo_texture: None,
+            emission_texture: None,
         };
         let s = scene(
             &[icosphere(Vec3::new(0.5, -2.0, 3.0), 2.0, 2, 0)],
@@ -194,6 +196,8 @@ fn white_furnace_bounded_depth() {
         albedo: Vec3::splat(rho as f32),
         emission: Vec3::splat(le as f32),
         two_sided: true,
+        albedo_texture: None,
+        emission_texture: None,
     };
     let s = scene(&[icosphere(Vec3::ZERO, 1.0, 2, 0)], vec![material]);
     for (d, rr_start) in [(0u32, 100u32), (1, 100), (3, 100), (5, 2)] {
@@ -248,6 +252,8 @@ fn disk_light_over_a_plane() {
                 albedo: Vec3::ZERO,
                 emission: Vec3::splat(l),
                 two_sided: false,
+                albedo_texture: None,
+                emission_texture: None,
             },
         ],
     );
@@ -323,11 +329,15 @@ fn light_sampler_is_a_distribution() {
                 albedo: Vec3::ZERO,
                 emission: Vec3::new(1.0, 2.0, 3.0),
                 two_sided: false,
+                albedo_texture: None,
+                emission_texture: None,
             },
             Material {
                 albedo: Vec3::ZERO,
                 emission: Vec3::splat(0.1),
                 two_sided: true,
+                albedo_texture: None,
+                emission_texture: None,
             },
         ],
     );

@@ -2,7 +2,8 @@
 //! count checked against the bytes that are really there. A file that lies about its sizes gives
 //! an error naming the accessor, never a panic or an out-of-bounds read.
 //!
-//! Supported: `FLOAT` vectors (positions, normals), `UNSIGNED_BYTE`/`SHORT`/`INT` scalars
+//! Supported: `FLOAT` vectors (positions, normals), `FLOAT` or normalized `UNSIGNED_BYTE` /
+//! `UNSIGNED_SHORT` `VEC2`s (texture coordinates), `UNSIGNED_BYTE`/`SHORT`/`INT` scalars
 //! (indices), interleaved views (`byteStride`), accessors without a buffer view (all zeros) and
 //! sparse accessors (§3.6.2.3).
 
@@ -241,6 +242,45 @@ pub(crate) fn read_vec3(
     read_elements(what, accessor, 12, buffers, budget, [0.0; 3], |b| {
         let f = |k: usize| f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]]);
         [f(0), f(1), f(2)]
+    })
+}
+
+/// Reads a `VEC2` texture coordinate accessor (`TEXCOORD_n`): `FLOAT`, or normalized
+/// `UNSIGNED_BYTE` / `UNSIGNED_SHORT` mapped to [0, 1] by c / 255 and c / 65535 (glTF 2.0
+/// §3.7.2.1 "Meshes", §3.11 "Animations"' normalization rule).
+pub(crate) fn read_tex_coords(
+    what: &str,
+    accessor: &gltf::Accessor<'_>,
+    buffers: &Buffers,
+    budget: &mut Budget,
+) -> Result<Vec<[f32; 2]>, String> {
+    let (t, d) = (accessor.data_type(), accessor.dimensions());
+    let readable = match t {
+        DataType::F32 => true,
+        DataType::U8 | DataType::U16 => accessor.normalized(),
+        _ => false,
+    };
+    if d != Dimensions::Vec2 || !readable {
+        return Err(format!(
+            "{what} is {} of {}{}; irr reads VEC2 of FLOAT, or of normalized UNSIGNED_BYTE or \
+             UNSIGNED_SHORT (KHR_mesh_quantization is not supported)",
+            dims_name(d),
+            type_name(t),
+            if accessor.normalized() {
+                " (normalized)"
+            } else {
+                ""
+            }
+        ));
+    }
+    let size = component_size(t);
+    read_elements(what, accessor, 2 * size, buffers, budget, [0.0; 2], |b| {
+        let c = |k: usize| match t {
+            DataType::U8 => f32::from(b[k]) / 255.0,
+            DataType::U16 => f32::from(u16::from_le_bytes([b[2 * k], b[2 * k + 1]])) / 65535.0,
+            _ => f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]]),
+        };
+        [c(0), c(1)]
     })
 }
 

@@ -7,8 +7,9 @@
 //!   read (a FIFO is opened without blocking), so no read can block or run forever.
 //! - **Bounded.** The scene file is read up to [`MAX_SCENE_BYTES`] (its JSON up to
 //!   [`MAX_JSON_BYTES`]); a buffer file is read up to the `byteLength` its buffer declares, never
-//!   further, however large the file is.
-//! - **Confined.** A buffer URI is read only if the file it names, after resolving `..` and
+//!   further, however large the file is; an image file whole, up to [`MAX_SCENE_BYTES`], and its
+//!   decoded size is charged to the [`Budget`] from its header before it is decoded.
+//! - **Confined.** A buffer or image URI is read only if the file it names, after resolving `..` and
 //!   symbolic links, lies inside the *asset root*: the scene file's folder, unless the user names
 //!   another folder ([`LoadOptions::asset_root`], `--asset-root`). Absolute paths and URIs that
 //!   climb out of the root are refused before the file system is asked about them, so an error
@@ -139,9 +140,36 @@ impl Confinement {
     /// `name` names, if it lies inside the root and is a regular file of at least `len` bytes.
     /// Errors are for a message that starts with the buffer and its URI.
     pub(crate) fn read(&self, name: &str, len: u64) -> Result<Vec<u8>, String> {
+        let (file, size, real) = self.open(name, "buffer")?;
+        if size < len {
+            return Err(format!(
+                "names {}, which has {size} bytes, but the buffer's byteLength says {len}",
+                real.display()
+            ));
+        }
+        read_prefix(file, len).map_err(|e| format!("cannot be read: {}: {e}", real.display()))
+    }
+
+    /// Reads the whole file that the (percent-decoded) relative reference `name` names (an
+    /// image), under the same rules as [`Confinement::read`]; at most [`MAX_SCENE_BYTES`].
+    /// Errors are for a message that starts with the image and its URI.
+    pub(crate) fn read_whole(&self, name: &str) -> Result<Vec<u8>, String> {
+        let (file, size, real) = self.open(name, "image")?;
+        if size > MAX_SCENE_BYTES {
+            return Err(format!(
+                "names {}, which has {size} bytes, more than irr reads ({MAX_SCENE_BYTES} bytes)",
+                real.display()
+            ));
+        }
+        read_prefix(file, size).map_err(|e| format!("cannot be read: {}: {e}", real.display()))
+    }
+
+    /// Opens the regular file that `name` names inside the root (`kind`: what names it, for
+    /// messages), with its size and canonical path.
+    fn open(&self, name: &str, kind: &str) -> Result<(File, u64, PathBuf), String> {
         let outside = || {
             format!(
-                "leads outside the folder irr reads buffers from ({}); name a wider folder with --asset-root to allow it",
+                "leads outside the folder irr reads {kind}s from ({}); name a wider folder with --asset-root to allow it",
                 self.root.display()
             )
         };
@@ -152,7 +180,7 @@ impl Confinement {
                 .any(|c| matches!(c, Component::Prefix(_) | Component::RootDir))
         {
             return Err(format!(
-                "is an absolute path; buffer URIs must be relative to the scene file ({})",
+                "is an absolute path; {kind} URIs must be relative to the scene file ({})",
                 outside()
             ));
         }
@@ -171,13 +199,7 @@ impl Confinement {
         }
         let (file, size) =
             open_regular(&real).map_err(|e| format!("cannot be read: {}: {e}", real.display()))?;
-        if size < len {
-            return Err(format!(
-                "names {}, which has {size} bytes, but the buffer's byteLength says {len}",
-                real.display()
-            ));
-        }
-        read_prefix(file, len).map_err(|e| format!("cannot be read: {}: {e}", real.display()))
+        Ok((file, size, real))
     }
 }
 
@@ -205,10 +227,16 @@ fn normalize(path: &Path) -> PathBuf {
 /// scene file and its buffers). The factor covers the loader's legitimate expansion: a one-byte
 /// index of a triangle strip becomes a 12-byte triangle, a 4-byte material id and a 4-byte index
 /// (20×), and a mesh instanced by several nodes is copied once per node.
+///
+/// Images expand far more than geometry (a 4096² texture of flat colour compresses to a few
+/// KiB and takes 192 MiB as linear f32 texels), so a scene that decodes images gets
+/// [`Budget::IMAGES`] more, once: enough for six 4096² textures whatever the files' size, and
+/// still a bound on what a small hostile file can make irr allocate.
 #[derive(Debug)]
 pub(crate) struct Budget {
     limit: u64,
     spent: u64,
+    images_allowed: bool,
 }
 
 impl Budget {
@@ -216,16 +244,27 @@ impl Budget {
     pub(crate) const BASE: u64 = 16 << 20;
     /// Bytes per byte of input.
     pub(crate) const FACTOR: u64 = 64;
+    /// Bytes added once for a scene's decoded images.
+    pub(crate) const IMAGES: u64 = 1 << 30;
 
     /// The budget for a scene whose files hold `input_bytes` bytes.
     pub(crate) fn for_input(input_bytes: u64) -> Self {
         Self {
             limit: Self::BASE.saturating_add(Self::FACTOR.saturating_mul(input_bytes)),
             spent: 0,
+            images_allowed: false,
         }
     }
 
-    /// Raises the limit for `bytes` more bytes of input (a buffer read).
+    /// Adds [`Budget::IMAGES`] to the limit, the first time only.
+    pub(crate) fn allow_images(&mut self) {
+        if !self.images_allowed {
+            self.images_allowed = true;
+            self.limit = self.limit.saturating_add(Self::IMAGES);
+        }
+    }
+
+    /// Raises the limit for `bytes` more bytes of input (a buffer or image file read).
     pub(crate) fn add_input(&mut self, bytes: u64) {
         self.limit = self
             .limit
@@ -238,10 +277,15 @@ impl Budget {
         let spent = self.spent.saturating_add(bytes);
         if spent > self.limit {
             return Err(format!(
-                "{what} needs {count} elements ({bytes} bytes), which would take the scene past {} MiB of memory (irr allows {} MiB plus {}× the size of the scene's files)",
+                "{what} needs {count} elements ({bytes} bytes), which would take the scene past {} MiB of memory (irr allows {} MiB plus {}× the size of the scene's files{})",
                 self.limit >> 20,
                 Self::BASE >> 20,
-                Self::FACTOR
+                Self::FACTOR,
+                if self.images_allowed {
+                    format!(", plus {} MiB for images", Self::IMAGES >> 20)
+                } else {
+                    String::new()
+                }
             ));
         }
         self.spent = spent;

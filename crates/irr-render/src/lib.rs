@@ -3,8 +3,9 @@
 //!
 //! # What it owns
 //! - [`load_scene`] / [`load_gltf`]: glTF 2.0 (`.gltf` with external or `data:` buffers, `.glb`)
-//!   into world-space meshes, Lambertian [`Material`]s and the file's cameras
-//!   ([`NamedCamera`]); every ignored feature becomes a [`Warning`] with a count, every
+//!   into world-space meshes, Lambertian [`Material`]s with their base-colour and emissive
+//!   textures (PNG and JPEG images, decoded and converted to linear RGB here) and the file's
+//!   cameras ([`NamedCamera`]); every ignored feature becomes a [`Warning`] with a count, every
 //!   unreadable input a one-line [`RenderError`].
 //! - [`Camera`]: glTF's pinhole camera (looks down local −Z, `yfov` vertical, aspect ratio from
 //!   the image), or a default one framing the scene; its OpenEXR header matrices.
@@ -78,7 +79,7 @@ pub use irr_integrator::{
     IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard, Material, MetricKind,
     PathSettings, PathTracer, RayCounter, Scene,
 };
-pub use load::{MAX_COORDINATE, SceneData, Warning, load_gltf, load_gltf_with};
+pub use load::{MAX_COORDINATE, MAX_IMAGE_SIDE, SceneData, Warning, load_gltf, load_gltf_with};
 pub use output::{
     ExrMetadata, check_exposure, check_output, png_path_for, remove_partial_outputs,
     remove_partial_outputs_on_signals, tone_map, write_exr_and_png, write_render,
@@ -93,8 +94,8 @@ use glam::Vec3;
 use irr_geometry::Geometry;
 use std::path::{Path, PathBuf};
 
-/// A scene ready to render: the integrator's [`Scene`] (geometry with its BVH, materials,
-/// emitters), the file's camera, and the warnings about what the file uses that irr ignored.
+/// A scene ready to render: the integrator's [`Scene`] (geometry with its BVH, materials and
+/// their textures, emitters), the file's camera, and the warnings about what the file uses that irr ignored.
 #[derive(Debug)]
 pub struct LoadedScene {
     /// The file it came from.
@@ -213,7 +214,9 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
         });
     }
     let bounds = geometry.bounds();
-    let scene = Scene::new(geometry, data.materials)
+    let tex_coords = load::tex_coords_by_id(&data.meshes, &data.materials, &data.tex_coords)
+        .map_err(|e| RenderError::scene(path, e))?;
+    let scene = Scene::with_textures(geometry, data.materials, data.textures, tex_coords)
         .map_err(|e| RenderError::scene(path, e.to_string()))?;
     Ok(LoadedScene {
         path: path.to_path_buf(),

@@ -669,6 +669,8 @@ mod tests {
             albedo: Vec3::ZERO,
             emission: Vec3::ONE,
             two_sided: false,
+            albedo_texture: None,
+            emission_texture: None,
         };
         let scene = Scene::new(geometry, vec![Material::diffuse(albedo), light])
             .unwrap_or_else(|e| panic!("{e}"));

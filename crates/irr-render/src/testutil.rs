@@ -61,6 +61,20 @@ impl Gltf {
         self.accessors.len() - 1
     }
 
+    /// An accessor over `bytes` in a view of their own; `fields` are its other members, e.g.
+    /// `"componentType":5121,"normalized":true,"count":3,"type":"VEC2"`.
+    pub fn accessor(&mut self, bytes: &[u8], fields: &str) -> usize {
+        let view = self.view(bytes);
+        self.accessors
+            .push(format!(r#"{{"bufferView":{view},{fields}}}"#));
+        self.accessors.len() - 1
+    }
+
+    /// A buffer view over `bytes` (an image's, say), by index.
+    pub fn view_of(&mut self, bytes: &[u8]) -> usize {
+        self.view(bytes)
+    }
+
     /// A SCALAR index accessor of component type 5121 (u8), 5123 (u16) or 5125 (u32).
     pub fn indices(&mut self, values: &[u32], component_type: u32) -> usize {
         let bytes: Vec<u8> = match component_type {

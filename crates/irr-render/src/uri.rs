@@ -67,6 +67,17 @@ pub(crate) fn decode_base64(text: &str) -> Result<Vec<u8>, UriError> {
     Ok(out)
 }
 
+/// The scheme of `uri` (RFC 3986 §3.1: letters, digits, '+', '-', '.' before the first ':'),
+/// if it has one: a relative file reference has none.
+pub(crate) fn scheme(uri: &str) -> Option<&str> {
+    let (scheme, _) = uri.split_once(':')?;
+    (!scheme.is_empty()
+        && scheme
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c)))
+    .then_some(scheme)
+}
+
 /// Decodes `%XX` escapes in a relative URI reference into the file name they stand for.
 pub(crate) fn percent_decode(uri: &str) -> Result<String, UriError> {
     let bytes = uri.as_bytes();

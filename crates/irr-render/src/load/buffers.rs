@@ -2,7 +2,7 @@
 
 use super::Loader;
 use crate::error::RenderError;
-use crate::uri::{decode_data_uri, percent_decode};
+use crate::uri::{decode_data_uri, percent_decode, scheme};
 
 impl Loader<'_> {
     /// The bytes of each buffer: the .glb's binary chunk, a `data:` URI's payload, or the first
@@ -45,17 +45,10 @@ impl Loader<'_> {
         if let Some(decoded) = decode_data_uri(uri) {
             return decoded.map_err(|e| self.err(format!("buffer {i}: {e}")));
         }
-        // A scheme (RFC 3986 §3.1) is letters, digits, '+', '-', '.' before the first ':'.
-        if let Some((scheme, _)) = uri.split_once(':') {
-            let is_scheme = !scheme.is_empty()
-                && scheme
-                    .chars()
-                    .all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c));
-            if is_scheme {
-                return Err(self.err(format!(
-                    "buffer {i}: URI scheme '{scheme}:' is not supported (irr reads relative file paths and data: URIs)"
-                )));
-            }
+        if let Some(scheme) = scheme(uri) {
+            return Err(self.err(format!(
+                "buffer {i}: URI scheme '{scheme}:' is not supported (irr reads relative file paths and data: URIs)"
+            )));
         }
         let name = percent_decode(uri).map_err(|e| self.err(format!("buffer {i}: {e}")))?;
         self.confinement

@@ -1,9 +1,10 @@
 //! Materials and the document-wide features irr ignores.
 
+use super::textures::Textures;
 use super::{Loader, SUPPORTED_EXTENSIONS, describe, plural};
 use crate::error::RenderError;
 use glam::Vec3;
-use irr_integrator::Material;
+use irr_integrator::{Material, Texture};
 use std::collections::BTreeMap;
 
 impl Loader<'_> {
@@ -23,9 +24,7 @@ impl Loader<'_> {
                 "KHR_draco_mesh_compression" | "EXT_meshopt_compression" => {
                     "compressed geometry is not decoded"
                 }
-                "KHR_texture_transform" | "KHR_texture_basisu" | "EXT_texture_webp" => {
-                    "irr does not use textures"
-                }
+                "KHR_texture_basisu" | "EXT_texture_webp" => "irr reads PNG and JPEG images only",
                 _ => "irr does not support it",
             };
             let feature = format!("extension:{name}");
@@ -42,20 +41,6 @@ impl Loader<'_> {
 
     pub(super) fn count_document_features(&mut self) {
         let d = self.document;
-        let textures = d.textures().len();
-        self.warnings.add("textures", textures, |n| {
-            format!(
-                "{} ignored (irr uses baseColorFactor and emissiveFactor only)",
-                plural(n, "texture", "textures")
-            )
-        });
-        let images = d.images().len();
-        self.warnings.add("images", images, |n| {
-            format!(
-                "{} ignored (irr does not use textures)",
-                plural(n, "image", "images")
-            )
-        });
         self.warnings.add("animations", d.animations().len(), |n| {
             format!(
                 "{} ignored (irr renders the rest pose)",
@@ -75,15 +60,32 @@ impl Loader<'_> {
                 plural(n, "other scene", "other scenes")
             )
         });
-        let (mut metallic, mut alpha) = (0, 0);
-        for m in d.materials() {
+        let (mut metallic, mut alpha, mut maps) = (0, 0, 0);
+        for (m, json) in d.materials().zip(&d.as_json().materials) {
             if m.pbr_metallic_roughness().metallic_factor() > 0.0 {
                 metallic += 1;
             }
             if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
                 alpha += 1;
             }
+            // Read from the JSON: the typed accessors look the textures up with an unwrap.
+            maps += usize::from(
+                json.pbr_metallic_roughness
+                    .metallic_roughness_texture
+                    .is_some(),
+            ) + usize::from(json.normal_texture.is_some())
+                + usize::from(json.occlusion_texture.is_some());
         }
+        self.warnings.add("material-maps", maps, |n| {
+            format!(
+                "{} ignored (irr's surfaces are Lambertian: it reads baseColorTexture and emissiveTexture only)",
+                plural(
+                    n,
+                    "normal, occlusion or metallic-roughness texture",
+                    "normal, occlusion and metallic-roughness textures"
+                )
+            )
+        });
         self.warnings.add("metallic", metallic, |n| {
             format!(
                 "{} metallicFactor > 0: metallic reflection ignored (irr's surfaces are diffuse, albedo baseColorFactor)",
@@ -98,11 +100,17 @@ impl Loader<'_> {
         });
     }
 
-    /// The materials in file order, and the index the default material will get.
-    pub(super) fn materials(&mut self) -> Result<(Vec<Material>, u32), RenderError> {
+    /// The materials in file order, the index the default material will get, and the textures
+    /// the materials read (decoded from `buffers` or the files their images name).
+    pub(super) fn materials(
+        &mut self,
+        buffers: &[Vec<u8>],
+    ) -> Result<(Vec<Material>, u32, Vec<Texture>), RenderError> {
         let mut out = Vec::new();
         let mut clamped = 0;
-        for m in self.document.materials() {
+        let mut textures = Textures::default();
+        let document = self.document;
+        for (m, json) in document.materials().zip(&document.as_json().materials) {
             let name = describe(m.index().unwrap_or(0), m.name());
             let base = m.pbr_metallic_roughness().base_color_factor();
             let albedo = Vec3::new(base[0], base[1], base[2]);
@@ -122,12 +130,33 @@ impl Loader<'_> {
                     "material {name}: emission {emission} (emissiveFactor × emissiveStrength) must be finite and non-negative"
                 )));
             }
+            let albedo_texture = match &json.pbr_metallic_roughness.base_color_texture {
+                Some(info) => Some(self.texture_ref(
+                    &mut textures,
+                    info,
+                    &format!("material {name} baseColorTexture"),
+                    buffers,
+                )?),
+                None => None,
+            };
+            let emission_texture = match &json.emissive_texture {
+                Some(info) => Some(self.texture_ref(
+                    &mut textures,
+                    info,
+                    &format!("material {name} emissiveTexture"),
+                    buffers,
+                )?),
+                None => None,
+            };
             out.push(Material {
                 albedo: clamped_albedo,
                 emission,
                 two_sided: m.double_sided(),
+                albedo_texture,
+                emission_texture,
             });
         }
+        textures.warn(self);
         self.warnings.add("albedo-clamped", clamped, |n| {
             format!(
                 "{} baseColorFactor outside [0, 1]: clamped",
@@ -135,6 +164,6 @@ impl Loader<'_> {
             )
         });
         let default = out.len() as u32;
-        Ok((out, default))
+        Ok((out, default, textures.list))
     }
 }

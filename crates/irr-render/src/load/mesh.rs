@@ -1,21 +1,28 @@
-//! Triangle primitives: positions, indices by topology, normals.
+//! Triangle primitives: positions, indices by topology, normals, texture coordinates.
 
 use super::{Loader, MAX_COORDINATE, describe, plural};
-use crate::accessor::{read_indices, read_vec3};
+use crate::accessor::{read_indices, read_tex_coords, read_vec3};
 use crate::error::RenderError;
-use glam::{Mat3, Mat4, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3};
 use irr_geometry::TriangleMesh;
 
+/// A primitive instance in world space and the texture coordinates of its triangles.
+type Primitive = (TriangleMesh, Vec<[Vec2; 3]>);
+
 impl Loader<'_> {
+    /// One primitive instance in world space with material `material.0`, and the texture
+    /// coordinates of its triangles for the sets `material.1` its material reads (see
+    /// `SceneData::tex_coords`); `None` for a primitive irr does not render.
     pub(super) fn primitive(
         &mut self,
         node: &gltf::Node<'_>,
         mesh: &gltf::Mesh<'_>,
         primitive: &gltf::Primitive<'_>,
         world: Mat4,
-        material_id: u32,
+        material: (u32, &[u32]),
         buffers: &[Vec<u8>],
-    ) -> Result<Option<TriangleMesh>, RenderError> {
+    ) -> Result<Option<Primitive>, RenderError> {
+        let (material_id, sets) = material;
         use gltf::mesh::Mode;
         let what = format!(
             "mesh {} primitive {} (node {})",
@@ -51,7 +58,7 @@ impl Loader<'_> {
             .count();
         self.warnings.add("vertex-colours", colours, |n| {
             format!(
-                "{} (COLOR_n) ignored (irr uses baseColorFactor only)",
+                "{} (COLOR_n) ignored (irr uses baseColorFactor and baseColorTexture only)",
                 plural(n, "vertex colour attribute", "vertex colour attributes")
             )
         });
@@ -175,13 +182,78 @@ impl Loader<'_> {
                 world_normals
             }
         };
+        let tex_coords = self.tex_coords(&what, primitive, sets, n, &triangles, buffers)?;
         let count = triangles.len();
-        Ok(Some(TriangleMesh {
-            positions,
-            indices: triangles,
-            normals,
-            material_ids: vec![material_id; count],
-        }))
+        Ok(Some((
+            TriangleMesh {
+                positions,
+                indices: triangles,
+                normals,
+                material_ids: vec![material_id; count],
+            },
+            tex_coords,
+        )))
+    }
+
+    /// The texture coordinates of each of `triangles` (vertex indices below `n`, the vertex
+    /// count) for each of `sets`, triangle after triangle. A set the primitive lacks reads as
+    /// (0, 0) at every vertex, as OpenGL reads a missing vertex attribute, with a warning.
+    fn tex_coords(
+        &mut self,
+        what: &str,
+        primitive: &gltf::Primitive<'_>,
+        sets: &[u32],
+        n: usize,
+        triangles: &[[u32; 3]],
+        buffers: &[Vec<u8>],
+    ) -> Result<Vec<[Vec2; 3]>, RenderError> {
+        if sets.is_empty() {
+            return Ok(Vec::new());
+        }
+        let mut per_set = Vec::with_capacity(sets.len());
+        for &set in sets {
+            let Some(acc) = primitive.get(&gltf::Semantic::TexCoords(set)) else {
+                self.warnings.add("missing-texcoord", 1, |n| {
+                    format!(
+                        "{} no TEXCOORD_n for the texture their material reads: read at (0, 0)",
+                        plural(n, "primitive has", "primitives have")
+                    )
+                });
+                per_set.push(None);
+                continue;
+            };
+            let label = format!("{what} TEXCOORD_{set} accessor {}", acc.index());
+            let uv = read_tex_coords(&label, &acc, buffers, &mut self.budget)
+                .map_err(|e| self.err(e))?;
+            if uv.len() != n {
+                return Err(self.err(format!(
+                    "{what}: TEXCOORD_{set} has {} elements but POSITION has {n}",
+                    uv.len()
+                )));
+            }
+            // Messages name the element, never its value (bytes of a file).
+            if let Some(k) = uv.iter().position(|c| !c.iter().all(|v| v.is_finite())) {
+                return Err(self.err(format!("{what}: TEXCOORD_{set} element {k} is not finite")));
+            }
+            per_set.push(Some(uv));
+        }
+        let mut out = self
+            .budget
+            .vec::<[Vec2; 3]>(
+                &format!("{what} texture coordinates"),
+                triangles.len().saturating_mul(sets.len()),
+            )
+            .map_err(|e| self.err(e))?;
+        for t in triangles {
+            for uv in &per_set {
+                out.push(match uv {
+                    // The indices were checked against the vertex count, which `uv` matches.
+                    Some(uv) => t.map(|i| Vec2::from_array(uv[i as usize])),
+                    None => [Vec2::ZERO; 3],
+                });
+            }
+        }
+        Ok(out)
     }
 }
 

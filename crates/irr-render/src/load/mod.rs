@@ -1,33 +1,45 @@
 //! glTF 2.0 loading: a `.gltf` (with external or `data:` URI buffers) or `.glb` file becomes
-//! world-space triangle meshes, diffuse materials and a camera.
+//! world-space triangle meshes, diffuse materials with their textures, and a camera.
 //!
 //! # What irr reads
 //! - The default scene (`scene`, else the first), its node hierarchy and transforms (matrix or
 //!   TRS; normals by the inverse transpose; a negative determinant flips the winding so the
 //!   front face stays where the file meant it).
 //! - Triangle primitives (`TRIANGLES`, `TRIANGLE_STRIP`, `TRIANGLE_FAN`), indexed (u8, u16, u32
-//!   indices) or not; `POSITION` and, if present, `NORMAL`.
+//!   indices) or not; `POSITION`, `NORMAL` if present, and the `TEXCOORD_n` a textured material
+//!   reads (float, or normalized unsigned byte or short).
 //! - Materials: `baseColorFactor.rgb` is the diffuse albedo; `emissiveFactor` times
 //!   `KHR_materials_emissive_strength.emissiveStrength` (1 without the extension) is the emitted
 //!   radiance in W·sr⁻¹·m⁻²; `doubleSided` says whether a surface emits from both faces or only
 //!   from its front face (counter-clockwise winding). A primitive without a material gets glTF's
 //!   default material (white, albedo 1), with a warning.
+//! - `baseColorTexture` and `emissiveTexture` (module `textures`): PNG or JPEG images from a
+//!   `bufferView`, a `data:` URI or a file inside the asset root, converted from sRGB to linear
+//!   once and multiplied by `baseColorFactor` / the emission at shading time (alpha is
+//!   dropped); their `texCoord`; the sampler's `wrapS`/`wrapT` (`REPEAT`, `CLAMP_TO_EDGE`,
+//!   `MIRRORED_REPEAT`) and `magFilter` (`NEAREST`, or `LINEAR`: bilinear, the default); and
+//!   `KHR_texture_transform` (offset, rotation, scale, texCoord).
 //! - Every perspective camera, in the order of a depth-first walk of the scene's nodes, with its
 //!   node's name (the first is the default; `--camera N` picks another).
 //!
 //! # What irr ignores, always with a warning
-//! Textures and images, metallic reflection (`metallicFactor > 0`), transparency (`alphaMode`
-//! other than `OPAQUE`), vertex colours, morph targets, skins, animations, points and lines,
-//! orthographic cameras, other scenes, and every extension except
-//! `KHR_materials_emissive_strength` (lights, transmission, …). Each becomes one [`Warning`] with
-//! a count. glTF's dielectric specular layer (the 4 % reflection of its metallic-roughness BRDF
-//! at `metallicFactor = 0`) is not modelled: irr's surfaces are Lambertian.
+//! Normal, occlusion and metallic-roughness textures, textures and images no base-colour or
+//! emissive texture uses, `minFilter` (no mip maps: every lookup uses `magFilter`), metallic
+//! reflection (`metallicFactor > 0`), transparency (`alphaMode` other than `OPAQUE`), vertex
+//! colours, morph targets, skins, animations, points and lines, orthographic cameras, other
+//! scenes, and every extension except `KHR_materials_emissive_strength` and
+//! `KHR_texture_transform` (lights, transmission, …). A textured material on a primitive without
+//! the `TEXCOORD_n` it reads is read at (0, 0). Each becomes one [`Warning`] with a count. glTF's
+//! dielectric specular layer (the 4 % reflection of its metallic-roughness BRDF at
+//! `metallicFactor = 0`) is not modelled: irr's surfaces are Lambertian.
 //!
 //! # What irr refuses, with a [`RenderError`]
-//! Files it cannot read or parse, buffers that point nowhere or are shorter than declared,
-//! accessors out of range, indices past the vertex count, non-finite coordinates or coordinates
-//! beyond [`MAX_COORDINATE`], non-finite or negative emission, and required extensions it does
-//! not support.
+//! Files it cannot read or parse, buffers or images that point nowhere, outside the asset root
+//! or are shorter than declared, accessors out of range, indices past the vertex count,
+//! non-finite coordinates or coordinates beyond [`MAX_COORDINATE`], non-finite texture
+//! coordinates or texture transforms, images that are neither PNG nor JPEG, are damaged, or
+//! exceed [`MAX_IMAGE_SIDE`] on a side or the loader's memory budget, non-finite or negative
+//! emission, and required extensions it does not support.
 
 mod buffers;
 mod json;
@@ -36,6 +48,10 @@ mod mesh;
 mod nodes;
 #[cfg(test)]
 mod tests;
+mod textures;
+
+pub use textures::MAX_IMAGE_SIDE;
+pub(crate) use textures::tex_coords_by_id;
 
 use json::{count_extensions, prevalidate, validate};
 
@@ -43,9 +59,9 @@ use crate::camera::{Camera, NamedCamera};
 use crate::error::{RenderError, one_line};
 use crate::files::{Budget, Confinement, LoadOptions, MAX_JSON_BYTES, read_scene_file};
 use crate::glb;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use irr_geometry::TriangleMesh;
-use irr_integrator::Material;
+use irr_integrator::{Material, Texture};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -56,8 +72,9 @@ use std::path::{Path, PathBuf};
 /// Beyond this a scene overflows to infinity inside the intersection code.
 pub const MAX_COORDINATE: f32 = 1e18;
 
-/// The one extension irr reads.
-const SUPPORTED_EXTENSIONS: [&str; 1] = ["KHR_materials_emissive_strength"];
+/// The extensions irr reads.
+const SUPPORTED_EXTENSIONS: [&str; 2] =
+    ["KHR_materials_emissive_strength", "KHR_texture_transform"];
 
 /// A feature of the file that irr ignored, with how many times it occurs.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -89,6 +106,12 @@ pub struct SceneData {
     /// The materials, in the file's order, plus glTF's default material at the end if a
     /// primitive has none.
     pub materials: Vec<Material>,
+    /// The textures the materials read (`TextureRef::texture` indexes them): linear RGB.
+    pub textures: Vec<Texture>,
+    /// Per mesh, the texture coordinates of its triangles: for triangle t, entries
+    /// `t·k..(t+1)·k`, where k is the number of sets its material reads
+    /// (`Material::tex_coord_sets`); empty for an untextured material.
+    pub tex_coords: Vec<Vec<[Vec2; 3]>>,
     /// The file's first perspective camera, if any: `cameras[0]`'s.
     pub camera: Option<Camera>,
     /// Every perspective camera of the default scene, in depth-first order of its nodes.
@@ -270,7 +293,7 @@ impl<'a> Loader<'a> {
         self.count_extensions(extension_counts);
         self.count_document_features();
         let buffers = self.load_buffers(blob)?;
-        let (mut materials, default_material) = self.materials()?;
+        let (mut materials, default_material, textures) = self.materials(&buffers)?;
         let mut meshes = Vec::new();
         let camera_nodes = self
             .document
@@ -281,6 +304,7 @@ impl<'a> Loader<'a> {
             .budget
             .vec::<NamedCamera>("the cameras", camera_nodes)
             .map_err(|e| self.err(e))?;
+        let mut tex_coords = Vec::new();
         let mut used_default_material = 0;
         for (node, world) in self.walk_nodes()? {
             if let Some(cam) = node.camera() {
@@ -304,11 +328,21 @@ impl<'a> Loader<'a> {
                 for primitive in mesh.primitives() {
                     let file_material = primitive.material().index();
                     let material_id = file_material.map_or(default_material, |i| i as u32);
-                    if let Some(m) =
-                        self.primitive(&node, &mesh, &primitive, world, material_id, &buffers)?
-                    {
+                    let sets: Vec<u32> = materials
+                        .get(material_id as usize)
+                        .map(|m| m.tex_coord_sets().collect())
+                        .unwrap_or_default();
+                    if let Some((m, uv)) = self.primitive(
+                        &node,
+                        &mesh,
+                        &primitive,
+                        world,
+                        (material_id, &sets),
+                        &buffers,
+                    )? {
                         used_default_material += usize::from(file_material.is_none());
                         meshes.push(m);
+                        tex_coords.push(uv);
                     }
                 }
             }
@@ -318,6 +352,8 @@ impl<'a> Loader<'a> {
                 albedo: Vec3::ONE,
                 emission: Vec3::ZERO,
                 two_sided: false,
+                albedo_texture: None,
+                emission_texture: None,
             });
             self.warnings.add("default-material", used_default_material, |n| {
                 format!(
@@ -358,6 +394,8 @@ impl<'a> Loader<'a> {
             path: self.path.to_path_buf(),
             meshes,
             materials,
+            textures,
+            tex_coords,
             camera: cameras.first().map(|c| c.camera),
             cameras,
             warnings: self.warnings.finish(),

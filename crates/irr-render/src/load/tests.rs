@@ -243,7 +243,7 @@ fn ignored_features_are_counted_in_warnings() {
                                  {{"attributes":{{"POSITION":{p}}},"mode":0}}]}},
                   {{"primitives":[{{"attributes":{{"POSITION":{p}}}}}]}}],
         "images":[{{"uri":"a.png"}}],"textures":[{{"source":0}},{{"source":0}}],
-        "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0}}}}}},
+        "materials":[{{"normalTexture":{{"index":0}},"occlusionTexture":{{"index":1}}}},
                      {{"pbrMetallicRoughness":{{"metallicFactor":0}},"alphaMode":"BLEND",
                        "extensions":{{"KHR_materials_transmission":{{"transmissionFactor":1}}}}}}]"#
     ));
@@ -258,6 +258,7 @@ fn ignored_features_are_counted_in_warnings() {
         ("extension:KHR_materials_transmission", 1),
         ("textures", 2),
         ("images", 1),
+        ("material-maps", 2),
         ("scenes", 1),
         // Material 0 keeps glTF's default metallicFactor of 1.
         ("metallic", 1),
@@ -274,7 +275,7 @@ fn ignored_features_are_counted_in_warnings() {
     );
     assert!(
         text.iter().any(|t| t
-            .ends_with("2 textures ignored (irr uses baseColorFactor and emissiveFactor only)")),
+            .ends_with("2 textures ignored (irr reads baseColorTexture and emissiveTexture only)")),
         "{text:?}"
     );
     // The default material is appended after the file's two.

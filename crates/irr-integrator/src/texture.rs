@@ -1,0 +1,680 @@
+//! Textures: linear RGB images looked up at a texture coordinate, with glTF's sampler rules
+//! (which are OpenGL's), and the per-triangle texture coordinates a [`Scene`](crate::Scene)
+//! keeps for the triangles of textured materials.
+//!
+//! Coordinates follow glTF: (0, 0) is the first texel of the first row of the image (its
+//! top-left corner as a file stores it), u grows along a row and v down the rows. Texel (i, j)
+//! covers [i/W, (i+1)/W] × [j/H, (j+1)/H] and its centre is at ((i + ½)/W, (j + ½)/H).
+
+use glam::{Affine2, Vec2, Vec3};
+use std::sync::Arc;
+use thiserror::Error;
+
+/// How a coordinate outside [0, 1] maps into the image (glTF's `wrapS` / `wrapT`, with OpenGL's
+/// rules: OpenGL 4.6 §8.14.2, table 8.20, applied to texel indices).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Wrap {
+    /// The image tiles the plane: texel index i mod n. glTF's default.
+    #[default]
+    Repeat,
+    /// Coordinates are clamped to the edge texels: index clamped to [0, n − 1].
+    ClampToEdge,
+    /// The image tiles the plane, every other copy mirrored: with m = i mod 2n, index m when
+    /// m < n, else 2n − 1 − m.
+    MirroredRepeat,
+}
+
+impl Wrap {
+    /// The texel index that index `i` (any integer) wraps to in an image `n` texels wide.
+    #[inline]
+    fn apply(self, i: i64, n: i64) -> usize {
+        let k = match self {
+            Wrap::Repeat => i.rem_euclid(n),
+            Wrap::ClampToEdge => i.clamp(0, n - 1),
+            Wrap::MirroredRepeat => {
+                let m = i.rem_euclid(2 * n);
+                if m < n { m } else { 2 * n - 1 - m }
+            }
+        };
+        // 0 ≤ k < n ≤ u32::MAX.
+        k as usize
+    }
+}
+
+/// How a lookup between texel centres is filtered (glTF's `magFilter`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Filter {
+    /// The texel whose square holds the coordinate.
+    Nearest,
+    /// Bilinear interpolation of the four texels whose centres surround the coordinate, each
+    /// wrapped on its own (OpenGL's `LINEAR`). glTF's usual default.
+    #[default]
+    Linear,
+}
+
+/// A texture's wrap modes and filter (a glTF sampler).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Sampler {
+    /// Wrapping of u (glTF `wrapS`).
+    pub wrap_s: Wrap,
+    /// Wrapping of v (glTF `wrapT`).
+    pub wrap_t: Wrap,
+    /// The filter of every lookup. irr has no mip maps and no ray footprints: a texture that
+    /// covers less than a pixel is averaged by the pixel's own samples (the box filter of the
+    /// film), so glTF's `minFilter` has no counterpart here.
+    pub filter: Filter,
+}
+
+/// A texture that cannot be made.
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum TextureError {
+    /// The texel count is not width × height, or the image is empty.
+    #[error("a {width}×{height} texture needs {width}×{height} texels, not {texels}")]
+    Size {
+        /// Width in texels.
+        width: u32,
+        /// Height in texels.
+        height: u32,
+        /// The texels given.
+        texels: usize,
+    },
+    /// A texel is negative or not finite.
+    #[error("texel {index} is {value}: texels must be finite and ≥ 0")]
+    InvalidTexel {
+        /// Its index, row by row.
+        index: usize,
+        /// Its value.
+        value: Vec3,
+    },
+}
+
+/// A linear RGB image with its sampler. Cloning shares the texels.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    width: u32,
+    height: u32,
+    /// Row by row from the top (glTF's v = 0).
+    texels: Arc<[Vec3]>,
+    sampler: Sampler,
+    /// The mean texel, summed in f64.
+    mean: Vec3,
+    /// The largest texel component.
+    max: f32,
+}
+
+impl Texture {
+    /// A `width` × `height` texture; `texels` holds the rows from the top (v = 0), each from
+    /// the left (u = 0), in linear RGB, finite and non-negative.
+    ///
+    /// # Errors
+    /// [`TextureError::Size`] for an empty image or a texel count other than width × height,
+    /// [`TextureError::InvalidTexel`] for a negative or non-finite texel.
+    pub fn new(
+        width: u32,
+        height: u32,
+        texels: Vec<Vec3>,
+        sampler: Sampler,
+    ) -> Result<Self, TextureError> {
+        let expected = u64::from(width) * u64::from(height);
+        if expected == 0 || texels.len() as u64 != expected {
+            return Err(TextureError::Size {
+                width,
+                height,
+                texels: texels.len(),
+            });
+        }
+        if let Some((index, &value)) = texels
+            .iter()
+            .enumerate()
+            .find(|(_, t)| !(t.is_finite() && t.min_element() >= 0.0))
+        {
+            return Err(TextureError::InvalidTexel { index, value });
+        }
+        let mut sum = glam::DVec3::ZERO;
+        let mut max = 0.0f32;
+        for t in &texels {
+            sum += t.as_dvec3();
+            max = max.max(t.max_element());
+        }
+        Ok(Self {
+            width,
+            height,
+            mean: (sum / texels.len() as f64).as_vec3(),
+            max,
+            texels: texels.into(),
+            sampler,
+        })
+    }
+
+    /// The same image with another sampler (the texels are shared, not copied).
+    #[must_use]
+    pub fn with_sampler(&self, sampler: Sampler) -> Self {
+        Self {
+            sampler,
+            ..self.clone()
+        }
+    }
+
+    /// Width in texels.
+    #[inline]
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height in texels.
+    #[inline]
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// The sampler.
+    #[inline]
+    pub fn sampler(&self) -> Sampler {
+        self.sampler
+    }
+
+    /// The mean of the texels: the texture's average over one period of [0, 1]².
+    #[inline]
+    pub fn mean(&self) -> Vec3 {
+        self.mean
+    }
+
+    /// The largest texel component (a lookup never exceeds it: both filters take convex
+    /// combinations of texels).
+    #[inline]
+    pub fn max_value(&self) -> f32 {
+        self.max
+    }
+
+    /// Texel (x, y), row y from the top; wraps like the sampler.
+    #[inline]
+    pub fn texel(&self, x: i64, y: i64) -> Vec3 {
+        let (w, h) = (i64::from(self.width), i64::from(self.height));
+        let i = self.sampler.wrap_s.apply(x, w);
+        let j = self.sampler.wrap_t.apply(y, h);
+        self.texels[j * self.width as usize + i]
+    }
+
+    /// The filtered value at texture coordinate `uv`. Never panics: a non-finite coordinate
+    /// reads as 0, and coordinates beyond ±2⁴⁰ texels are clamped there (f32 coordinates that
+    /// large have no sub-texel precision left).
+    #[inline]
+    pub fn lookup(&self, uv: Vec2) -> Vec3 {
+        let (w, h) = (i64::from(self.width), i64::from(self.height));
+        match self.sampler.filter {
+            Filter::Nearest => {
+                let (i, _) = split(uv.x, w, 0.0);
+                let (j, _) = split(uv.y, h, 0.0);
+                self.texel(i, j)
+            }
+            Filter::Linear => {
+                // Texel centres sit at half-integers: shift by ½ and blend the four texels
+                // around the point by its fractional position (OpenGL's LINEAR).
+                let (i, fx) = split(uv.x, w, 0.5);
+                let (j, fy) = split(uv.y, h, 0.5);
+                let top = self.texel(i, j).lerp(self.texel(i + 1, j), fx);
+                let bottom = self.texel(i, j + 1).lerp(self.texel(i + 1, j + 1), fx);
+                top.lerp(bottom, fy)
+            }
+        }
+    }
+}
+
+/// The integer and fractional parts of c·n − shift, computed in f64 (exact for any f32 c and
+/// n ≤ 2³², before the floor); a non-finite c counts as 0 and the result is kept within ±2⁴⁰ so
+/// that index arithmetic cannot overflow.
+#[inline]
+fn split(c: f32, n: i64, shift: f64) -> (i64, f32) {
+    const LIMIT: f64 = (1u64 << 40) as f64;
+    let c = if c.is_finite() { f64::from(c) } else { 0.0 };
+    let x = (c * n as f64 - shift).clamp(-LIMIT, LIMIT);
+    let i = x.floor();
+    (i as i64, (x - i) as f32)
+}
+
+/// A material's use of a texture: which one, with which texture coordinate set, through which
+/// transform (glTF's `textureInfo` with `KHR_texture_transform`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureRef {
+    /// The texture's index in the scene's textures.
+    pub texture: u32,
+    /// The texture coordinate set (glTF `TEXCOORD_n`).
+    pub tex_coord: u32,
+    /// Applied to the interpolated coordinate before the lookup (identity without
+    /// `KHR_texture_transform`).
+    pub transform: Affine2,
+}
+
+impl TextureRef {
+    /// Texture `texture` read with coordinate set `tex_coord`, untransformed.
+    pub fn new(texture: u32, tex_coord: u32) -> Self {
+        Self {
+            texture,
+            tex_coord,
+            transform: Affine2::IDENTITY,
+        }
+    }
+}
+
+/// The texture coordinates at the three vertices of each triangle of a textured material, by
+/// triangle id, one triple per coordinate set the triangle's material reads (see
+/// [`Material::tex_coord_sets`](crate::Material::tex_coord_sets)). Empty when no material is
+/// textured, so an untextured scene stores nothing.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TexCoords {
+    /// `offsets[t]..offsets[t + 1]` are triangle t's entries of `uv`; empty, or one longer
+    /// than the number of triangles.
+    offsets: Vec<u32>,
+    uv: Vec<[Vec2; 3]>,
+}
+
+/// More texture coordinates than a [`TexCoords`] can index (2³² − 1 triples).
+#[derive(Clone, Copy, Debug, Error, PartialEq, Eq)]
+#[error("more than {} texture coordinate triples", u32::MAX)]
+pub struct TooManyTexCoords;
+
+impl TexCoords {
+    /// Adds the next triangle (ids in order from 0): one triple per coordinate set its
+    /// material reads, in the order of `Material::tex_coord_sets`; none for an untextured
+    /// material.
+    ///
+    /// # Errors
+    /// [`TooManyTexCoords`] past 2³² − 1 triples in all.
+    pub fn push(&mut self, sets: &[[Vec2; 3]]) -> Result<(), TooManyTexCoords> {
+        if self.offsets.is_empty() {
+            self.offsets.push(0);
+        }
+        let end = u32::try_from(self.uv.len() + sets.len()).map_err(|_| TooManyTexCoords)?;
+        self.uv.extend_from_slice(sets);
+        self.offsets.push(end);
+        Ok(())
+    }
+
+    /// The number of triangles added.
+    #[inline]
+    pub fn triangle_count(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+
+    /// Whether no triangle has been added.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.triangle_count() == 0
+    }
+
+    /// The triples of triangle `triangle` (empty for an id past the end).
+    #[inline]
+    pub fn of(&self, triangle: u32) -> &[[Vec2; 3]] {
+        let t = triangle as usize;
+        match (self.offsets.get(t), self.offsets.get(t + 1)) {
+            (Some(&a), Some(&b)) => self.uv.get(a as usize..b as usize).unwrap_or(&[]),
+            _ => &[],
+        }
+    }
+
+    /// The coordinate of entry `slot` of triangle `triangle` at barycentrics (b1, b2); zero
+    /// where there is no such entry.
+    #[inline]
+    pub fn at(&self, triangle: u32, slot: usize, b1: f32, b2: f32) -> Vec2 {
+        match self.of(triangle).get(slot) {
+            Some(uv) => (1.0 - b1 - b2) * uv[0] + b1 * uv[1] + b2 * uv[2],
+            None => Vec2::ZERO,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 2×2 texture: texel (x, y) has value (x, y, 10·y + x) so a lookup names its texels.
+    fn two_by_two(wrap: Wrap, filter: Filter) -> Texture {
+        let texels = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(0.0, 1.0, 10.0),
+            Vec3::new(1.0, 1.0, 11.0),
+        ];
+        let sampler = Sampler {
+            wrap_s: wrap,
+            wrap_t: wrap,
+            filter,
+        };
+        Texture::new(2, 2, texels, sampler).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    #[test]
+    fn nearest_reads_the_texel_whose_square_holds_the_point() {
+        let t = two_by_two(Wrap::ClampToEdge, Filter::Nearest);
+        assert_eq!(t.lookup(Vec2::new(0.25, 0.25)).z, 0.0);
+        assert_eq!(t.lookup(Vec2::new(0.75, 0.25)).z, 1.0);
+        assert_eq!(t.lookup(Vec2::new(0.25, 0.75)).z, 10.0);
+        assert_eq!(t.lookup(Vec2::new(0.99, 0.99)).z, 11.0);
+        // u = 1 lies on the right edge: clamped into the last texel.
+        assert_eq!(t.lookup(Vec2::new(1.0, 0.0)).z, 1.0);
+    }
+
+    #[test]
+    fn wrap_modes_follow_opengl_outside_the_unit_square() {
+        // Texel columns for u in [-2, 2) at texel centres, per mode (2 texels wide).
+        let us = [-1.75f32, -1.25, -0.75, -0.25, 0.25, 0.75, 1.25, 1.75];
+        for (wrap, expected) in [
+            (Wrap::Repeat, [0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0]),
+            (Wrap::ClampToEdge, [0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0]),
+            // Mirrored: …, [1 0] mirrored copy of [-1, 0), then [0 1], then [1 0] on [1, 2).
+            (
+                Wrap::MirroredRepeat,
+                [0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0],
+            ),
+        ] {
+            let t = two_by_two(wrap, Filter::Nearest);
+            let got: Vec<f32> = us.iter().map(|&u| t.lookup(Vec2::new(u, 0.25)).x).collect();
+            assert_eq!(got, expected, "{wrap:?}");
+            // v wraps the same way (the y component names the row).
+            let got: Vec<f32> = us.iter().map(|&v| t.lookup(Vec2::new(0.25, v)).y).collect();
+            assert_eq!(got, expected, "{wrap:?} in v");
+        }
+    }
+
+    #[test]
+    fn linear_interpolates_between_texel_centres() {
+        let t = two_by_two(Wrap::ClampToEdge, Filter::Linear);
+        // At a texel centre, exactly that texel.
+        assert_eq!(t.lookup(Vec2::new(0.25, 0.25)), Vec3::ZERO);
+        assert_eq!(t.lookup(Vec2::new(0.75, 0.75)), Vec3::new(1.0, 1.0, 11.0));
+        // Halfway between all four centres: their mean (every step is exact in f32).
+        assert_eq!(t.lookup(Vec2::splat(0.5)), Vec3::new(0.5, 0.5, 5.5));
+        // A quarter of the way from column 0's centre to column 1's.
+        assert_eq!(t.lookup(Vec2::new(0.375, 0.25)).x, 0.25);
+        // Beyond the last centre, clamping holds the edge texel.
+        assert_eq!(t.lookup(Vec2::new(0.9, 0.25)).x, 1.0);
+        // With repeat, the left edge blends column 0 with column 1 from the previous copy.
+        let r = two_by_two(Wrap::Repeat, Filter::Linear);
+        assert_eq!(r.lookup(Vec2::new(0.0, 0.25)).x, 0.5);
+        // Mirrored: at u = 0 the neighbour across the edge is column 0 itself.
+        let m = two_by_two(Wrap::MirroredRepeat, Filter::Linear);
+        assert_eq!(m.lookup(Vec2::new(0.0, 0.25)).x, 0.0);
+    }
+
+    #[test]
+    fn hostile_coordinates_never_panic_and_stay_in_range() {
+        for filter in [Filter::Nearest, Filter::Linear] {
+            for wrap in [Wrap::Repeat, Wrap::ClampToEdge, Wrap::MirroredRepeat] {
+                let t = two_by_two(wrap, filter);
+                for c in [
+                    f32::NAN,
+                    f32::INFINITY,
+                    f32::NEG_INFINITY,
+                    f32::MAX,
+                    -f32::MAX,
+                    1e20,
+                    -3.5,
+                ] {
+                    let v = t.lookup(Vec2::new(c, -c));
+                    assert!(
+                        v.is_finite() && v.max_element() <= t.max_value(),
+                        "{c}: {v}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn mean_and_validation() {
+        let t = two_by_two(Wrap::Repeat, Filter::Linear);
+        assert_eq!(t.mean(), Vec3::new(0.5, 0.5, 5.5));
+        assert_eq!(t.max_value(), 11.0);
+        assert!(matches!(
+            Texture::new(2, 2, vec![Vec3::ZERO; 3], Sampler::default()),
+            Err(TextureError::Size { texels: 3, .. })
+        ));
+        assert!(Texture::new(0, 0, vec![], Sampler::default()).is_err());
+        assert!(matches!(
+            Texture::new(1, 1, vec![Vec3::splat(-1.0)], Sampler::default()),
+            Err(TextureError::InvalidTexel { index: 0, .. })
+        ));
+        let shared = t.with_sampler(Sampler {
+            filter: Filter::Nearest,
+            ..Sampler::default()
+        });
+        assert!(Arc::ptr_eq(&shared.texels, &t.texels));
+    }
+
+    /// The unit square at z = 0 as two triangles, facing +z.
+    fn square(material: u32) -> irr_geometry::TriangleMesh {
+        irr_geometry::TriangleMesh {
+            positions: vec![
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::new(1.0, 1.0, 0.0),
+                Vec3::new(0.0, 1.0, 0.0),
+            ],
+            indices: vec![[0, 1, 2], [0, 2, 3]],
+            normals: None,
+            material_ids: vec![material; 2],
+        }
+    }
+
+    fn scene(
+        meshes: &[irr_geometry::TriangleMesh],
+        materials: Vec<crate::Material>,
+        textures: Vec<Texture>,
+        tex_coords: TexCoords,
+    ) -> Result<crate::Scene, crate::SceneError> {
+        let geometry = irr_geometry::Geometry::build(meshes).unwrap_or_else(|e| panic!("{e}"));
+        crate::Scene::with_textures(geometry, materials, textures, tex_coords)
+    }
+
+    #[test]
+    fn scene_reads_albedo_and_emission_at_the_point() {
+        let nearest = Sampler {
+            filter: Filter::Nearest,
+            ..Sampler::default()
+        };
+        let albedo = Texture::new(
+            2,
+            2,
+            vec![Vec3::ZERO, Vec3::new(1.0, 0.0, 1.0), Vec3::Y, Vec3::ONE],
+            nearest,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let values = Texture::new(1, 2, vec![Vec3::splat(0.25), Vec3::ONE], nearest)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let shift = Affine2::from_translation(Vec2::new(0.5, 0.0));
+        let material = crate::Material {
+            albedo: Vec3::new(0.5, 0.5, 0.05),
+            emission: Vec3::splat(2.0),
+            two_sided: false,
+            albedo_texture: Some(TextureRef::new(1, 3)),
+            emission_texture: Some(TextureRef {
+                transform: shift,
+                ..TextureRef::new(0, 0)
+            }),
+        };
+        assert_eq!(material.tex_coord_sets().collect::<Vec<_>>(), [3, 0]);
+        // Set 3 (albedo) spans the square's corners as uv = (x, y); set 0 (emission) is (y, x).
+        let corners = |t: [usize; 3], f: fn(Vec2) -> Vec2| {
+            let c = [Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y];
+            t.map(|i| f(c[i]))
+        };
+        let mut tex_coords = TexCoords::default();
+        for t in [[0, 1, 2], [0, 2, 3]] {
+            tex_coords
+                .push(&[corners(t, |c| c), corners(t, |c| Vec2::new(c.y, c.x))])
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
+        // Textures in the order the material names them: 0 is `values`, 1 is `albedo`.
+        let s = scene(
+            &[square(0)],
+            vec![material],
+            vec![values, albedo],
+            tex_coords,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        // Triangle 0 at barycentrics (b1, b2) = (0.5, 0.25): the point (0.75, 0.25), albedo
+        // texel (1, 0) of the 2×2 (z = 1) times the factor.
+        assert_eq!(s.albedo(0, 0.5, 0.25), Vec3::new(0.5, 0.0, 0.05));
+        // Emission at set 0's (0.25, 0.75) shifted by (0.5, 0) to (0.75, 0.75): row 1 of the
+        // 1×2 texture (1), times 2; nothing from the back.
+        assert_eq!(s.emitted(0, 0.5, 0.25, Vec3::Z, Vec3::Z), Vec3::splat(2.0));
+        assert_eq!(s.emitted(0, 0.5, 0.25, Vec3::Z, -Vec3::Z), Vec3::ZERO);
+        // At (x, y) = (0.25, 0.25): albedo texel (0, 0) is black; emission row 0 is 0.25.
+        assert_eq!(s.albedo(0, 0.0, 0.25), Vec3::ZERO);
+        assert_eq!(s.emitted(0, 0.0, 0.25, Vec3::Z, Vec3::Z), Vec3::splat(0.5));
+        assert_eq!(
+            s.tex_coord(0, &TextureRef::new(1, 3), 0.0, 0.25),
+            Vec2::splat(0.25)
+        );
+        // The light sampler weighs the emitter by its factor × the texture's mean, 2 × 0.625.
+        let light = s.lights().pdf_area(0);
+        assert!(light > 0.0, "{light}");
+    }
+
+    #[test]
+    fn light_choice_weighs_a_textured_emitter_by_its_mean() {
+        // Two unit squares side by side: one emits 0.25 uniformly, the other 1 × a texture of
+        // mean 0.25 (black and white texels 1 : 3). Same power, so each is chosen with
+        // probability ½ and every point has density ½ per unit area.
+        let texture = Texture::new(
+            2,
+            2,
+            vec![Vec3::ONE, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO],
+            Sampler::default(),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let mut right = square(1);
+        for p in &mut right.positions {
+            p.x += 2.0;
+        }
+        let uniform = crate::Material {
+            emission: Vec3::splat(0.25),
+            ..crate::Material::diffuse(Vec3::ZERO)
+        };
+        let textured = crate::Material {
+            emission: Vec3::ONE,
+            emission_texture: Some(TextureRef::new(0, 0)),
+            ..uniform
+        };
+        let mut tex_coords = TexCoords::default();
+        for sets in [0, 0, 1, 1] {
+            tex_coords
+                .push(&vec![[Vec2::ZERO; 3]; sets])
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
+        let s = scene(
+            &[square(0), right],
+            vec![uniform, textured],
+            vec![texture],
+            tex_coords,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        for t in 0..4 {
+            assert_eq!(s.lights().pdf_area(t), 0.5, "triangle {t}");
+        }
+    }
+
+    #[test]
+    fn scene_refuses_inconsistent_textures() {
+        let texture = two_by_two(Wrap::Repeat, Filter::Linear);
+        let textured = crate::Material {
+            albedo_texture: Some(TextureRef::new(0, 0)),
+            ..crate::Material::diffuse(Vec3::ONE)
+        };
+        let two = || {
+            let mut c = TexCoords::default();
+            for _ in 0..2 {
+                c.push(&[[Vec2::ZERO; 3]]).unwrap_or_else(|e| panic!("{e}"));
+            }
+            c
+        };
+        // The 2×2 test texture has texels above 1: not an albedo.
+        let bright = scene(&[square(0)], vec![textured], vec![texture.clone()], two());
+        assert!(
+            matches!(
+                bright,
+                Err(crate::SceneError::InvalidTextureRef {
+                    what: "albedo texture",
+                    ..
+                })
+            ),
+            "{bright:?}"
+        );
+        let unit = Texture::new(1, 1, vec![Vec3::ONE], Sampler::default())
+            .unwrap_or_else(|e| panic!("{e}"));
+        let missing = scene(&[square(0)], vec![textured], vec![], two());
+        assert!(
+            matches!(missing, Err(crate::SceneError::InvalidTextureRef { .. })),
+            "{missing:?}"
+        );
+        let infinite = crate::Material {
+            albedo_texture: Some(TextureRef {
+                transform: Affine2::from_scale(Vec2::splat(f32::INFINITY)),
+                ..TextureRef::new(0, 0)
+            }),
+            ..textured
+        };
+        assert!(scene(&[square(0)], vec![infinite], vec![unit.clone()], two()).is_err());
+        let short = scene(
+            &[square(0)],
+            vec![textured],
+            vec![unit.clone()],
+            TexCoords::default(),
+        );
+        assert!(
+            matches!(
+                short,
+                Err(crate::SceneError::TexCoordCount {
+                    triangles: 2,
+                    found: 0
+                })
+            ),
+            "{short:?}"
+        );
+        let mut wrong = TexCoords::default();
+        wrong
+            .push(&[[Vec2::ZERO; 3]])
+            .unwrap_or_else(|e| panic!("{e}"));
+        wrong.push(&[]).unwrap_or_else(|e| panic!("{e}"));
+        let wrong = scene(&[square(0)], vec![textured], vec![unit.clone()], wrong);
+        assert!(
+            matches!(
+                wrong,
+                Err(crate::SceneError::TexCoords {
+                    triangle: 1,
+                    expected: 1,
+                    found: 0
+                })
+            ),
+            "{wrong:?}"
+        );
+        assert!(scene(&[square(0)], vec![textured], vec![unit], two()).is_ok());
+        // An untextured scene keeps no texture coordinates at all.
+        let plain = scene(
+            &[square(0)],
+            vec![crate::Material::diffuse(Vec3::ONE)],
+            vec![],
+            TexCoords::default(),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert!(plain.tex_coords().is_empty());
+        assert_eq!(plain.albedo(1, 0.3, 0.3), Vec3::ONE);
+    }
+
+    #[test]
+    fn tex_coords_interpolate_per_triangle_and_slot() {
+        let mut c = TexCoords::default();
+        assert!(c.is_empty());
+        let a = [Vec2::ZERO, Vec2::X, Vec2::Y];
+        let b = [Vec2::ONE, Vec2::ONE, Vec2::ONE];
+        c.push(&[a, b]).unwrap_or_else(|e| panic!("{e}"));
+        c.push(&[]).unwrap_or_else(|e| panic!("{e}"));
+        c.push(&[b]).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(c.triangle_count(), 3);
+        assert_eq!(c.at(0, 0, 0.25, 0.5), Vec2::new(0.25, 0.5));
+        assert_eq!(c.at(0, 1, 0.25, 0.5), Vec2::ONE);
+        assert_eq!(c.at(1, 0, 0.25, 0.5), Vec2::ZERO);
+        assert_eq!(c.at(2, 0, 0.0, 0.0), Vec2::ONE);
+        assert_eq!(c.at(7, 0, 0.0, 0.0), Vec2::ZERO);
+    }
+}

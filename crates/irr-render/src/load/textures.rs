@@ -1,0 +1,1202 @@
+//! Textures (glTF 2.0 §3.8): a material's `baseColorTexture` and `emissiveTexture`, their
+//! samplers, their `KHR_texture_transform`, and the images behind them (PNG and JPEG, from a
+//! `bufferView`, a `data:` URI or a file inside the asset root).
+//!
+//! Images are untrusted like every other part of a scene: each side is at most
+//! [`MAX_IMAGE_SIDE`] texels, and the memory decoding takes (the decoder's output, a JPEG's
+//! coefficients, the linear texels) is charged to the loader's `Budget` from the header's
+//! dimensions before any pixel is decoded. Texels are converted from sRGB to linear with the
+//! exact sRGB EOTF (IEC 61966-2-1) once, here; the alpha channel is dropped (irr's surfaces are
+//! opaque, and `alphaMode` other than `OPAQUE` is already warned about).
+
+use super::{Loader, describe, plural};
+use crate::error::RenderError;
+use crate::files::Budget;
+use crate::uri::{decode_data_uri, percent_decode, scheme};
+use glam::{Affine2, Vec2, Vec3};
+use irr_geometry::{Triangle, TriangleMesh};
+use irr_integrator::{Filter, Material, Sampler, TexCoords, Texture, TextureRef, Wrap};
+use std::collections::BTreeMap;
+
+/// The largest image side irr decodes, in texels: the largest texture most GPUs take, and far
+/// beyond what a texture needs to be sharp in an image of [`crate::MAX_DIMENSION`] pixels.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+
+/// The textures the materials read, each loaded once, and the images behind them, each
+/// decoded once.
+#[derive(Default)]
+pub(super) struct Textures {
+    /// glTF texture index → index in `list`.
+    by_gltf: BTreeMap<usize, u32>,
+    /// glTF image index → its texels (shared by every texture made from it).
+    images: BTreeMap<usize, Texture>,
+    /// The textures, as `TextureRef::texture` indexes them.
+    pub(super) list: Vec<Texture>,
+    /// Loaded textures whose `minFilter` irr does not follow.
+    min_filters_ignored: usize,
+}
+
+impl Textures {
+    /// Warns of what the file holds and irr did not read: textures and images no material reads
+    /// as base colour or emission, and `minFilter`s.
+    pub(super) fn warn(&self, loader: &mut Loader<'_>) {
+        let d = loader.document;
+        let textures = d.textures().len().saturating_sub(self.by_gltf.len());
+        loader.warnings.add("textures", textures, |n| {
+            format!(
+                "{} ignored (irr reads baseColorTexture and emissiveTexture only)",
+                plural(n, "texture", "textures")
+            )
+        });
+        let images = d.images().len().saturating_sub(self.images.len());
+        loader.warnings.add("images", images, |n| {
+            format!(
+                "{} ignored (no baseColorTexture or emissiveTexture uses {})",
+                plural(n, "image", "images"),
+                if n == 1 { "it" } else { "them" }
+            )
+        });
+        loader
+            .warnings
+            .add("min-filter", self.min_filters_ignored, |n| {
+                format!(
+                    "{} a minFilter that irr does not follow: irr has no mip maps and filters every lookup with magFilter (a texture smaller than a pixel is averaged by the pixel's samples)",
+                    plural(n, "texture has", "textures have")
+                )
+            });
+    }
+}
+
+impl Loader<'_> {
+    /// The [`TextureRef`] of a material's `textureInfo` (`what` names it in messages), loading
+    /// the texture and its image the first time one is met.
+    pub(super) fn texture_ref(
+        &mut self,
+        textures: &mut Textures,
+        info: &gltf::json::texture::Info,
+        what: &str,
+        buffers: &[Vec<u8>],
+    ) -> Result<TextureRef, RenderError> {
+        let index = info.index.value();
+        let texture = match textures.by_gltf.get(&index) {
+            Some(&t) => t,
+            None => {
+                let t = self.texture(textures, index, what, buffers)?;
+                let id = u32::try_from(textures.list.len())
+                    .map_err(|_| self.err(format!("{what}: too many textures")))?;
+                textures.list.push(t);
+                textures.by_gltf.insert(index, id);
+                id
+            }
+        };
+        let (tex_coord, transform) = match info
+            .extensions
+            .as_ref()
+            .and_then(|e| e.texture_transform.as_ref())
+        {
+            None => (info.tex_coord, Affine2::IDENTITY),
+            Some(t) => {
+                let m = texture_transform(t.offset.0, t.rotation.0, t.scale.0);
+                if !m.is_finite() {
+                    return Err(self.err(format!(
+                        "{what}: KHR_texture_transform is not finite (offset, rotation and scale must be finite numbers)"
+                    )));
+                }
+                (t.tex_coord.unwrap_or(info.tex_coord), m)
+            }
+        };
+        Ok(TextureRef {
+            texture,
+            tex_coord,
+            transform,
+        })
+    }
+
+    /// glTF texture `index`: its image with its sampler.
+    fn texture(
+        &mut self,
+        textures: &mut Textures,
+        index: usize,
+        what: &str,
+        buffers: &[Vec<u8>],
+    ) -> Result<Texture, RenderError> {
+        let root = self.document.as_json();
+        // The schema check (`json::validate`) proved these indices; a lookup costs nothing and
+        // keeps a panic impossible.
+        let json = root.textures.get(index).ok_or_else(|| {
+            self.err(format!(
+                "{what}: texture {index} does not exist (the file has {})",
+                root.textures.len()
+            ))
+        })?;
+        let name = format!("texture {}", describe(index, json.name.as_deref()));
+        let (sampler, min_filter_ignored) = match json.sampler {
+            None => (Sampler::default(), false),
+            Some(s) => {
+                let s = root.samplers.get(s.value()).ok_or_else(|| {
+                    self.err(format!("{name}: sampler {} does not exist", s.value()))
+                })?;
+                sampler(s)
+            }
+        };
+        textures.min_filters_ignored += usize::from(min_filter_ignored);
+        let image = json.source.value();
+        let texels = match textures.images.get(&image) {
+            Some(t) => t.clone(),
+            None => {
+                let t = self.image(image, &name, buffers)?;
+                textures.images.insert(image, t.clone());
+                t
+            }
+        };
+        Ok(texels.with_sampler(sampler))
+    }
+
+    /// Decodes glTF image `index` (read by `texture`, for messages).
+    fn image(
+        &mut self,
+        index: usize,
+        texture: &str,
+        buffers: &[Vec<u8>],
+    ) -> Result<Texture, RenderError> {
+        let root = self.document.as_json();
+        let Some(json) = root.images.get(index) else {
+            return Err(self.err(format!(
+                "{texture}: image {index} does not exist (the file has {})",
+                root.images.len()
+            )));
+        };
+        let mut name = format!("image {}", describe(index, json.name.as_deref()));
+        let owned;
+        let bytes: &[u8] = match (&json.buffer_view, &json.uri) {
+            (Some(view), _) => {
+                name = format!("{name} (bufferView {})", view.value());
+                self.view_bytes(view.value(), buffers)
+                    .map_err(|e| self.err(format!("{name}: {e}")))?
+            }
+            (None, Some(uri)) => {
+                if !uri.starts_with("data:") {
+                    name = format!("{name} (\"{uri}\")");
+                }
+                owned = self
+                    .read_image_uri(uri)
+                    .map_err(|e| self.err(format!("{name}: URI {e}")))?;
+                &owned
+            }
+            (None, None) => {
+                return Err(self.err(format!("{name} has neither a uri nor a bufferView")));
+            }
+        };
+        self.budget.allow_images();
+        decode_image(bytes, &mut self.budget).map_err(|e| self.err(format!("{name}: {e}")))
+    }
+
+    /// The bytes of buffer view `index`, checked against its buffer.
+    fn view_bytes<'b>(&self, index: usize, buffers: &'b [Vec<u8>]) -> Result<&'b [u8], String> {
+        let root = self.document.as_json();
+        let view = root
+            .buffer_views
+            .get(index)
+            .ok_or_else(|| format!("bufferView {index} does not exist"))?;
+        let buffer = view.buffer.value();
+        let data = buffers
+            .get(buffer)
+            .ok_or_else(|| format!("buffer {buffer} does not exist"))?;
+        let offset = view.byte_offset.map_or(0, |o| o.0);
+        let length = view.byte_length.0;
+        usize::try_from(offset)
+            .ok()
+            .zip(usize::try_from(length).ok())
+            .and_then(|(o, l)| data.get(o..o.checked_add(l)?))
+            .ok_or_else(|| {
+                format!(
+                    "bufferView {index} spans bytes {offset}..{offset}+{length} but buffer {buffer} has {} bytes",
+                    data.len()
+                )
+            })
+    }
+
+    /// The bytes an image URI names: a `data:` URI's payload or a file inside the asset root,
+    /// whose size raises the budget as a buffer file's does. Errors complete "URI …".
+    fn read_image_uri(&mut self, uri: &str) -> Result<Vec<u8>, String> {
+        if let Some(decoded) = decode_data_uri(uri) {
+            return decoded;
+        }
+        if let Some(scheme) = scheme(uri) {
+            return Err(format!(
+                "scheme '{scheme}:' is not supported (irr reads relative file paths and data: URIs)"
+            ));
+        }
+        let name = percent_decode(uri)?;
+        let bytes = self.confinement.read_whole(&name)?;
+        self.budget.add_input(bytes.len() as u64);
+        Ok(bytes)
+    }
+}
+
+/// A glTF sampler as irr follows it, and whether its `minFilter` is one irr does not follow (a
+/// mipmapped one, or one that differs from `magFilter`).
+fn sampler(s: &gltf::json::texture::Sampler) -> (Sampler, bool) {
+    use gltf::json::texture::{MagFilter, MinFilter, WrappingMode};
+    use gltf::json::validation::Checked;
+    let wrap = |w: &Checked<WrappingMode>| match w {
+        Checked::Valid(WrappingMode::ClampToEdge) => Wrap::ClampToEdge,
+        Checked::Valid(WrappingMode::MirroredRepeat) => Wrap::MirroredRepeat,
+        // REPEAT, and (never reached: the schema check refuses them) invalid values.
+        _ => Wrap::Repeat,
+    };
+    let filter = match s.mag_filter {
+        Some(Checked::Valid(MagFilter::Nearest)) => Filter::Nearest,
+        _ => Filter::Linear,
+    };
+    let min_ignored = match s.min_filter {
+        None => false,
+        Some(Checked::Valid(MinFilter::Nearest)) => filter != Filter::Nearest,
+        Some(Checked::Valid(MinFilter::Linear)) => filter != Filter::Linear,
+        Some(_) => true,
+    };
+    (
+        Sampler {
+            wrap_s: wrap(&s.wrap_s),
+            wrap_t: wrap(&s.wrap_t),
+            filter,
+        },
+        min_ignored,
+    )
+}
+
+/// KHR_texture_transform's matrix, translation × rotation × scale (the extension's README):
+/// u' = cos·sx·u + sin·sy·v + ox, v' = −sin·sx·u + cos·sy·v + oy.
+pub(super) fn texture_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> Affine2 {
+    let (sin, cos) = rotation.sin_cos();
+    Affine2::from_cols(
+        Vec2::new(cos * scale[0], -sin * scale[0]),
+        Vec2::new(sin * scale[1], cos * scale[1]),
+        Vec2::from_array(offset),
+    )
+}
+
+/// The sRGB electro-optical transfer function (IEC 61966-2-1): an encoded value in [0, 1] to
+/// linear light.
+pub(super) fn srgb_to_linear(c: f64) -> f64 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// The kinds of image irr decodes, told by their first bytes (a `mimeType` is only a hint).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Format {
+    Png,
+    Jpeg,
+}
+
+const PNG_SIGNATURE: [u8; 8] = [0x89, b'P', b'N', b'G', 0x0d, 0x0a, 0x1a, 0x0a];
+
+fn format_of(bytes: &[u8]) -> Option<Format> {
+    if bytes.starts_with(&PNG_SIGNATURE) {
+        Some(Format::Png)
+    } else if bytes.starts_with(&[0xff, 0xd8, 0xff]) {
+        Some(Format::Jpeg)
+    } else {
+        None
+    }
+}
+
+/// Refuses an image larger than [`MAX_IMAGE_SIDE`] on a side, or empty.
+fn check_size(width: u64, height: u64) -> Result<(), String> {
+    if width == 0 || height == 0 {
+        return Err(format!("the image is {width}×{height} texels: empty"));
+    }
+    let max = u64::from(MAX_IMAGE_SIDE);
+    if width > max || height > max {
+        return Err(format!(
+            "the image is {width}×{height} texels; irr reads images up to {MAX_IMAGE_SIDE} texels on a side"
+        ));
+    }
+    Ok(())
+}
+
+/// Decodes a PNG or JPEG into linear texels (with the default sampler), charging `budget` for
+/// every allocation its header implies before decoding.
+fn decode_image(bytes: &[u8], budget: &mut Budget) -> Result<Texture, String> {
+    let (width, height, texels) = match format_of(bytes) {
+        Some(Format::Png) => decode_png(bytes, budget)?,
+        Some(Format::Jpeg) => decode_jpeg(bytes, budget)?,
+        None => {
+            return Err(
+                "is neither PNG nor JPEG (irr reads those two; KHR_texture_basisu and EXT_texture_webp images are not supported)"
+                    .to_string(),
+            );
+        }
+    };
+    Texture::new(width, height, texels, Sampler::default()).map_err(|e| e.to_string())
+}
+
+/// The 256 linear values of 8-bit sRGB codes.
+fn srgb8_table() -> [f32; 256] {
+    std::array::from_fn(|c| srgb_to_linear(c as f64 / 255.0) as f32)
+}
+
+/// Charges the texels of a `width` × `height` image and reserves them.
+fn texel_vec(budget: &mut Budget, width: u32, height: u32) -> Result<Vec<Vec3>, String> {
+    let n = (width as usize).saturating_mul(height as usize);
+    budget.vec::<Vec3>("its linear texels", n)
+}
+
+fn decode_png(bytes: &[u8], budget: &mut Budget) -> Result<(u32, u32, Vec<Vec3>), String> {
+    // The header first, read here: IHDR is the first chunk (PNG §5.6), width and height its
+    // first two big-endian u32s. An absurd size is refused before the decoder sees it.
+    if let Some(ihdr) = bytes.get(8..24).filter(|h| &h[4..8] == b"IHDR") {
+        let be = |b: &[u8]| u64::from(u32::from_be_bytes([b[0], b[1], b[2], b[3]]));
+        check_size(be(&ihdr[8..12]), be(&ihdr[12..16]))?;
+    }
+    let png_error = |e: png::DecodingError| format!("PNG: {e}");
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    // Palettes become RGB, transparency becomes alpha, and depths below 8 bits become 8.
+    decoder.set_transformations(png::Transformations::EXPAND);
+    let mut reader = decoder.read_info().map_err(png_error)?;
+    let (width, height) = (reader.info().width, reader.info().height);
+    check_size(u64::from(width), u64::from(height))?;
+    let (color, depth) = reader.output_color_type();
+    let size = reader
+        .output_buffer_size()
+        .ok_or_else(|| "PNG: the decoded size overflows".to_string())?;
+    let mut decoded = budget.vec::<u8>("its decoded pixels", size)?;
+    decoded.resize(size, 0);
+    let frame = reader.next_frame(&mut decoded).map_err(png_error)?;
+    let channels = color.samples();
+    let sample_bytes = match depth {
+        png::BitDepth::Sixteen => 2,
+        _ => 1,
+    };
+    let mut texels = texel_vec(budget, width, height)?;
+    // Grey (and grey + alpha) repeats its one channel; alpha is dropped.
+    let (g, b) = if channels >= 3 { (1, 2) } else { (0, 0) };
+    let rows = decoded.chunks_exact(frame.line_size).take(height as usize);
+    if sample_bytes == 1 {
+        let table = srgb8_table();
+        for row in rows {
+            for px in row.chunks_exact(channels).take(width as usize) {
+                let t = |k: usize| table[usize::from(px[k])];
+                texels.push(Vec3::new(t(0), t(g), t(b)));
+            }
+        }
+    } else {
+        let table: Vec<f32> = (0..=u16::MAX)
+            .map(|c| srgb_to_linear(f64::from(c) / 65535.0) as f32)
+            .collect();
+        for row in rows {
+            for px in row.chunks_exact(2 * channels).take(width as usize) {
+                let t =
+                    |k: usize| table[usize::from(u16::from_be_bytes([px[2 * k], px[2 * k + 1]]))];
+                texels.push(Vec3::new(t(0), t(g), t(b)));
+            }
+        }
+    }
+    Ok((width, height, texels))
+}
+
+/// Bytes per texel that JPEG decoding takes besides the output: a progressive JPEG keeps every
+/// component's DCT coefficients (an i16 each) until its last scan: at most 4 components.
+const JPEG_COEFFICIENT_BYTES: usize = 8;
+
+fn decode_jpeg(bytes: &[u8], budget: &mut Budget) -> Result<(u32, u32, Vec<Vec3>), String> {
+    use zune_jpeg::zune_core::bytestream::ZCursor;
+    use zune_jpeg::zune_core::colorspace::ColorSpace;
+    use zune_jpeg::zune_core::options::DecoderOptions;
+    let jpeg_error = |e: zune_jpeg::errors::DecodeErrors| format!("JPEG: {e}");
+    // The decoder's own size limit is JPEG's (65535): irr checks the size itself, with its
+    // own message.
+    let options = DecoderOptions::default()
+        .jpeg_set_out_colorspace(ColorSpace::RGB)
+        .set_max_width(usize::from(u16::MAX))
+        .set_max_height(usize::from(u16::MAX));
+    let mut decoder = zune_jpeg::JpegDecoder::new_with_options(ZCursor::new(bytes), options);
+    decoder.decode_headers().map_err(jpeg_error)?;
+    let (w, h) = decoder
+        .dimensions()
+        .ok_or_else(|| "JPEG: no frame header".to_string())?;
+    check_size(w as u64, h as u64)?;
+    let (width, height) = (w as u32, h as u32);
+    let size = decoder
+        .output_buffer_size()
+        .ok_or_else(|| "JPEG: the decoded size overflows".to_string())?;
+    budget.charge::<u8>(
+        "its DCT coefficients",
+        (w * h).saturating_mul(JPEG_COEFFICIENT_BYTES),
+    )?;
+    let mut decoded = budget.vec::<u8>("its decoded pixels", size)?;
+    decoded.resize(size, 0);
+    decoder.decode_into(&mut decoded).map_err(jpeg_error)?;
+    let mut texels = texel_vec(budget, width, height)?;
+    let table = srgb8_table();
+    for px in decoded.chunks_exact(3) {
+        texels.push(Vec3::new(
+            table[usize::from(px[0])],
+            table[usize::from(px[1])],
+            table[usize::from(px[2])],
+        ));
+    }
+    Ok((width, height, texels))
+}
+
+/// The texture coordinates of the triangles of `meshes` (given per mesh as
+/// [`SceneData::tex_coords`](super::SceneData::tex_coords) holds them) by the id [`irr_geometry::Geometry::build`] gives
+/// them: it keeps the triangles [`Triangle::is_kept`] accepts, mesh after mesh, in order. Empty
+/// when no material is textured.
+pub(crate) fn tex_coords_by_id(
+    meshes: &[TriangleMesh],
+    materials: &[Material],
+    tex_coords: &[Vec<[Vec2; 3]>],
+) -> Result<TexCoords, String> {
+    let mut out = TexCoords::default();
+    if !materials
+        .iter()
+        .any(|m| m.tex_coord_sets().next().is_some())
+    {
+        return Ok(out);
+    }
+    for (mesh, uv) in meshes.iter().zip(tex_coords) {
+        let sets = mesh
+            .material_ids
+            .first()
+            .and_then(|&m| materials.get(m as usize))
+            .map_or(0, |m: &Material| m.tex_coord_sets().count());
+        for (t, idx) in mesh.indices.iter().enumerate() {
+            let Some(p) = idx
+                .iter()
+                .map(|&i| mesh.positions.get(i as usize).copied())
+                .collect::<Option<Vec<Vec3>>>()
+            else {
+                continue;
+            };
+            if !Triangle::is_kept(&[p[0], p[1], p[2]]) {
+                continue;
+            }
+            let entries = uv.get(t * sets..(t + 1) * sets).unwrap_or(&[]);
+            out.push(entries).map_err(|e| e.to_string())?;
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::files::LoadOptions;
+    use crate::load::{SceneData, load_gltf, load_gltf_with};
+    use crate::testutil::{Gltf, base64, write};
+    use crate::uri::decode_base64;
+    use std::path::Path;
+
+    /// The linear value of 8-bit sRGB code `c`, as the loader computes it.
+    fn lin(c: u8) -> f32 {
+        srgb_to_linear(f64::from(c) / 255.0) as f32
+    }
+
+    /// A PNG of `data` (rows from the top), through the png crate's encoder.
+    pub(crate) fn png_bytes(
+        width: u32,
+        height: u32,
+        color: png::ColorType,
+        depth: png::BitDepth,
+        palette: Option<&[u8]>,
+        data: &[u8],
+    ) -> Vec<u8> {
+        let mut out = Vec::new();
+        {
+            let mut e = png::Encoder::new(&mut out, width, height);
+            e.set_color(color);
+            e.set_depth(depth);
+            if let Some(p) = palette {
+                e.set_palette(p.to_vec());
+            }
+            let mut w = e.write_header().unwrap_or_else(|e| panic!("{e}"));
+            w.write_image_data(data).unwrap_or_else(|e| panic!("{e}"));
+        }
+        out
+    }
+
+    /// CRC-32 of PNG chunks (ISO 3309, as PNG §5.3 specifies), bit by bit.
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut c = 0xffff_ffffu32;
+        for &b in bytes {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 == 1 {
+                    0xedb8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
+            }
+        }
+        !c
+    }
+
+    /// A valid 1×1 RGB PNG whose header claims `width` × `height` (with a correct CRC, so only
+    /// the size is wrong).
+    pub(crate) fn png_claiming(width: u32, height: u32) -> Vec<u8> {
+        let mut p = png_bytes(
+            1,
+            1,
+            png::ColorType::Rgb,
+            png::BitDepth::Eight,
+            None,
+            &[1, 2, 3],
+        );
+        p[16..20].copy_from_slice(&width.to_be_bytes());
+        p[20..24].copy_from_slice(&height.to_be_bytes());
+        let crc = crc32(&p[12..29]);
+        p[29..33].copy_from_slice(&crc.to_be_bytes());
+        p
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Texture, String> {
+        let mut budget = Budget::for_input(bytes.len() as u64);
+        budget.allow_images();
+        decode_image(bytes, &mut budget)
+    }
+
+    fn texels(t: &Texture) -> Vec<Vec3> {
+        (0..i64::from(t.height()))
+            .flat_map(|y| (0..i64::from(t.width())).map(move |x| (x, y)))
+            .map(|(x, y)| t.texel(x, y))
+            .collect()
+    }
+
+    #[test]
+    fn srgb_eotf_matches_the_standard() {
+        // The ends, the linear segment, and the curve at mid-grey (IEC 61966-2-1:
+        // ((0.5 + 0.055)/1.055)^2.4 = 0.21404114…).
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert!((srgb_to_linear(1.0) - 1.0).abs() < 1e-15);
+        assert!((srgb_to_linear(0.04) - 0.04 / 12.92).abs() < 1e-15);
+        assert!((srgb_to_linear(0.5) - 0.214_041_140_482_232_5).abs() < 1e-12);
+        // Continuous at the joint (to the 1e-6 the standard's rounded constants allow).
+        let joint = 0.04045;
+        assert!((srgb_to_linear(joint) - ((joint + 0.055) / 1.055f64).powf(2.4)).abs() < 1e-6);
+    }
+
+    #[test]
+    fn texture_transform_follows_the_extension() {
+        // Scale then rotate by 90° then offset: (1, 0) → scale (2, 3) → (2, 0) → rotation
+        // [cos sin; −sin cos] → (0, −2) → offset (0.5, 0.25) → (0.5, −1.75).
+        let m = texture_transform([0.5, 0.25], std::f32::consts::FRAC_PI_2, [2.0, 3.0]);
+        let p = m.transform_point2(Vec2::new(1.0, 0.0));
+        assert!(
+            (p - Vec2::new(0.5, -1.75)).abs().max_element() < 1e-6,
+            "{p}"
+        );
+        let q = m.transform_point2(Vec2::new(0.0, 1.0));
+        assert!((q - Vec2::new(3.5, 0.25)).abs().max_element() < 1e-6, "{q}");
+        assert_eq!(
+            texture_transform([0.0; 2], 0.0, [1.0; 2]),
+            Affine2::IDENTITY
+        );
+    }
+
+    #[test]
+    fn formats_are_told_by_their_bytes() {
+        assert_eq!(format_of(&PNG_SIGNATURE), Some(Format::Png));
+        assert_eq!(format_of(&[0xff, 0xd8, 0xff, 0xe0]), Some(Format::Jpeg));
+        assert_eq!(format_of(b"GIF89a"), None);
+        assert_eq!(format_of(&[]), None);
+        let e = decode(b"GIF89a....").err().unwrap_or_default();
+        assert!(e.contains("neither PNG nor JPEG"), "{e}");
+    }
+
+    #[test]
+    fn every_png_colour_type_and_depth_decodes_to_linear_rgb() {
+        use png::{BitDepth, ColorType};
+        let expect = |got: &Texture, want: &[[u8; 3]]| {
+            let want: Vec<Vec3> = want
+                .iter()
+                .map(|c| Vec3::new(lin(c[0]), lin(c[1]), lin(c[2])))
+                .collect();
+            assert_eq!(texels(got), want);
+        };
+        let rgb = png_bytes(
+            2,
+            1,
+            ColorType::Rgb,
+            BitDepth::Eight,
+            None,
+            &[0, 128, 255, 10, 20, 30],
+        );
+        expect(
+            &decode(&rgb).unwrap_or_else(|e| panic!("{e}")),
+            &[[0, 128, 255], [10, 20, 30]],
+        );
+        // Alpha is dropped, whatever its value.
+        let rgba = png_bytes(
+            1,
+            2,
+            ColorType::Rgba,
+            BitDepth::Eight,
+            None,
+            &[1, 2, 3, 0, 4, 5, 6, 255],
+        );
+        expect(
+            &decode(&rgba).unwrap_or_else(|e| panic!("{e}")),
+            &[[1, 2, 3], [4, 5, 6]],
+        );
+        let grey = png_bytes(2, 1, ColorType::Grayscale, BitDepth::Eight, None, &[7, 200]);
+        expect(
+            &decode(&grey).unwrap_or_else(|e| panic!("{e}")),
+            &[[7, 7, 7], [200, 200, 200]],
+        );
+        let grey_alpha = png_bytes(
+            1,
+            1,
+            ColorType::GrayscaleAlpha,
+            BitDepth::Eight,
+            None,
+            &[99, 0],
+        );
+        expect(
+            &decode(&grey_alpha).unwrap_or_else(|e| panic!("{e}")),
+            &[[99, 99, 99]],
+        );
+        let palette = [255, 0, 0, 0, 0, 255];
+        let indexed = png_bytes(
+            2,
+            1,
+            ColorType::Indexed,
+            BitDepth::Eight,
+            Some(&palette),
+            &[1, 0],
+        );
+        expect(
+            &decode(&indexed).unwrap_or_else(|e| panic!("{e}")),
+            &[[0, 0, 255], [255, 0, 0]],
+        );
+        // 1-bit grey: 0b10 in the row's first byte's top bits → white, black.
+        let bits = png_bytes(
+            2,
+            1,
+            ColorType::Grayscale,
+            BitDepth::One,
+            None,
+            &[0b1000_0000],
+        );
+        expect(
+            &decode(&bits).unwrap_or_else(|e| panic!("{e}")),
+            &[[255, 255, 255], [0, 0, 0]],
+        );
+        // 16 bits per sample (big-endian): 0x8000 is 32768/65535 before the EOTF.
+        let deep = png_bytes(
+            1,
+            1,
+            ColorType::Rgb,
+            BitDepth::Sixteen,
+            None,
+            &[0x80, 0, 0xff, 0xff, 0, 0],
+        );
+        let t = decode(&deep).unwrap_or_else(|e| panic!("{e}"));
+        let half = srgb_to_linear(32768.0 / 65535.0) as f32;
+        assert_eq!(texels(&t), vec![Vec3::new(half, 1.0, 0.0)]);
+    }
+
+    /// 16×16 JPEGs, left half sRGB (200, 100, 50), right half (20, 60, 240), made by libjpeg
+    /// (`cjpeg -quality 100 -sample 1x1 -baseline`, and `-progressive`).
+    const JPEG_BASELINE: &str = "/9j/4AAQSkZJRgABAQAAAQABAAD/2wBDAAEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQH/2wBDAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQH/wAARCAAQABADAREAAhEBAxEB/8QAHwAAAQUBAQEBAQEAAAAAAAAAAAECAwQFBgcICQoL/8QAtRAAAgEDAwIEAwUFBAQAAAF9AQIDAAQRBRIhMUEGE1FhByJxFDKBkaEII0KxwRVS0fAkM2JyggkKFhcYGRolJicoKSo0NTY3ODk6Q0RFRkdISUpTVFVWV1hZWmNkZWZnaGlqc3R1dnd4eXqDhIWGh4iJipKTlJWWl5iZmqKjpKWmp6ipqrKztLW2t7i5usLDxMXGx8jJytLT1NXW19jZ2uHi4+Tl5ufo6erx8vP09fb3+Pn6/8QAHwEAAwEBAQEBAQEBAQAAAAAAAAECAwQFBgcICQoL/8QAtREAAgECBAQDBAcFBAQAAQJ3AAECAxEEBSExBhJBUQdhcRMiMoEIFEKRobHBCSMzUvAVYnLRChYkNOEl8RcYGRomJygpKjU2Nzg5OkNERUZHSElKU1RVVldYWVpjZGVmZ2hpanN0dXZ3eHl6goOEhYaHiImKkpOUlZaXmJmaoqOkpaanqKmqsrO0tba3uLm6wsPExcbHyMnK0tPU1dbX2Nna4uPk5ebn6Onq8vP09fb3+Pn6/9oADAMBAAIRAxEAPwDn6/yvP9sD8R6/9Fg/5Nz9uK/86c/6yD8R6/8ARYP+Tc//2Q==";
+    const JPEG_PROGRESSIVE: &str = "/9j/4AAQSkZJRgABAQAAAQABAAD/2wBDAAEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQH/2wBDAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQH/wgARCAAQABADAREAAhEBAxEB/8QAFQABAQAAAAAAAAAAAAAAAAAACAX/xAAWAQEBAQAAAAAAAAAAAAAAAAAJCgj/2gAMAwEAAhADEAAAAZ+V9sCOiwm25OmsgjosJv8A/8QAFBABAAAAAAAAAAAAAAAAAAAAIP/aAAgBAQABBQIf/8QAFBEBAAAAAAAAAAAAAAAAAAAAIP/aAAgBAwEBPwEf/8QAFBEBAAAAAAAAAAAAAAAAAAAAIP/aAAgBAgEBPwEf/8QAFBABAAAAAAAAAAAAAAAAAAAAIP/aAAgBAQAGPwIf/8QAFBABAAAAAAAAAAAAAAAAAAAAIP/aAAgBAQABPyEf/9oADAMBAAIAAwAAABAAD//EABQRAQAAAAAAAAAAAAAAAAAAACD/2gAIAQMBAT8QH//EABQRAQAAAAAAAAAAAAAAAAAAACD/2gAIAQIBAT8QH//EABQQAQAAAAAAAAAAAAAAAAAAACD/2gAIAQEAAT8QH//Z";
+
+    #[test]
+    fn jpegs_decode_to_linear_rgb() {
+        for (name, text) in [
+            ("baseline", JPEG_BASELINE),
+            ("progressive", JPEG_PROGRESSIVE),
+        ] {
+            let bytes = decode_base64(text).unwrap_or_else(|e| panic!("{e}"));
+            let t = decode(&bytes).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!((t.width(), t.height()), (16, 16));
+            // JPEG is lossy: at quality 100 without chroma subsampling libjpeg's own decoder
+            // returns these blocks within 1 code of the input, and IDCTs may differ by one
+            // more code (ITU-T T.83's accuracy bound), so each channel is within ±2 codes.
+            for (x, want) in [(2, [200u8, 100, 50]), (13, [20, 60, 240])] {
+                let got = t.texel(x, 5);
+                for c in 0..3 {
+                    let (lo, hi) = (
+                        lin(want[c].saturating_sub(2)),
+                        lin(want[c].saturating_add(2)),
+                    );
+                    assert!(
+                        (lo..=hi).contains(&got[c]),
+                        "{name}: texel {x}, channel {c}: {} not in [{lo}, {hi}]",
+                        got[c]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn absurd_or_damaged_images_are_refused_before_decoding() {
+        let e = decode(&png_claiming(100_000, 100_000))
+            .err()
+            .unwrap_or_default();
+        assert!(e.contains("100000×100000") && e.contains("16384"), "{e}");
+        let e = decode(&png_claiming(0, 5)).err().unwrap_or_default();
+        assert!(e.contains("empty"), "{e}");
+        // Within the side limit, but the 1×1 image's data cannot fill it: refused by the
+        // decoder before the budget is asked for 16000²·(3 + 12) bytes.
+        let e = decode(&png_claiming(16000, 16000))
+            .err()
+            .unwrap_or_default();
+        assert!(e.starts_with("PNG: "), "{e}");
+        // Past the budget: a 1200² RGB image is 4.3 MB decoded plus 17.3 MB of f32 texels, more
+        // than the 16 MiB a scene gets without the image allowance; refused before its texels
+        // are allocated, and decoded with the allowance.
+        let big = png_bytes(
+            1200,
+            1200,
+            png::ColorType::Rgb,
+            png::BitDepth::Eight,
+            None,
+            &vec![0; 1200 * 1200 * 3],
+        );
+        let e = decode_image(&big, &mut Budget::for_input(0))
+            .err()
+            .unwrap_or_default();
+        assert!(
+            e.starts_with("its linear texels needs 1440000 elements"),
+            "{e}"
+        );
+        assert!(decode(&big).is_ok());
+        // A truncated PNG: the decoder's error, not a panic.
+        let whole = png_bytes(
+            64,
+            64,
+            png::ColorType::Rgb,
+            png::BitDepth::Eight,
+            None,
+            &(0..64 * 64 * 3)
+                .map(|i| (i * 7 % 251) as u8)
+                .collect::<Vec<u8>>(),
+        );
+        for cut in [whole.len() / 2, 40, 20, 9] {
+            let e = decode(&whole[..cut]).err().unwrap_or_default();
+            assert!(e.starts_with("PNG: "), "cut at {cut}: {e}");
+        }
+        // A truncated JPEG is decoded as far as it goes or refused, never a panic.
+        let jpeg = decode_base64(JPEG_BASELINE).unwrap_or_else(|e| panic!("{e}"));
+        for cut in [jpeg.len() / 2, 20, 3] {
+            let _ = decode(&jpeg[..cut]);
+        }
+    }
+
+    /// Damaged images (bytes flipped, set to extreme values, or cut short, a few at a time,
+    /// from a fixed counter-based generator) are refused or decoded, never a panic (a decoded
+    /// one went through `Texture::new`, which checks its texel count against its size).
+    #[test]
+    fn damaged_images_never_panic() {
+        let png = png_bytes(
+            16,
+            16,
+            png::ColorType::Rgba,
+            png::BitDepth::Eight,
+            None,
+            &(0..16 * 16 * 4)
+                .map(|i| (i * 13 % 256) as u8)
+                .collect::<Vec<u8>>(),
+        );
+        let jpegs = [JPEG_BASELINE, JPEG_PROGRESSIVE]
+            .map(|t| decode_base64(t).unwrap_or_else(|e| panic!("{e}")));
+        // SplitMix64 (Steele et al. 2014), one stream per case.
+        let next = |state: &mut u64| {
+            *state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = *state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            z ^ (z >> 31)
+        };
+        for (name, original) in [
+            ("png", &png),
+            ("baseline", &jpegs[0]),
+            ("progressive", &jpegs[1]),
+        ] {
+            for case in 0..300u64 {
+                let mut state = case;
+                let mut bytes = original.clone();
+                for _ in 0..1 + next(&mut state) % 4 {
+                    let at = (next(&mut state) % bytes.len() as u64) as usize;
+                    match next(&mut state) % 4 {
+                        0 => bytes[at] ^= 1 << (next(&mut state) % 8),
+                        1 => bytes[at] = 0xff,
+                        2 => bytes[at] = 0,
+                        _ => bytes.truncate(at.max(1)),
+                    }
+                }
+                let result = std::panic::catch_unwind(|| decode(&bytes));
+                match result {
+                    Err(_) => panic!("{name} case {case}: the decoder panicked"),
+                    Ok(Ok(t)) => assert!(t.width() >= 1 && t.height() >= 1),
+                    Ok(Err(_)) => {}
+                }
+            }
+        }
+    }
+
+    /// A 4-vertex quad with TEXCOORD_0 (normalized u8) and TEXCOORD_1 (float), and `rest` (the
+    /// images, textures, samplers and materials), written as `dir/name`.
+    fn textured_quad(dir: &Path, name: &str, g: &mut Gltf, rest: &str) -> std::path::PathBuf {
+        let p = g.vec3(&[
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ]);
+        let uv0 = g.accessor(
+            &[0, 0, 255, 0, 255, 255, 0, 51],
+            r#""componentType":5121,"normalized":true,"count":4,"type":"VEC2""#,
+        );
+        let uv1_floats: Vec<u8> = [0.0f32, 0.0, 2.0, 0.0, 2.0, -1.0, 0.0, -1.0]
+            .iter()
+            .flat_map(|f| f.to_le_bytes())
+            .collect();
+        let uv1 = g.accessor(
+            &uv1_floats,
+            r#""componentType":5126,"count":4,"type":"VEC2""#,
+        );
+        let i = g.indices(&[0, 1, 2, 0, 2, 3], 5123);
+        let json = g.json(&format!(
+            r#""scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+            "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p},"TEXCOORD_0":{uv0},"TEXCOORD_1":{uv1}}},"indices":{i},"material":0}}]}}],
+            {rest}"#
+        ));
+        write(dir, name, json)
+    }
+
+    #[test]
+    fn a_textured_material_reads_its_images_samplers_and_coordinates() {
+        let d = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let red_green = png_bytes(
+            2,
+            1,
+            png::ColorType::Rgb,
+            png::BitDepth::Eight,
+            None,
+            &[255, 0, 0, 0, 255, 0],
+        );
+        let grey = png_bytes(
+            1,
+            1,
+            png::ColorType::Grayscale,
+            png::BitDepth::Eight,
+            None,
+            &[128],
+        );
+        write(d.path(), "grey file.png", &grey);
+        let mut g = Gltf::default();
+        let view = g.view_of(&red_green);
+        let rest = format!(
+            r#""extensionsUsed":["KHR_texture_transform"],
+            "images":[{{"bufferView":{view},"mimeType":"image/png"}},
+                      {{"uri":"data:image/png;base64,{}"}},
+                      {{"uri":"grey%20file.png","name":"grey"}}],
+            "samplers":[{{"magFilter":9728,"minFilter":9728,"wrapS":33071,"wrapT":33648}},
+                        {{"magFilter":9729,"minFilter":9987}}],
+            "textures":[{{"source":0,"sampler":0}},{{"source":1}},{{"source":2,"sampler":1}}],
+            "materials":[{{"pbrMetallicRoughness":{{"baseColorFactor":[0.5,0.5,0.5,1],
+                "baseColorTexture":{{"index":0,"texCoord":1}}}},
+                "emissiveFactor":[1,1,1],
+                "emissiveTexture":{{"index":2,"extensions":{{"KHR_texture_transform":
+                    {{"offset":[0.5,0],"scale":[2,2],"texCoord":0}}}}}}}}]"#,
+            base64(&grey)
+        );
+        let path = textured_quad(d.path(), "t.gltf", &mut g, &rest);
+        let s: SceneData = load_gltf(&path).unwrap_or_else(|e| panic!("{e}"));
+        // Textures 0 and 2 are read; texture 1 (and with it image 1) is not.
+        assert_eq!(s.textures.len(), 2);
+        let m = s.materials[0];
+        assert_eq!(m.albedo_texture, Some(TextureRef::new(0, 1)));
+        let e = m
+            .emission_texture
+            .unwrap_or_else(|| panic!("no emission texture"));
+        assert_eq!((e.texture, e.tex_coord), (1, 0));
+        assert_eq!(e.transform, texture_transform([0.5, 0.0], 0.0, [2.0, 2.0]));
+        assert_eq!(
+            s.textures[0].sampler(),
+            Sampler {
+                wrap_s: Wrap::ClampToEdge,
+                wrap_t: Wrap::MirroredRepeat,
+                filter: Filter::Nearest
+            }
+        );
+        assert_eq!(s.textures[1].sampler(), Sampler::default());
+        assert_eq!(texels(&s.textures[0]), vec![Vec3::X, Vec3::Y]);
+        assert_eq!(texels(&s.textures[1]), vec![Vec3::splat(lin(128))]);
+        let got: Vec<(&str, usize)> = s
+            .warnings
+            .iter()
+            .map(|w| (w.feature.as_str(), w.count))
+            .collect();
+        for expected in [("textures", 1), ("images", 1), ("min-filter", 1)] {
+            assert!(got.contains(&expected), "missing {expected:?} in {got:?}");
+        }
+        assert!(
+            !got.iter().any(|(f, _)| f.contains("KHR_texture_transform")),
+            "{got:?}"
+        );
+        // The material reads set 1 (albedo), then set 0 (emission): two triples per triangle,
+        // u8 coordinates normalized by 255.
+        let uv0 = [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(0.0, 0.2),
+        ];
+        let uv1 = [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(2.0, 0.0),
+            Vec2::new(2.0, -1.0),
+            Vec2::new(0.0, -1.0),
+        ];
+        let tri = |uv: &[Vec2; 4], t: [usize; 3]| t.map(|i| uv[i]);
+        assert_eq!(
+            s.tex_coords,
+            vec![vec![
+                tri(&uv1, [0, 1, 2]),
+                tri(&uv0, [0, 1, 2]),
+                tri(&uv1, [0, 2, 3]),
+                tri(&uv0, [0, 2, 3]),
+            ]]
+        );
+        // The whole scene builds: the texture coordinates follow the triangles' ids.
+        let loaded = crate::load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+        // Vertex 1 of triangle 0 has TEXCOORD_1 (2, 0): clamped in u to the green texel.
+        assert_eq!(loaded.scene.albedo(0, 1.0, 0.0), Vec3::new(0.0, 0.5, 0.0));
+        // Its centre, TEXCOORD_1 (4/3, −1/3): mirrored in v, still the green column.
+        assert_eq!(
+            loaded.scene.albedo(0, 1.0 / 3.0, 1.0 / 3.0),
+            Vec3::new(0.0, 0.5, 0.0)
+        );
+        assert_eq!(
+            loaded.scene.emitted(0, 0.0, 0.0, Vec3::Z, Vec3::Z),
+            Vec3::splat(lin(128))
+        );
+    }
+
+    #[test]
+    fn bad_textures_are_refused_naming_the_file_and_the_image() {
+        let d = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        std::fs::create_dir(d.path().join("scene")).unwrap_or_else(|e| panic!("{e}"));
+        let grey = png_bytes(
+            1,
+            1,
+            png::ColorType::Grayscale,
+            png::BitDepth::Eight,
+            None,
+            &[128],
+        );
+        write(d.path(), "outside.png", &grey);
+        let material = r#""materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}}]"#;
+        for (case, rest, needles) in [
+            (
+                "index",
+                r#""images":[{"uri":"a.png"}],"textures":[{"source":0}],"materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":5}}}]"#
+                    .to_string(),
+                vec!["baseColorTexture.index", "Index out of bounds"],
+            ),
+            (
+                "outside",
+                format!(
+                    r#""images":[{{"uri":"../outside.png"}}],"textures":[{{"source":0}}],{material}"#
+                ),
+                vec!["image 0", "outside the folder irr reads images from"],
+            ),
+            (
+                "absolute",
+                format!(
+                    r#""images":[{{"uri":"/etc/passwd"}}],"textures":[{{"source":0}}],{material}"#
+                ),
+                vec!["image 0", "absolute path"],
+            ),
+            (
+                "missing",
+                format!(
+                    r#""images":[{{"uri":"nothing.png","name":"wood"}}],"textures":[{{"source":0}}],{material}"#
+                ),
+                vec!["image 0 \"wood\"", "nothing.png", "points nowhere"],
+            ),
+            (
+                "scheme",
+                format!(
+                    r#""images":[{{"uri":"https://example.com/a.png"}}],"textures":[{{"source":0}}],{material}"#
+                ),
+                vec!["image 0", "scheme 'https:'"],
+            ),
+            (
+                "not-an-image",
+                format!(
+                    r#""images":[{{"uri":"data:image/png;base64,{}"}}],"textures":[{{"source":0}}],{material}"#,
+                    base64(b"hello")
+                ),
+                vec!["image 0", "neither PNG nor JPEG"],
+            ),
+            (
+                "huge",
+                format!(
+                    r#""images":[{{"uri":"data:image/png;base64,{}"}}],"textures":[{{"source":0}}],{material}"#,
+                    base64(&png_claiming(100_000, 100_000))
+                ),
+                vec!["image 0", "100000×100000", "16384"],
+            ),
+            (
+                "transform",
+                format!(
+                    r#""extensionsUsed":["KHR_texture_transform"],"images":[{{"uri":"data:image/png;base64,{}"}}],"textures":[{{"source":0}}],
+                    "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0,"extensions":{{"KHR_texture_transform":{{"scale":[1e39,1]}}}}}}}}}}]"#,
+                    base64(&grey)
+                ),
+                vec!["baseColorTexture", "KHR_texture_transform is not finite"],
+            ),
+        ] {
+            let mut g = Gltf::default();
+            let path = textured_quad(
+                &d.path().join("scene"),
+                &format!("{case}.gltf"),
+                &mut g,
+                &rest,
+            );
+            let e = match load_gltf_with(&path, &LoadOptions::default()) {
+                Ok(_) => panic!("{case}: loaded"),
+                Err(e) => e.to_string(),
+            };
+            assert!(e.contains(&format!("{case}.gltf")), "{case}: {e}");
+            assert!(!e.contains('\n'), "{case}: {e}");
+            for n in needles {
+                assert!(e.contains(n), "{case}: no '{n}' in: {e}");
+            }
+        }
+    }
+
+    #[test]
+    fn texture_coordinates_follow_the_ids_of_kept_triangles() {
+        // Mesh 0: a degenerate triangle (dropped by the geometry) between two good ones; mesh
+        // 1, untextured, then mesh 2, textured. Each triangle's coordinates name it.
+        let good = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let mesh = |tris: &[[Vec3; 3]], material: u32| TriangleMesh {
+            positions: tris.iter().flatten().copied().collect(),
+            indices: (0..tris.len() as u32)
+                .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+                .collect(),
+            normals: None,
+            material_ids: vec![material; tris.len()],
+        };
+        let meshes = [
+            mesh(&[good, [Vec3::ZERO, Vec3::X, Vec3::X * 2.0], good], 0),
+            mesh(&[good], 1),
+            mesh(&[good], 0),
+        ];
+        let tag = |k: f32| [Vec2::splat(k); 3];
+        let materials = [
+            Material {
+                albedo_texture: Some(TextureRef::new(0, 0)),
+                ..Material::diffuse(Vec3::ONE)
+            },
+            Material::diffuse(Vec3::ONE),
+        ];
+        let uv = vec![vec![tag(1.0), tag(2.0), tag(3.0)], vec![], vec![tag(4.0)]];
+        let c = tex_coords_by_id(&meshes, &materials, &uv).unwrap_or_else(|e| panic!("{e}"));
+        let geometry = irr_geometry::Geometry::build(&meshes).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(c.triangle_count(), geometry.triangle_count());
+        assert_eq!(c.of(0), [tag(1.0)]);
+        assert_eq!(c.of(1), [tag(3.0)]);
+        assert!(c.of(2).is_empty());
+        assert_eq!(c.of(3), [tag(4.0)]);
+        // No textured material: nothing stored.
+        let plain = [Material::diffuse(Vec3::ONE); 2];
+        assert!(
+            tex_coords_by_id(&meshes, &plain, &uv)
+                .unwrap_or_else(|e| panic!("{e}"))
+                .is_empty()
+        );
+    }
+
+    #[test]
+    fn texture_coordinates_must_be_readable_and_a_missing_set_reads_zero() {
+        let d = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let grey = base64(&png_bytes(
+            1,
+            1,
+            png::ColorType::Grayscale,
+            png::BitDepth::Eight,
+            None,
+            &[9],
+        ));
+        let mut g = Gltf::default();
+        let p = g.vec3(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+        let raw_u8 = g.accessor(&[0; 6], r#""componentType":5121,"count":3,"type":"VEC2""#);
+        let short = g.accessor(&[0; 8], r#""componentType":5126,"count":1,"type":"VEC2""#);
+        let nan: Vec<u8> = [0.0f32, f32::NAN, 0.0, 0.0, 0.0, 0.0]
+            .iter()
+            .flat_map(|f| f.to_le_bytes())
+            .collect();
+        let nan = g.accessor(&nan, r#""componentType":5126,"count":3,"type":"VEC2""#);
+        let u16s: Vec<u8> = [0u16, 65535, 32768, 0, 0, 0]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let u16s = g.accessor(
+            &u16s,
+            r#""componentType":5123,"normalized":true,"count":3,"type":"VEC2""#,
+        );
+        let rest = |texcoord: &str| {
+            g.json(&format!(
+                r#""scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+                "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p}{texcoord}}},"material":0}}]}}],
+                "images":[{{"uri":"data:image/png;base64,{grey}"}}],"textures":[{{"source":0}}],
+                "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0}}}}}}]"#
+            ))
+        };
+        for (case, attribute, needle) in [
+            ("raw", format!(r#","TEXCOORD_0":{raw_u8}"#), "normalized"),
+            (
+                "count",
+                format!(r#","TEXCOORD_0":{short}"#),
+                "TEXCOORD_0 has 1 elements but POSITION has 3",
+            ),
+            (
+                "nan",
+                format!(r#","TEXCOORD_0":{nan}"#),
+                "TEXCOORD_0 element 0 is not finite",
+            ),
+        ] {
+            let e = match load_gltf(&write(d.path(), &format!("{case}.gltf"), rest(&attribute))) {
+                Ok(_) => panic!("{case}: loaded"),
+                Err(e) => e.to_string(),
+            };
+            assert!(e.contains(needle), "{case}: {e}");
+        }
+        let ok = load_gltf(&write(
+            d.path(),
+            "u16.gltf",
+            rest(&format!(r#","TEXCOORD_0":{u16s}"#)),
+        ))
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            ok.tex_coords,
+            vec![vec![[
+                Vec2::new(0.0, 1.0),
+                Vec2::new(32768.0 / 65535.0, 0.0),
+                Vec2::ZERO
+            ]]]
+        );
+        let missing =
+            load_gltf(&write(d.path(), "none.gltf", rest(""))).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(missing.tex_coords, vec![vec![[Vec2::ZERO; 3]]]);
+        assert!(
+            missing
+                .warnings
+                .iter()
+                .any(|w| w.feature == "missing-texcoord"),
+            "{:?}",
+            missing.warnings
+        );
+    }
+}
