@@ -1,8 +1,10 @@
 //! irr's integrators: given a scene and a ray, estimate the radiance arriving along it.
 //!
 //! # What it owns
-//! - [`Scene`]: geometry plus Lambertian [`Material`]s (albedo, emission, sidedness) and the
-//!   [`LightSampler`] over emitting triangles (by power, then uniformly by area).
+//! - [`Scene`]: geometry plus Lambertian [`Material`]s (albedo, emission, sidedness), the
+//!   [`PunctualLight`]s (glTF's point, spot and directional lights, in glTF's units read as
+//!   irr's: no 683 lm/W factor), a constant background radiance, and the [`LightSampler`] over
+//!   emitting triangles and punctual lights (by power, then uniformly by area on a triangle).
 //! - The [`Integrator`] interface (pbrt-v4's `RayIntegrator::Li`): radiance along one ray, with
 //!   random numbers from an `irr_sampling::rng::Dimensions` cursor.
 //! - [`PathTracer`]: the unbiased reference (NEE + BSDF sampling with MIS, Russian roulette). Its
@@ -53,6 +55,7 @@ pub mod ic;
 mod integrator;
 mod light;
 pub mod path;
+mod punctual;
 mod scene;
 
 pub use ao::{AmbientOcclusion, AoSettings};
@@ -63,7 +66,10 @@ pub use ic::{
 pub use integrator::{Integrator, RayCounter};
 pub use light::{LightSample, LightSampler};
 pub use path::{PathSettings, PathTracer, Radiance};
+pub use punctual::{Incidence, PunctualLight};
 pub use scene::{Material, Scene, SceneError};
 
+#[cfg(test)]
+mod light_tests;
 #[cfg(test)]
 mod tests;
