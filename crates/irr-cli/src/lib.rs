@@ -4,7 +4,8 @@
 //! # What it owns
 //! - [`RenderArgs`]: every render option (integrator, size, samples, seed, threads, exposure,
 //!   the irradiance cache's settings, `--cache`, `--show-records`, `--debug-pixel`,
-//!   `--asset-root`), parsed with clap, each checked with a one-line error naming the option.
+//!   `--asset-root`, `--background`), parsed with clap, each checked with a one-line error
+//!   naming the option.
 //! - [`run`]: load, build the cache, render, write; used by the `irr` binary (scene as a
 //!   positional argument, output `<scene stem>.exr` in the current directory by default) and by
 //!   `cargo xtask render` (the workspace's default scene, output in out/).

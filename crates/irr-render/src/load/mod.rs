@@ -13,23 +13,31 @@
 //!   from its front face (counter-clockwise winding). A primitive without a material gets glTF's
 //!   default material (white, albedo 1), with a warning.
 //! - The first perspective camera met in a depth-first walk of the scene's nodes.
+//! - `KHR_lights_punctual` (lights.rs): every point, spot and directional light that a node of
+//!   the scene places, at the node's world position, shining along the node's −Z; `intensity` ×
+//!   `color` in candela (point, spot) or lux (directional), taken in the unit of irr's emitted
+//!   radiance (no 683 lm/W factor, see irr-integrator's `PunctualLight`); a spot's
+//!   `innerConeAngle` and `outerConeAngle` with glTF's smooth falloff.
 //!
 //! # What irr ignores, always with a warning
 //! Textures and images, metallic reflection (`metallicFactor > 0`), transparency (`alphaMode`
 //! other than `OPAQUE`), vertex colours, morph targets, skins, animations, points and lines,
-//! orthographic cameras, other scenes, and every extension except
-//! `KHR_materials_emissive_strength` (lights, transmission, …). Each becomes one [`Warning`] with
-//! a count. glTF's dielectric specular layer (the 4 % reflection of its metallic-roughness BRDF
-//! at `metallicFactor = 0`) is not modelled: irr's surfaces are Lambertian.
+//! orthographic cameras, other scenes, a light's `range` (a non-physical cut-off), lights no
+//! node of the scene places, and every extension except `KHR_materials_emissive_strength` and
+//! `KHR_lights_punctual` (transmission, …). Each becomes one [`Warning`] with a count. glTF's
+//! dielectric specular layer (the 4 % reflection of its metallic-roughness BRDF at
+//! `metallicFactor = 0`) is not modelled: irr's surfaces are Lambertian.
 //!
 //! # What irr refuses, with a [`RenderError`]
 //! Files it cannot read or parse, buffers that point nowhere or are shorter than declared,
 //! accessors out of range, indices past the vertex count, non-finite coordinates or coordinates
-//! beyond [`MAX_COORDINATE`], non-finite or negative emission, and required extensions it does
-//! not support.
+//! beyond [`MAX_COORDINATE`], non-finite or negative emission, lights with a non-finite or
+//! negative intensity or colour, spot cone angles outside 0 ≤ inner ≤ outer ≤ π/2 (outer > 0),
+//! and required extensions it does not support.
 
 mod buffers;
 mod json;
+mod lights;
 mod materials;
 mod mesh;
 mod nodes;
@@ -44,7 +52,7 @@ use crate::files::{Budget, Confinement, LoadOptions, MAX_JSON_BYTES, read_scene_
 use crate::glb;
 use glam::Vec3;
 use irr_geometry::TriangleMesh;
-use irr_integrator::Material;
+use irr_integrator::{Material, PunctualLight};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -55,8 +63,8 @@ use std::path::{Path, PathBuf};
 /// Beyond this a scene overflows to infinity inside the intersection code.
 pub const MAX_COORDINATE: f32 = 1e18;
 
-/// The one extension irr reads.
-const SUPPORTED_EXTENSIONS: [&str; 1] = ["KHR_materials_emissive_strength"];
+/// The extensions irr reads.
+const SUPPORTED_EXTENSIONS: [&str; 2] = ["KHR_materials_emissive_strength", "KHR_lights_punctual"];
 
 /// A feature of the file that irr ignored, with how many times it occurs.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -90,10 +98,13 @@ pub struct SceneData {
     pub materials: Vec<Material>,
     /// The file's first perspective camera, if any.
     pub camera: Option<Camera>,
+    /// The `KHR_lights_punctual` lights the scene's nodes place, in world space, in the
+    /// depth-first order of the nodes.
+    pub lights: Vec<PunctualLight>,
     /// Everything irr ignored, one entry per feature.
     pub warnings: Vec<Warning>,
-    /// The number of triangles whose material emits (a scene with none renders black under the
-    /// path tracer).
+    /// The number of triangles whose material emits (a scene with none, and no light, renders
+    /// black under the path tracer unless given a background).
     pub emissive_triangles: usize,
     /// The bounds of every vertex, `None` for a scene without triangles.
     pub bounds: Option<(Vec3, Vec3)>,
@@ -271,7 +282,15 @@ impl<'a> Loader<'a> {
         let mut meshes = Vec::new();
         let mut camera = None;
         let mut used_default_material = 0;
+        let mut lights = Vec::new();
+        let mut placed = vec![false; self.light_count()];
         for (node, world) in self.walk_nodes()? {
+            if let Some(index) = lights::light_index(self.document, &node) {
+                lights.push(self.light(&node, world, index)?);
+                if let Some(p) = placed.get_mut(index) {
+                    *p = true;
+                }
+            }
             if let Some(cam) = node.camera() {
                 match cam.projection() {
                     gltf::camera::Projection::Perspective(p) if camera.is_none() => {
@@ -335,9 +354,14 @@ impl<'a> Loader<'a> {
                     .is_some_and(|m| m.emission.max_element() > 0.0)
             })
             .count();
-        if emissive_triangles == 0 {
+        self.count_unplaced_lights(&placed);
+        let emitting_lights = lights
+            .iter()
+            .filter(|l| l.strength().max_element() > 0.0)
+            .count();
+        if emissive_triangles == 0 && emitting_lights == 0 {
             self.warnings.add("no-emitter", 1, |_| {
-                "the scene has no emissive triangles: the image will be black (ambient occlusion does not need them)".to_string()
+                "the scene has no emissive triangles and no lights: the image will be black unless lit by a background (ambient occlusion needs no light)".to_string()
             });
         }
         let bounds = meshes.iter().flat_map(|m| m.positions.iter()).fold(
@@ -354,6 +378,7 @@ impl<'a> Loader<'a> {
             meshes,
             materials,
             camera,
+            lights,
             warnings: self.warnings.finish(),
             emissive_triangles,
             bounds,
