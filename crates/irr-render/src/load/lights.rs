@@ -396,6 +396,46 @@ mod tests {
         }
     }
 
+    /// Malformed extension JSON is an error naming the file, never a panic: a node that places
+    /// a light when the file defines none, lights that are not a list, a spot of strings, a
+    /// light index of the wrong type.
+    #[test]
+    fn malformed_lights_are_errors() {
+        let mut g = Gltf::default();
+        let p = g.vec3(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]]);
+        let mesh = format!(r#""meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p}}}}}]}}]"#);
+        for (root, node) in [
+            ("", r#"{"light":0}"#),
+            (
+                r#""extensions":{"KHR_lights_punctual":{"lights":{}}},"#,
+                r#"{"light":0}"#,
+            ),
+            (
+                r#""extensions":{"KHR_lights_punctual":{"lights":[{"type":"spot","spot":{"outerConeAngle":"wide"}}]}},"#,
+                r#"{"light":0}"#,
+            ),
+            (
+                r#""extensions":{"KHR_lights_punctual":{"lights":[{"type":"point"}]}},"#,
+                r#"{"light":-1}"#,
+            ),
+            (
+                r#""extensions":{"KHR_lights_punctual":{"lights":[{"type":"point"}]}},"#,
+                r#"{"light":"0"}"#,
+            ),
+            (
+                r#""extensions":{"KHR_lights_punctual":{"lights":[{"intensity":1}]}},"#,
+                r#"{"light":0}"#,
+            ),
+        ] {
+            let json = g.json(&format!(
+                r#"{root}"scene":0,"scenes":[{{"nodes":[0,1]}}],
+                "nodes":[{{"mesh":0}},{{"extensions":{{"KHR_lights_punctual":{node}}}}}],{mesh}"#
+            ));
+            let e = load(json).err().unwrap_or_default();
+            assert!(e.contains("lights.gltf: "), "{root} {node}: {e}");
+        }
+    }
+
     /// Equal cone angles (Blender's spot with blend 0) load as a hard-edged cone; π/2, written
     /// at double precision, rounds to an f32 just above π/2 and still loads.
     #[test]
