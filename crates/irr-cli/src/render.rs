@@ -567,6 +567,41 @@ mod tests {
         }
     }
 
+    /// `--background` reaches the scene: assets/ao-plane.gltf is a plane of albedo 0.5 under
+    /// nothing, filling the camera's view, so under a background L every path-traced sample is
+    /// 0.5·L (the cosine sample always escapes; one f32 product, exact here: 0.5 times a power
+    /// of two), and so is every pixel of the EXR written.
+    #[test]
+    fn the_background_lights_the_scene() {
+        let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let out = dir.path().join("plane.exr");
+        let cli = Cli::try_parse_from([
+            "render",
+            "--integrator",
+            "path",
+            "--width",
+            "4",
+            "--height",
+            "4",
+            "--spp",
+            "2",
+            "--background",
+            "0.5,1,2",
+        ])
+        .unwrap_or_else(|e| panic!("{e}"));
+        let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/ao-plane.gltf");
+        run(cli.args, &scene, &out).unwrap_or_else(|e| panic!("{e}"));
+        let image = irr_render::Image::read_exr(&out).unwrap_or_else(|e| panic!("{e}"));
+        assert!(
+            image
+                .pixels()
+                .iter()
+                .all(|p| *p == glam::Vec3::new(0.25, 0.5, 1.0)),
+            "{:?}",
+            image.pixels()
+        );
+    }
+
     #[test]
     fn bad_pixels_are_refused() {
         assert!(parse_pixel("3").is_err());
