@@ -44,12 +44,12 @@ pub enum LightSample {
 pub struct LightSampler {
     /// Emitting triangle ids.
     triangles: Vec<u32>,
-    /// The punctual lights of non-zero power.
-    punctual: Vec<PunctualLight>,
     /// Their areas.
     areas: Vec<f32>,
     /// Their unit winding normals, computed once here rather than per sample.
     normals: Vec<Vec3>,
+    /// The punctual lights of non-zero power.
+    punctual: Vec<PunctualLight>,
     /// Probability of choosing each entry.
     probabilities: Vec<f32>,
     /// cdf[i] = probability of choosing one of entries 0..=i; the last entry is exactly 1.

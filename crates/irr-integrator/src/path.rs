@@ -160,10 +160,10 @@ pub struct LightArrival {
 
 /// One next-event-estimation sample at `x`: a light chosen by power and, on an emitting
 /// triangle, a point uniformly by area (two draws of `dims`, a 1-D one for the choice and a 2-D
-/// one for the point, always both, whatever the light chosen), then a shadow ray. `None` when the sample carries no light: no light, a
-/// direction below the shading or the geometric surface, the emitter's back, outside a spot's
-/// cone, or an occluder. The path tracer weighs the arrival against BSDF sampling; the
-/// irradiance cache's direct light takes it alone.
+/// one for the point, always both, whatever the light chosen), then a shadow ray. `None` when
+/// the sample carries no light: no light, a direction below the shading or the geometric
+/// surface, the emitter's back, outside a spot's cone, or an occluder. The path tracer weighs
+/// the arrival against BSDF sampling; the irradiance cache's direct light takes it alone.
 pub fn sample_light(
     scene: &Scene,
     x: &ShadingPoint,
