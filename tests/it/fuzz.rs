@@ -178,13 +178,20 @@ fn generated_scene() -> (Value, Vec<u8>) {
     let json = json!({
         "asset": {"version": "2.0", "generator": "irr fuzz seed"},
         "extensionsUsed": ["KHR_materials_emissive_strength", "KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [
+            {"type": "point", "intensity": 3, "color": [1, 0.5, 0.25], "range": 10},
+            {"type": "spot", "intensity": 5, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.7}},
+            {"type": "directional", "intensity": 1.5, "name": "sun"}
+        ]}},
         "scene": 0,
         "scenes": [{"nodes": [0, 3]}],
         "nodes": [
-            {"children": [1, 2], "translation": [0, 0, -2], "rotation": [0, 0, 0, 1], "scale": [1, 1, 1]},
-            {"mesh": 0, "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1], "extras": [1]},
+            {"children": [1, 2], "translation": [0, 0, -2], "rotation": [0, 0, 0, 1], "scale": [1, 1, 1],
+             "extensions": {"KHR_lights_punctual": {"light": 0}}},
+            {"mesh": 0, "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1], "extras": [1],
+             "extensions": {"KHR_lights_punctual": {"light": 1}}},
             {"mesh": 1, "scale": [-1, 1, 1]},
-            {"camera": 0, "translation": [0.5, 0.5, 2]}
+            {"camera": 0, "translation": [0.5, 0.5, 2], "extensions": {"KHR_lights_punctual": {"light": 2}}}
         ],
         "cameras": [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.01, "zfar": 100, "aspectRatio": 1.5}}],
         "meshes": [

@@ -8,6 +8,7 @@ mod fuzz;
 mod geometry;
 mod hostile;
 mod ic;
+mod lights;
 mod render;
 mod sampling;
 mod signals;

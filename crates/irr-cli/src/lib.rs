@@ -4,7 +4,7 @@
 //! # What it owns
 //! - [`RenderArgs`]: every render option (integrator, size, samples, seed, threads, exposure,
 //!   `--camera`, `--aov`, the irradiance cache's settings, `--cache`, `--show-records`,
-//!   `--debug-pixel`, `--asset-root`), parsed with clap, each checked with a one-line error
+//!   `--debug-pixel`, `--asset-root`, `--background`), parsed with clap, each checked with a one-line error
 //!   naming the option. A missing `--width` or `--height` follows from the other and the
 //!   camera's aspect ratio.
 //! - [`run`]: load, build the cache, render, write the EXR (colour, AOVs, chromaticities and

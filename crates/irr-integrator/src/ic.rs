@@ -5,17 +5,24 @@
 //! # What each part of a pixel carries
 //! The radiance leaving the first surface x₀ towards the camera is split exactly as
 //! [`crate::PathTracer::li_split`] splits it (see [`crate::path`]):
-//! - `emitted`: Le(x₀), paths `L E`;
+//! - `emitted`: Le(x₀), or the background B when the camera ray leaves the scene: paths `L E`
+//!   and `L B`;
 //! - `direct`: next-event estimation at x₀ ([`IcSettings::direct_samples`] light samples), paths
 //!   `L D E`. NEE alone covers every such path (the light sampler reaches every point of every
-//!   emitter), so no BSDF-sampled emitter hit is needed;
-//! - `indirect`: (ρ(x₀)/π)·E_ind(x₀), paths `L D D+ E`, with E_ind interpolated from the cache.
+//!   emitting triangle, and every punctual light), so no BSDF-sampled emitter hit is needed;
+//! - `indirect`: (ρ(x₀)/π)·E_ind(x₀), paths `L D D+ E` and `L D+ B`, with E_ind interpolated
+//!   from the cache. **The background's light that reflects is here**, as in the path tracer:
+//!   the cache stores the irradiance due to the background as well as to reflected light
+//!   (Radiance, likewise, computes its sky's diffuse light in the ambient calculation), so a
+//!   gather ray that leaves the scene brings back B.
 //!
 //! A record's gather at x traces one cosine-distributed ray per cell of an M×N
 //! [`HemisphereStrata`]; the radiance a ray brings back from the point x₁ it hits is what x₁
 //! *reflects* towards x (its emission excluded: that is x's `direct`): NEE at x₁ plus x₁'s own
 //! indirect part, either path-traced ([`BounceMode::PathTraced`], `PathTracer::reflected`) or
 //! looked up in the cache of the next bounce level ([`BounceMode::Cached`], Radiance's `-ab`).
+//! A ray that hits nothing brings back the background B. Punctual lights reach the gathers
+//! through the NEE at x₁ (`sample_light`, shared with the path tracer).
 //! The deepest cached level's gathers always path-trace the rest, so no bounce is cut off and
 //! the image converges to the path tracer's as the error parameter tightens.
 //!
@@ -932,7 +939,8 @@ fn to_rgb_record<V: IcValue>(r: &Record<V>) -> Record<Rgb> {
 }
 
 /// Direct light at `x` by next-event estimation alone: the mean of `samples` light samples of
-/// f·Le·cos θ / pdf (unbiased for area lights, which the light sampler reaches everywhere).
+/// f·Le·cos θ / pdf (unbiased: the light sampler reaches every point of every emitting triangle
+/// and every punctual light; the background's light is not direct, see the module docs).
 pub fn direct_nee(
     scene: &Scene,
     x: &ShadingPoint,
@@ -1024,7 +1032,11 @@ impl IrradianceCacheIntegrator {
     ) -> Radiance {
         rays.closest += 1;
         let Some(hit) = scene.geometry().intersect(ray) else {
-            return Radiance::default();
+            // The camera sees the background: a path `L B`.
+            return Radiance {
+                emitted: scene.background(),
+                ..Radiance::default()
+            };
         };
         let surface = scene.geometry().surface(ray, &hit);
         let wo = -ray.direction.normalize();
@@ -1068,7 +1080,7 @@ impl IrradianceCacheIntegrator {
     }
 
     /// What a gather ray of `level` brings back from `hit` travelling against `w`: what the
-    /// hit point reflects (its emission excluded).
+    /// hit point reflects (its emission excluded), or the background if the ray hit nothing.
     fn gather_radiance(
         &self,
         scene: &Scene,
@@ -1079,7 +1091,8 @@ impl IrradianceCacheIntegrator {
         rays: &mut RayCounter,
     ) -> Vec3 {
         let Some(surface) = hit else {
-            return Vec3::ZERO;
+            // The ray left the scene: the background's light belongs to `indirect`.
+            return scene.background();
         };
         let mut dims = Dimensions::starting_at(key, 1);
         let deepest = level + 1 >= self.core.levels.len();

@@ -2,9 +2,11 @@
 //!
 //! # What it owns
 //! - [`Scene`]: geometry plus Lambertian [`Material`]s (albedo, emission, sidedness, each factor
-//!   optionally times a [`Texture`] read at the point's [`TexCoords`]) and the [`LightSampler`]
-//!   over emitting triangles (by power, then uniformly by area). Integrators read a point's
-//!   albedo and emission through [`Scene::albedo`] and [`Scene::emitted`].
+//!   optionally times a [`Texture`] read at the point's [`TexCoords`]), the [`PunctualLight`]s
+//!   (glTF's point, spot and directional lights, in glTF's units read as irr's: no 683 lm/W
+//!   factor), a constant background radiance, and the [`LightSampler`] over emitting triangles
+//!   and punctual lights (by power, then uniformly by area on a triangle). Integrators read a
+//!   point's albedo and emission through [`Scene::albedo`] and [`Scene::emitted`].
 //! - [`Texture`]: linear RGB images with glTF's wrap modes and nearest or bilinear filtering.
 //! - The [`Integrator`] interface (pbrt-v4's `RayIntegrator::Li`): radiance along one ray, with
 //!   random numbers from an `irr_sampling::rng::Dimensions` cursor, whole (`li`) or split by
@@ -58,6 +60,7 @@ pub mod ic;
 mod integrator;
 mod light;
 pub mod path;
+mod punctual;
 mod scene;
 mod texture;
 
@@ -69,10 +72,13 @@ pub use ic::{
 pub use integrator::{FirstHit, Integrator, RayCounter, first_hit};
 pub use light::{LightSample, LightSampler};
 pub use path::{PathSettings, PathTracer, Radiance};
+pub use punctual::{Incidence, PunctualLight};
 pub use scene::{Material, Scene, SceneError};
 pub use texture::{
     Filter, Sampler, TexCoords, Texture, TextureError, TextureRef, TooManyTexCoords, Wrap,
 };
 
+#[cfg(test)]
+mod light_tests;
 #[cfg(test)]
 mod tests;

@@ -1,35 +1,50 @@
-//! Sampling points on the emitting triangles.
+//! Sampling the lights: points on the emitting triangles, and the punctual lights.
 //!
-//! A light sample picks one emitting triangle with probability proportional to its emitted power,
-//! then a point uniformly by area on it (pbrt-v4's `PowerLightSampler` followed by
+//! A light sample picks one light with probability proportional to its emitted power (pbrt-v4's
+//! `PowerLightSampler`), then, for a triangle, a point uniformly by area on it (pbrt-v4's
 //! `Triangle::Sample`). The power of a triangle of area A emitting radiance Le from s sides
-//! (1 or 2) is Φ = π·A·s·Le; the channels are averaged into one scalar for the choice. (For a
-//! textured emitter, `Scene` passes Le = the emission factor × the texture's mean: the choice
-//! only, the sampled point's radiance is read from the texture.)
+//! (1 or 2) is Φ = π·A·s·Le; a punctual light's is [`PunctualLight::power`]; the channels are
+//! averaged into one scalar for the choice. Lights of zero power are left out: they light
+//! nothing. (For a textured emitter, `Scene` passes Le = the emission factor × the texture's
+//! mean: the choice only, the sampled point's radiance is read from the texture.)
 
+use crate::punctual::PunctualLight;
 use crate::scene::Material;
 use glam::{Vec2, Vec3};
 use irr_geometry::Geometry;
 use irr_sampling::{sample_uniform_triangle, uniform_triangle_pdf};
 
-/// A point on an emitter, chosen by [`LightSampler::sample`].
+/// A light chosen by [`LightSampler::sample`].
 #[derive(Clone, Copy, Debug)]
-pub struct LightSample {
-    /// The point.
-    pub position: Vec3,
-    /// The triangle's winding normal (unit), not flipped.
-    pub normal: Vec3,
-    /// The emitting triangle's id.
-    pub triangle: u32,
-    /// The point's barycentric coordinate of vertex 1 (an emissive texture is read there).
-    pub b1: f32,
-    /// The point's barycentric coordinate of vertex 2.
-    pub b2: f32,
-    /// Probability density of choosing this point, per unit area (choice of triangle × 1/area).
-    pub pdf_area: f32,
+pub enum LightSample {
+    /// A point on an emitting triangle.
+    Area {
+        /// The point.
+        position: Vec3,
+        /// The triangle's winding normal (unit), not flipped.
+        normal: Vec3,
+        /// The emitting triangle's id.
+        triangle: u32,
+        /// The point's barycentric coordinate of vertex 1 (an emissive texture is read there).
+        b1: f32,
+        /// The point's barycentric coordinate of vertex 2.
+        b2: f32,
+        /// Probability density of choosing this point, per unit area (choice of triangle ×
+        /// 1/area).
+        pdf_area: f32,
+    },
+    /// A punctual light (a delta distribution: chosen, never sampled within).
+    Punctual {
+        /// The light.
+        light: PunctualLight,
+        /// The probability of choosing it.
+        probability: f32,
+    },
 }
 
-/// The emitting triangles with a cumulative distribution by power.
+/// The emitting triangles and the punctual lights, with a cumulative distribution by power.
+/// Entries `0..triangles.len()` of the distribution are the triangles, the rest the punctual
+/// lights in their order.
 #[derive(Clone, Debug, Default)]
 pub struct LightSampler {
     /// Emitting triangle ids.
@@ -38,9 +53,11 @@ pub struct LightSampler {
     areas: Vec<f32>,
     /// Their unit winding normals, computed once here rather than per sample.
     normals: Vec<Vec3>,
-    /// Probability of choosing each.
+    /// The punctual lights of non-zero power.
+    punctual: Vec<PunctualLight>,
+    /// Probability of choosing each entry.
     probabilities: Vec<f32>,
-    /// cdf[i] = probability of choosing one of triangles 0..=i; the last entry is exactly 1.
+    /// cdf[i] = probability of choosing one of entries 0..=i; the last entry is exactly 1.
     cdf: Vec<f32>,
     /// For every triangle of the geometry, its index in `triangles`, or `u32::MAX`.
     light_of_triangle: Vec<u32>,
@@ -49,6 +66,17 @@ pub struct LightSampler {
 impl LightSampler {
     /// Collects the emitting triangles of `geometry`.
     pub fn new(geometry: &Geometry, materials: &[Material]) -> Self {
+        Self::with_punctual(geometry, materials, &[])
+    }
+
+    /// Collects the emitting triangles of `geometry` and the punctual lights `lights`.
+    /// Directional lights' power needs the radius of the scene's bounding sphere, taken from the
+    /// geometry's bounds (1 if it has none, e.g. no triangles).
+    pub fn with_punctual(
+        geometry: &Geometry,
+        materials: &[Material],
+        lights: &[PunctualLight],
+    ) -> Self {
         let mut s = Self {
             light_of_triangle: vec![u32::MAX; geometry.triangle_count()],
             ..Self::default()
@@ -78,6 +106,20 @@ impl LightSampler {
             s.normals.push(tri.normal());
             powers.push(power);
         }
+        let (lo, hi) = geometry.bounds();
+        let radius = 0.5 * f64::from((hi - lo).length());
+        let radius = if radius.is_finite() && radius > 0.0 {
+            radius
+        } else {
+            1.0
+        };
+        for light in lights {
+            let power = light.power(radius);
+            if power > 0.0 && power.is_finite() {
+                s.punctual.push(*light);
+                powers.push(power);
+            }
+        }
         // Accumulate in f64 so that thousands of small emitters do not lose their share.
         let total: f64 = powers.iter().sum();
         let mut running = 0.0f64;
@@ -92,34 +134,47 @@ impl LightSampler {
         s
     }
 
-    /// Number of emitting triangles.
+    /// Number of lights: emitting triangles plus punctual lights.
     #[inline]
     pub fn len(&self) -> usize {
-        self.triangles.len()
+        self.cdf.len()
     }
 
-    /// Whether the scene has no emitter.
+    /// Whether the scene has no light.
     #[inline]
     pub fn is_empty(&self) -> bool {
-        self.triangles.is_empty()
+        self.cdf.is_empty()
     }
 
-    /// Chooses an emitter with `u_choice` ∈ [0, 1) and a point on it with `u_point` ∈ [0, 1)².
+    /// Number of punctual lights (those of non-zero power).
+    #[inline]
+    pub fn punctual_count(&self) -> usize {
+        self.punctual.len()
+    }
+
+    /// Chooses a light with `u_choice` ∈ [0, 1) and, for a triangle, a point on it with
+    /// `u_point` ∈ [0, 1)² (unused for a punctual light: the caller draws it either way, so the
+    /// number of random dimensions per sample never depends on the light chosen).
     pub fn sample(&self, geometry: &Geometry, u_choice: f32, u_point: Vec2) -> Option<LightSample> {
-        if self.triangles.is_empty() {
+        if self.cdf.is_empty() {
             return None;
         }
         // The first entry whose cumulative probability exceeds u_choice.
         let i = self
             .cdf
             .partition_point(|&c| c <= u_choice)
-            .min(self.triangles.len() - 1);
-        let id = self.triangles[i];
+            .min(self.cdf.len() - 1);
+        let Some(&id) = self.triangles.get(i) else {
+            return Some(LightSample::Punctual {
+                light: self.punctual[i - self.triangles.len()],
+                probability: self.probabilities[i],
+            });
+        };
         let tri = geometry.triangle(id);
         let b = sample_uniform_triangle(u_point);
         // `Triangle::point` keeps the point within half an ulp of the triangle's plane, the
         // accuracy `Ray::spawn_to` assumes when it offsets the shadow ray's end off the light.
-        Some(LightSample {
+        Some(LightSample::Area {
             position: tri.point(b[1], b[2]),
             normal: self.normals[i],
             triangle: id,
@@ -127,6 +182,23 @@ impl LightSampler {
             b2: b[2],
             pdf_area: self.probabilities[i] * uniform_triangle_pdf(self.areas[i]),
         })
+    }
+
+    /// The probability with which [`Self::sample`] chooses punctual light `index` (in the order
+    /// of [`Self::punctual_lights`]); zero past the end.
+    #[inline]
+    pub fn punctual_probability(&self, index: usize) -> f32 {
+        self.probabilities
+            .get(self.triangles.len() + index)
+            .copied()
+            .filter(|_| index < self.punctual.len())
+            .unwrap_or(0.0)
+    }
+
+    /// The punctual lights the sampler chooses among (those of non-zero power).
+    #[inline]
+    pub fn punctual_lights(&self) -> &[PunctualLight] {
+        &self.punctual
     }
 
     /// The density per unit area with which [`Self::sample`] picks a point on `triangle`: zero

@@ -2,25 +2,37 @@
 //! sampling on Lambertian surfaces.
 //!
 //! # Which light paths each part carries
-//! Number the path's surface vertices x₀ (the one the camera ray hits), x₁, x₂, … Every
-//! contribution ends at an emitter vertex reached either by next-event estimation (NEE) from xₖ or
-//! by the BSDF-sampled ray from xₖ hitting an emitter at xₖ₊₁; the two are combined by the power
-//! heuristic, so each path is counted once in total weight. [`Radiance`] splits the estimate by the
-//! vertex the light *reflects* at last before the camera, i.e. by the number of bounces:
+//! Number the path's surface vertices x₀ (the one the camera ray hits), x₁, x₂, … The light
+//! comes from three kinds of source: emitting triangles, punctual lights (points and directions:
+//! delta distributions), and the background (a constant radiance B in every direction in which a
+//! ray leaves the scene). An emitting triangle is reached either by next-event estimation (NEE)
+//! from xₖ or by the BSDF-sampled ray from xₖ hitting it at xₖ₊₁; the two are combined by the
+//! power heuristic, so each path is counted once in total weight. A punctual light is reached by
+//! NEE only (no sampled direction can hit a point or a single direction), so its NEE sample has
+//! weight 1. The background is reached by BSDF sampling only (no light sample picks it; cosine
+//! sampling is the right importance sampling for a uniform environment), so an escaping BSDF ray
+//! has weight 1. [`Radiance`] splits the estimate by the vertex the light *reflects* at last
+//! before the camera, i.e. by the number of bounces, and by the source:
 //!
-//! - `emitted`: Le(x₀ → camera). Paths `L E` (Heckbert's notation).
-//! - `direct`: light that reflects once, at x₀: NEE from x₀ plus, MIS-weighted, the emission
-//!   found at x₁ by x₀'s BSDF sample. Paths `L D E`.
-//! - `indirect`: light that reflects at least twice: everything from NEE at x₁ and emission at x₂
-//!   on. Paths `L D D+ E`.
+//! - `emitted`: Le(x₀ → camera), or B when the camera ray leaves the scene. Paths `L E` and
+//!   `L B` (Heckbert's notation, with B for the background).
+//! - `direct`: light from the emitting triangles and the punctual lights that reflects once, at
+//!   x₀: NEE from x₀ plus, MIS-weighted, the emission found at x₁ by x₀'s BSDF sample. Paths
+//!   `L D E`.
+//! - `indirect`: everything else: light that reflects at least twice (NEE at x₁ and emission at
+//!   x₂ on, paths `L D D+ E`), and **all the background's light that reflects** (paths `L D+ B`,
+//!   the background's once-reflected light `L D B` included: x₀'s BSDF sample escaping).
 //!
-//! So `indirect` is exactly (ρ(x₀)/π)·E_ind(x₀), where E_ind is the irradiance at x₀ due to
-//! radiance *reflected* (not emitted) by the surfaces x₀ sees: the quantity the irradiance cache
-//! stores. An integrator that takes `emitted` and `direct` from here and replaces `indirect` by a
-//! cache lookup counts every path once: the cache's gather rays must then exclude the emission of
-//! the points they hit (it belongs to `direct`).
+//! So `indirect` is exactly (ρ(x₀)/π)·E_ind(x₀), where E_ind is the irradiance at x₀ due to all
+//! the radiance arriving there *except* what the light sampler's emitters send straight to it:
+//! the radiance reflected by the surfaces x₀ sees, and the background where x₀ sees no surface.
+//! That is the quantity the irradiance cache stores: its gather rays bring back what the point
+//! they hit reflects (excluding that point's emission: it belongs to `direct`), and the
+//! background when they hit nothing. An integrator that takes `emitted` and `direct` from here
+//! and replaces `indirect` by a cache lookup counts every path once.
 
 use crate::integrator::{Integrator, RayCounter};
+use crate::light::LightSample;
 use crate::scene::Scene;
 use glam::Vec3;
 use irr_geometry::{Ray, SurfacePoint};
@@ -132,21 +144,32 @@ impl ShadingPoint {
 }
 
 /// One next-event-estimation sample that reached its point unoccluded (see [`sample_light`]).
+///
+/// Its contribution to the light reflected at the point is f·`le`·`cos_surface`/`pdf` (f the
+/// BSDF) for every kind of light: for an emitting triangle `le` is a radiance and `pdf` a density
+/// per unit solid angle; for a punctual light (`delta`) `le` is the irradiance it gives a surface
+/// facing it (I·falloff/r², or E) and `pdf` the probability of choosing it.
 #[derive(Clone, Copy, Debug)]
 pub struct LightArrival {
-    /// The radiance the emitter sends towards the shading point.
+    /// The radiance the emitter sends towards the shading point, or, for a punctual light, the
+    /// irradiance it gives a surface at the point facing it.
     pub le: Vec3,
     /// cos θ at the shading point (shading normal), > 0.
     pub cos_surface: f32,
-    /// The light sample's density per unit solid angle at the shading point, finite and > 0.
+    /// The light sample's density per unit solid angle at the shading point, or, for a
+    /// punctual light, the probability of having chosen it; finite and > 0.
     pub pdf: f32,
+    /// Whether the light is punctual (a delta distribution): no BSDF sample can reach it, so
+    /// multiple importance sampling gives this sample weight 1.
+    pub delta: bool,
 }
 
-/// One next-event-estimation sample at `x`: an emitter chosen by power and a point on it
-/// uniformly by area (two dimensions of `dims`, always drawn), then a shadow ray. `None` when
-/// the sample carries no light: no emitter, a direction below the shading or the geometric
-/// surface, the emitter's back, or an occluder. The path tracer weighs the arrival against BSDF
-/// sampling; the irradiance cache's direct light takes it alone.
+/// One next-event-estimation sample at `x`: a light chosen by power and, on an emitting
+/// triangle, a point uniformly by area (two draws of `dims`, a 1-D one for the choice and a 2-D
+/// one for the point, always both, whatever the light chosen), then a shadow ray. `None` when
+/// the sample carries no light: no light, a direction below the shading or the geometric
+/// surface, the emitter's back, outside a spot's cone, or an occluder. The path tracer weighs
+/// the arrival against BSDF sampling; the irradiance cache's direct light takes it alone.
 pub fn sample_light(
     scene: &Scene,
     x: &ShadingPoint,
@@ -155,35 +178,72 @@ pub fn sample_light(
 ) -> Option<LightArrival> {
     let u_light = dims.next_1d();
     let u_point = dims.next_2d();
-    let ls = scene.lights().sample(scene.geometry(), u_light, u_point)?;
-    let to_light = ls.position - x.position;
-    let dist2 = to_light.length_squared();
-    let wi = to_light / dist2.sqrt();
-    let cos_surface = wi.dot(x.ns);
-    let cos_light = ls.normal.dot(wi).abs();
-    let le = scene.emitted(ls.triangle, ls.b1, ls.b2, ls.normal, -wi);
-    // Only directions above both the shading and the geometric surface carry light.
-    if !(cos_surface > 0.0
-        && wi.dot(x.ng) > 0.0
-        && cos_light > 0.0
-        && le != Vec3::ZERO
-        && dist2 > 0.0)
-    {
-        return None;
+    match scene.lights().sample(scene.geometry(), u_light, u_point)? {
+        LightSample::Area {
+            position,
+            normal,
+            triangle,
+            b1,
+            b2,
+            pdf_area,
+        } => {
+            let to_light = position - x.position;
+            let dist2 = to_light.length_squared();
+            let wi = to_light / dist2.sqrt();
+            let cos_surface = wi.dot(x.ns);
+            let cos_light = normal.dot(wi).abs();
+            let le = scene.emitted(triangle, b1, b2, normal, -wi);
+            // Only directions above both the shading and the geometric surface carry light.
+            if !(cos_surface > 0.0
+                && wi.dot(x.ng) > 0.0
+                && cos_light > 0.0
+                && le != Vec3::ZERO
+                && dist2 > 0.0)
+            {
+                return None;
+            }
+            let pdf = pdf_area * dist2 / cos_light;
+            let shadow = Ray::spawn_to(x.position, x.ng, position, normal);
+            rays.shadow += 1;
+            (pdf.is_finite() && !scene.geometry().occluded(&shadow)).then_some(LightArrival {
+                le,
+                cos_surface,
+                pdf,
+                delta: false,
+            })
+        }
+        LightSample::Punctual { light, probability } => {
+            let incidence = light.incidence(x.position)?;
+            let wi = incidence.wi;
+            let cos_surface = wi.dot(x.ns);
+            if !(cos_surface > 0.0
+                && wi.dot(x.ng) > 0.0
+                && incidence.irradiance != Vec3::ZERO
+                && probability > 0.0)
+            {
+                return None;
+            }
+            // A point has no surface to offset the ray's end from: the segment ends exactly at
+            // the light (a zero normal leaves `spawn_to`'s end unmoved), and a hit counts only if
+            // provably before it. A directional light is at infinity: a ray with no end.
+            let shadow = match incidence.position {
+                Some(p) => Ray::spawn_to(x.position, x.ng, p, Vec3::ZERO),
+                None => Ray::spawn(x.position, x.ng, wi),
+            };
+            rays.shadow += 1;
+            (!scene.geometry().occluded(&shadow)).then_some(LightArrival {
+                le: incidence.irradiance,
+                cos_surface,
+                pdf: probability,
+                delta: true,
+            })
+        }
     }
-    let pdf = ls.pdf_area * dist2 / cos_light;
-    let shadow = Ray::spawn_to(x.position, x.ng, ls.position, ls.normal);
-    rays.shadow += 1;
-    (pdf.is_finite() && !scene.geometry().occluded(&shadow)).then_some(LightArrival {
-        le,
-        cos_surface,
-        pdf,
-    })
 }
 
-/// The path-traced reference: Lambertian BSDF, NEE on area lights combined with BSDF sampling by
-/// MIS, Russian roulette after `rr_start` bounces (unbiased: survivors are divided by the survival
-/// probability).
+/// The path-traced reference: Lambertian BSDF, NEE on area and punctual lights combined with BSDF
+/// sampling by MIS, the background found by BSDF sampling, Russian roulette after `rr_start`
+/// bounces (unbiased: survivors are divided by the survival probability).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PathTracer {
     /// The settings.
@@ -196,7 +256,7 @@ impl PathTracer {
         Self { settings }
     }
 
-    /// The radiance along `ray`, split by bounce count.
+    /// The radiance along `ray`, split by bounce count and source (see the module docs).
     pub fn li_split(
         &self,
         scene: &Scene,
@@ -206,7 +266,11 @@ impl PathTracer {
     ) -> Radiance {
         rays.closest += 1;
         let Some(hit) = scene.geometry().intersect(ray) else {
-            return Radiance::default();
+            // The camera sees the background: a path `L B`.
+            return Radiance {
+                emitted: scene.background(),
+                ..Radiance::default()
+            };
         };
         let surface = scene.geometry().surface(ray, &hit);
         let wo = -ray.direction.normalize();
@@ -223,7 +287,8 @@ impl PathTracer {
     }
 
     /// The radiance leaving `surface` towards `wo` by reflection (its own emission excluded),
-    /// split into `direct` (reflected once, here) and `indirect` (reflected here and before).
+    /// split into `direct` (the light sampler's emitters' light reflected once, here) and
+    /// `indirect` (reflected here and before, and the background's light reflected here).
     ///
     /// This is the estimator of the light a final-gather ray brings back to an irradiance-cache
     /// record: what x₁ reflects towards x₀.
@@ -249,10 +314,15 @@ impl PathTracer {
             let f = albedo * FRAC_1_PI;
             let mut contribution = Vec3::ZERO;
 
-            // Next-event estimation: pick a point on an emitter by power and area, and add its
-            // light if it is visible, weighted against BSDF sampling by the power heuristic.
+            // Next-event estimation: pick a light by power (and a point on a triangle by area),
+            // and add its light if it is visible, weighted against BSDF sampling by the power
+            // heuristic; a punctual light has no BSDF-sampling strategy, so its weight is 1.
             if let Some(nee) = sample_light(scene, &x, dims, rays) {
-                let w = power_heuristic(nee.pdf, cosine_hemisphere_pdf(nee.cos_surface));
+                let w = if nee.delta {
+                    1.0
+                } else {
+                    power_heuristic(nee.pdf, cosine_hemisphere_pdf(nee.cos_surface))
+                };
                 contribution += f * nee.le * (nee.cos_surface * w / nee.pdf);
             }
 
@@ -265,10 +335,18 @@ impl PathTracer {
             // there rather than let light leak through.
             let sampled_ok = pdf_bsdf > 0.0 && wi.dot(x.ng) > 0.0;
             let mut next = None;
+            let mut escaped = Vec3::ZERO;
             if sampled_ok {
                 let ray = Ray::spawn(x.position, x.ng, wi);
                 rays.closest += 1;
-                if let Some(hit) = scene.geometry().intersect(&ray) {
+                let hit = scene.geometry().intersect(&ray);
+                if hit.is_none() {
+                    // The ray leaves the scene: the background, found by BSDF sampling alone
+                    // (no light sample picks it), so with weight 1. For the Lambertian BSDF,
+                    // f·cos θ / pdf = ρ.
+                    escaped = albedo * scene.background();
+                }
+                if let Some(hit) = hit {
                     let surface = scene.geometry().surface(&ray, &hit);
                     // Emission found by the BSDF sample, weighted against NEE.
                     let le = scene.emitted(
@@ -294,12 +372,15 @@ impl PathTracer {
                 }
             }
 
-            // Add what reached this vertex, through the throughput, to the right part.
+            // Add what reached this vertex, through the throughput, to the right part: the
+            // emitters' light reflected here for the first time is `direct` at the first
+            // vertex; the background's light is `indirect` at every vertex (module docs).
             if depth == 0 {
                 out.direct += beta * contribution;
             } else {
                 out.indirect += beta * contribution;
             }
+            out.indirect += beta * escaped;
 
             let Some(surface) = next else { break };
             beta *= albedo;

@@ -1,8 +1,9 @@
 //! What an integrator sees of a scene: the geometry, a Lambertian material per id, the
-//! textures those materials read with the texture coordinates of their triangles, and the
-//! emitters with a sampler over them.
+//! textures those materials read with the texture coordinates of their triangles, the emitters
+//! (emitting triangles and punctual lights) with a sampler over them, and the background.
 
 use crate::light::LightSampler;
+use crate::punctual::PunctualLight;
 use crate::texture::{TexCoords, Texture, TextureRef};
 use glam::{Vec2, Vec3};
 use irr_geometry::Geometry;
@@ -136,9 +137,28 @@ pub enum SceneError {
         /// The offending value.
         value: Vec3,
     },
+    /// A punctual light that cannot be rendered (see [`PunctualLight::problem`]).
+    #[error("punctual light {index}: {problem}")]
+    InvalidLight {
+        /// The light's index in the list given to [`Scene::with_lights`].
+        index: usize,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// A background radiance that is negative or not finite.
+    #[error("the background radiance {value} must be finite and ≥ 0 in every channel")]
+    InvalidBackground {
+        /// The offending value.
+        value: Vec3,
+    },
 }
 
-/// Geometry, materials, textures and the emitters: everything an integrator needs.
+/// Geometry, materials, textures, the emitters and the background: everything an integrator
+/// needs.
+///
+/// [`Scene::new`] makes a scene lit by its emitting triangles alone, with a black background;
+/// [`Scene::with_textures`] adds textures, [`Scene::with_lights`] punctual lights and
+/// [`Scene::with_background`] a constant background radiance.
 #[derive(Debug)]
 pub struct Scene {
     geometry: Geometry,
@@ -146,6 +166,7 @@ pub struct Scene {
     textures: Vec<Texture>,
     tex_coords: TexCoords,
     lights: LightSampler,
+    background: Vec3,
 }
 
 impl Scene {
@@ -207,6 +228,7 @@ impl Scene {
             textures,
             tex_coords,
             lights,
+            background: Vec3::ZERO,
         })
     }
 
@@ -262,6 +284,40 @@ impl Scene {
         &self.tex_coords
     }
 
+    /// The scene lit also by `lights` (replacing any given before), which join the emitting
+    /// triangles in next-event estimation, chosen by power. Refuses a light with a non-finite
+    /// position, a direction that is not a unit vector, a negative or non-finite strength, or
+    /// spot cosines out of range (see [`PunctualLight::problem`]).
+    pub fn with_lights(mut self, lights: Vec<PunctualLight>) -> Result<Self, SceneError> {
+        for (index, light) in lights.iter().enumerate() {
+            if let Some(problem) = light.problem() {
+                return Err(SceneError::InvalidLight { index, problem });
+            }
+        }
+        self.lights = LightSampler::with_punctual(
+            &self.geometry,
+            &light_weights(&self.materials, &self.textures),
+            &lights,
+        );
+        Ok(self)
+    }
+
+    /// The scene with a constant background radiance (W·sr⁻¹·m⁻² per channel; black by
+    /// default), seen by every ray that leaves the scene. Refuses a negative or non-finite value.
+    pub fn with_background(mut self, radiance: Vec3) -> Result<Self, SceneError> {
+        if !(radiance.is_finite() && radiance.min_element() >= 0.0) {
+            return Err(SceneError::InvalidBackground { value: radiance });
+        }
+        self.background = radiance;
+        Ok(self)
+    }
+
+    /// The radiance of every direction in which a ray leaves the scene (black by default).
+    #[inline]
+    pub fn background(&self) -> Vec3 {
+        self.background
+    }
+
     /// The triangles and their BVH.
     #[inline]
     pub fn geometry(&self) -> &Geometry {
@@ -280,13 +336,14 @@ impl Scene {
         &self.materials[self.geometry.triangle(triangle).material_id as usize]
     }
 
-    /// The sampler over the emitting triangles.
+    /// The sampler over the emitting triangles and the punctual lights.
     #[inline]
     pub fn lights(&self) -> &LightSampler {
         &self.lights
     }
 
-    /// Number of emitting triangles; zero means every image of the scene is black.
+    /// Number of lights (emitting triangles plus punctual lights of non-zero power); zero with
+    /// a black background means every image of the scene is black.
     #[inline]
     pub fn emitter_count(&self) -> usize {
         self.lights.len()

@@ -17,7 +17,7 @@ use irr_sampling::rng::Dimensions;
 use std::f64::consts::PI;
 
 /// Mean and standard error of `n` estimates of the red channel of `f(sample index)`.
-fn estimate(n: u32, mut f: impl FnMut(u32) -> Vec3) -> (f64, f64) {
+pub(crate) fn estimate(n: u32, mut f: impl FnMut(u32) -> Vec3) -> (f64, f64) {
     let (mut sum, mut sum2) = (0.0f64, 0.0f64);
     for i in 0..n {
         let v = f64::from(f(i).x);
@@ -31,7 +31,7 @@ fn estimate(n: u32, mut f: impl FnMut(u32) -> Vec3) -> (f64, f64) {
 
 /// Asserts |mean − expected| < 6 standard errors (see the module docs), with a floor of 1e-6
 /// relative for estimators whose variance is zero.
-fn assert_close(what: &str, (mean, se): (f64, f64), expected: f64) {
+pub(crate) fn assert_close(what: &str, (mean, se): (f64, f64), expected: f64) {
     let band = 6.0 * se + 1e-6 * expected.abs();
     assert!(
         (mean - expected).abs() < band,
@@ -40,7 +40,7 @@ fn assert_close(what: &str, (mean, se): (f64, f64), expected: f64) {
 }
 
 /// An icosphere of `subdivisions` levels, radius `r`, centre `c`, winding facing outward.
-fn icosphere(c: Vec3, r: f32, subdivisions: u32, material: u32) -> TriangleMesh {
+pub(crate) fn icosphere(c: Vec3, r: f32, subdivisions: u32, material: u32) -> TriangleMesh {
     let t = (1.0 + 5.0f32.sqrt()) / 2.0;
     let mut positions: Vec<Vec3> = [
         (-1.0, t, 0.0),
@@ -109,7 +109,7 @@ fn icosphere(c: Vec3, r: f32, subdivisions: u32, material: u32) -> TriangleMesh 
 
 /// A regular `sides`-gon of radius `r` centred at `c` in the plane y = c.y, wound so that its
 /// normal points along `facing_y` (±1).
-fn polygon(c: Vec3, r: f32, sides: u32, facing_y: f32, material: u32) -> TriangleMesh {
+pub(crate) fn polygon(c: Vec3, r: f32, sides: u32, facing_y: f32, material: u32) -> TriangleMesh {
     let mut positions = vec![c];
     for i in 0..sides {
         let a = std::f32::consts::TAU * i as f32 / sides as f32;
@@ -130,7 +130,7 @@ fn polygon(c: Vec3, r: f32, sides: u32, facing_y: f32, material: u32) -> Triangl
     }
 }
 
-fn scene(meshes: &[TriangleMesh], materials: Vec<Material>) -> Scene {
+pub(crate) fn scene(meshes: &[TriangleMesh], materials: Vec<Material>) -> Scene {
     let geometry = Geometry::build(meshes).unwrap_or_else(|e| panic!("{e}"));
     Scene::new(geometry, materials).unwrap_or_else(|e| panic!("{e}"))
 }
@@ -138,7 +138,7 @@ fn scene(meshes: &[TriangleMesh], materials: Vec<Material>) -> Scene {
 /// Irradiance at the origin (normal +y) from a polygon of radiance `l` with vertices `v`
 /// (relative to the point), by Lambert's formula in Arvo's form: E = (L/2)·|Σᵢ Θᵢ (Γᵢ·n)|, Θᵢ the
 /// angle edge i subtends and Γᵢ the unit normal of the plane through the point and edge i.
-fn polygon_irradiance(v: &[Vec3], l: f64) -> f64 {
+pub(crate) fn polygon_irradiance(v: &[Vec3], l: f64) -> f64 {
     let n = glam::DVec3::Y;
     let mut sum = 0.0;
     for i in 0..v.len() {

@@ -4,9 +4,10 @@
 //! # What it owns
 //! - [`load_scene`] / [`load_gltf`]: glTF 2.0 (`.gltf` with external or `data:` buffers, `.glb`)
 //!   into world-space meshes, Lambertian [`Material`]s with their base-colour and emissive
-//!   textures (PNG and JPEG images, decoded and converted to linear RGB here) and the file's
-//!   cameras ([`NamedCamera`]); every ignored feature becomes a [`Warning`] with a count, every
-//!   unreadable input a one-line [`RenderError`].
+//!   textures (PNG and JPEG images, decoded and converted to linear RGB here),
+//!   `KHR_lights_punctual` lights ([`PunctualLight`]) and the file's cameras ([`NamedCamera`]);
+//!   every ignored feature becomes a [`Warning`] with a count, every unreadable input a one-line
+//!   [`RenderError`].
 //! - [`Camera`]: glTF's pinhole camera (looks down local −Z, `yfov` vertical, aspect ratio from
 //!   the image), or a default one framing the scene; its OpenEXR header matrices.
 //! - [`render`] and [`RenderSettings`]: the film (box filter, row 0 at the top), tiles on a
@@ -77,7 +78,7 @@ pub use image::Image;
 pub use irr_integrator::{
     AmbientOcclusion, AoSettings, BounceMode, CacheBuilder, CachedAmbientOcclusion, GradientMode,
     IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard, Material, MetricKind,
-    PathSettings, PathTracer, RayCounter, Scene,
+    PathSettings, PathTracer, PunctualLight, RayCounter, Scene,
 };
 pub use load::{MAX_COORDINATE, MAX_IMAGE_SIDE, SceneData, Warning, load_gltf, load_gltf_with};
 pub use output::{
@@ -95,12 +96,14 @@ use irr_geometry::Geometry;
 use std::path::{Path, PathBuf};
 
 /// A scene ready to render: the integrator's [`Scene`] (geometry with its BVH, materials and
-/// their textures, emitters), the file's camera, and the warnings about what the file uses that irr ignored.
+/// their textures, emitting triangles and punctual lights; a black background, which the caller
+/// may change with [`Scene::with_background`]), the file's cameras, and the warnings about what
+/// the file uses that irr ignored.
 #[derive(Debug)]
 pub struct LoadedScene {
     /// The file it came from.
     pub path: PathBuf,
-    /// Geometry, materials and emitters.
+    /// Geometry, materials, emitters and lights.
     pub scene: Scene,
     /// The file's first perspective camera, if it has one.
     pub camera: Option<Camera>,
@@ -217,6 +220,7 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
     let tex_coords = load::tex_coords_by_id(&data.meshes, &data.materials, &data.tex_coords)
         .map_err(|e| RenderError::scene(path, e))?;
     let scene = Scene::with_textures(geometry, data.materials, data.textures, tex_coords)
+        .and_then(|s| s.with_lights(data.lights))
         .map_err(|e| RenderError::scene(path, e.to_string()))?;
     Ok(LoadedScene {
         path: path.to_path_buf(),

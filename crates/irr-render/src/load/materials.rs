@@ -20,7 +20,6 @@ impl Loader<'_> {
                 continue;
             }
             let why = match name.as_str() {
-                "KHR_lights_punctual" => "irr's only lights are emissive triangles",
                 "KHR_draco_mesh_compression" | "EXT_meshopt_compression" => {
                     "compressed geometry is not decoded"
                 }

@@ -21,15 +21,21 @@
 //!   `KHR_texture_transform` (offset, rotation, scale, texCoord).
 //! - Every perspective camera, in the order of a depth-first walk of the scene's nodes, with its
 //!   node's name (the first is the default; `--camera N` picks another).
+//! - `KHR_lights_punctual` (lights.rs): every point, spot and directional light that a node of
+//!   the scene places, at the node's world position, shining along the node's −Z; `intensity` ×
+//!   `color` in candela (point, spot) or lux (directional), taken in the unit of irr's emitted
+//!   radiance (no 683 lm/W factor, see irr-integrator's `PunctualLight`); a spot's
+//!   `innerConeAngle` and `outerConeAngle` with glTF's smooth falloff.
 //!
 //! # What irr ignores, always with a warning
 //! Normal, occlusion and metallic-roughness textures, textures and images no base-colour or
 //! emissive texture uses, `minFilter` (no mip maps: every lookup uses `magFilter`), metallic
 //! reflection (`metallicFactor > 0`), transparency (`alphaMode` other than `OPAQUE`), vertex
 //! colours, morph targets, skins, animations, points and lines, orthographic cameras, other
-//! scenes, and every extension except `KHR_materials_emissive_strength` and
-//! `KHR_texture_transform` (lights, transmission, …). A textured material on a primitive without
-//! the `TEXCOORD_n` it reads is read at (0, 0). Each becomes one [`Warning`] with a count. glTF's
+//! scenes, a light's `range` (a non-physical cut-off), lights no node of the scene places, and
+//! every extension except `KHR_materials_emissive_strength`, `KHR_texture_transform` and
+//! `KHR_lights_punctual` (transmission, …). A textured material on a primitive without the
+//! `TEXCOORD_n` it reads is read at (0, 0). Each becomes one [`Warning`] with a count. glTF's
 //! dielectric specular layer (the 4 % reflection of its metallic-roughness BRDF at
 //! `metallicFactor = 0`) is not modelled: irr's surfaces are Lambertian.
 //!
@@ -39,10 +45,12 @@
 //! non-finite coordinates or coordinates beyond [`MAX_COORDINATE`], non-finite texture
 //! coordinates or texture transforms, images that are neither PNG nor JPEG, are damaged, or
 //! exceed [`MAX_IMAGE_SIDE`] on a side or the loader's memory budget, non-finite or negative
-//! emission, and required extensions it does not support.
+//! emission, lights with a non-finite or negative intensity or colour, spot cone angles outside
+//! 0 ≤ inner ≤ outer ≤ π/2 (outer > 0), and required extensions it does not support.
 
 mod buffers;
 mod json;
+mod lights;
 mod materials;
 mod mesh;
 mod nodes;
@@ -61,7 +69,7 @@ use crate::files::{Budget, Confinement, LoadOptions, MAX_JSON_BYTES, read_scene_
 use crate::glb;
 use glam::{Vec2, Vec3};
 use irr_geometry::TriangleMesh;
-use irr_integrator::{Material, Texture};
+use irr_integrator::{Material, PunctualLight, Texture};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -73,8 +81,11 @@ use std::path::{Path, PathBuf};
 pub const MAX_COORDINATE: f32 = 1e18;
 
 /// The extensions irr reads.
-const SUPPORTED_EXTENSIONS: [&str; 2] =
-    ["KHR_materials_emissive_strength", "KHR_texture_transform"];
+const SUPPORTED_EXTENSIONS: [&str; 3] = [
+    "KHR_materials_emissive_strength",
+    "KHR_texture_transform",
+    "KHR_lights_punctual",
+];
 
 /// A feature of the file that irr ignored, with how many times it occurs.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -116,10 +127,13 @@ pub struct SceneData {
     pub camera: Option<Camera>,
     /// Every perspective camera of the default scene, in depth-first order of its nodes.
     pub cameras: Vec<NamedCamera>,
+    /// The `KHR_lights_punctual` lights the scene's nodes place, in world space, in the
+    /// depth-first order of the nodes.
+    pub lights: Vec<PunctualLight>,
     /// Everything irr ignored, one entry per feature.
     pub warnings: Vec<Warning>,
-    /// The number of triangles whose material emits (a scene with none renders black under the
-    /// path tracer).
+    /// The number of triangles whose material emits (a scene with none, and no light, renders
+    /// black under the path tracer unless given a background).
     pub emissive_triangles: usize,
     /// The bounds of every vertex, `None` for a scene without triangles.
     pub bounds: Option<(Vec3, Vec3)>,
@@ -306,7 +320,15 @@ impl<'a> Loader<'a> {
             .map_err(|e| self.err(e))?;
         let mut tex_coords = Vec::new();
         let mut used_default_material = 0;
+        let mut lights = Vec::new();
+        let mut placed = vec![false; self.light_count()];
         for (node, world) in self.walk_nodes()? {
+            if let Some(index) = lights::light_index(self.document, &node) {
+                lights.push(self.light(&node, world, index)?);
+                if let Some(p) = placed.get_mut(index) {
+                    *p = true;
+                }
+            }
             if let Some(cam) = node.camera() {
                 match cam.projection() {
                     gltf::camera::Projection::Perspective(p) => cameras.push(NamedCamera {
@@ -376,9 +398,14 @@ impl<'a> Loader<'a> {
                     .is_some_and(|m| m.emission.max_element() > 0.0)
             })
             .count();
-        if emissive_triangles == 0 {
+        self.count_unplaced_lights(&placed);
+        let emitting_lights = lights
+            .iter()
+            .filter(|l| l.strength().max_element() > 0.0)
+            .count();
+        if emissive_triangles == 0 && emitting_lights == 0 {
             self.warnings.add("no-emitter", 1, |_| {
-                "the scene has no emissive triangles: the image will be black (ambient occlusion does not need them)".to_string()
+                "the scene has no emissive triangles and no lights: the image will be black unless lit by a background (ambient occlusion needs no light)".to_string()
             });
         }
         let bounds = meshes.iter().flat_map(|m| m.positions.iter()).fold(
@@ -398,6 +425,7 @@ impl<'a> Loader<'a> {
             tex_coords,
             camera: cameras.first().map(|c| c.camera),
             cameras,
+            lights,
             warnings: self.warnings.finish(),
             emissive_triangles,
             bounds,

@@ -6,8 +6,8 @@ use crate::error::RenderError;
 use glam::{Mat4, Quat, Vec3};
 
 impl<'a> Loader<'a> {
-    /// The nodes of the default scene that hold a mesh or a camera, in depth-first order, each
-    /// with its world transform.
+    /// The nodes of the default scene that hold a mesh, a camera or a light, in depth-first
+    /// order, each with its world transform.
     pub(super) fn walk_nodes(&mut self) -> Result<Vec<(gltf::Node<'a>, Mat4)>, RenderError> {
         let d: &'a gltf::Document = self.document;
         let roots: Vec<gltf::Node<'a>> = match d.default_scene().or_else(|| d.scenes().next()) {
@@ -24,12 +24,12 @@ impl<'a> Loader<'a> {
             }
         };
         let mut visited = vec![false; d.nodes().len()];
-        // Only nodes with a mesh or a camera are kept: the others matter only through the
-        // transforms they pass on.
-        let kept = d
-            .nodes()
-            .filter(|n| n.mesh().is_some() || n.camera().is_some())
-            .count();
+        // Only nodes with a mesh, a camera or a light are kept: the others matter only through
+        // the transforms they pass on.
+        let holds = |n: &gltf::Node<'_>| {
+            n.mesh().is_some() || n.camera().is_some() || super::lights::light_index(d, n).is_some()
+        };
+        let kept = d.nodes().filter(|n| holds(n)).count();
         let mut out = self
             .budget
             .vec::<(gltf::Node<'a>, Mat4)>("the node hierarchy", kept)
@@ -53,7 +53,7 @@ impl<'a> Loader<'a> {
             let first = stack.len();
             stack.extend(node.children().map(|child| (child, world)));
             stack[first..].reverse();
-            if node.mesh().is_some() || node.camera().is_some() {
+            if holds(&node) {
                 out.push((node, world));
             }
         }

@@ -234,10 +234,10 @@ fn ignored_features_are_counted_in_warnings() {
     let mut g = Gltf::default();
     let p = g.vec3(&TRIANGLE);
     let json = g.json(&format!(
-        r#""extensionsUsed":["KHR_lights_punctual","KHR_materials_transmission"],
-        "extensions":{{"KHR_lights_punctual":{{"lights":[{{"type":"point"}}]}}}},
+        r#""extensionsUsed":["EXT_lights_image_based","KHR_materials_transmission"],
+        "extensions":{{"EXT_lights_image_based":{{"lights":[]}}}},
         "scene":0,"scenes":[{{"nodes":[0,1,2]}},{{"nodes":[]}}],
-        "nodes":[{{"mesh":0}},{{"extensions":{{"KHR_lights_punctual":{{"light":0}}}}}},{{"mesh":1}}],
+        "nodes":[{{"mesh":0}},{{"extensions":{{"EXT_lights_image_based":{{"light":0}}}}}},{{"mesh":1}}],
         "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p}}},"material":0}},
                                  {{"attributes":{{"POSITION":{p}}},"material":1}},
                                  {{"attributes":{{"POSITION":{p}}},"mode":0}}]}},
@@ -254,7 +254,7 @@ fn ignored_features_are_counted_in_warnings() {
         .map(|w| (w.feature.as_str(), w.count))
         .collect();
     for expected in [
-        ("extension:KHR_lights_punctual", 2),
+        ("extension:EXT_lights_image_based", 2),
         ("extension:KHR_materials_transmission", 1),
         ("textures", 2),
         ("images", 1),
