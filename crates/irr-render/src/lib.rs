@@ -142,10 +142,17 @@ pub fn load_scene(path: &Path) -> Result<LoadedScene, RenderError> {
 
 /// [`load_scene`] with [`LoadOptions`] (the folder buffer files may be read from).
 pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene, RenderError> {
-    let data = load_gltf_with(path, options)?;
-    let mut warnings = data.warnings;
+    let SceneData {
+        meshes,
+        materials,
+        camera,
+        mut warnings,
+        ..
+    } = load_gltf_with(path, options)?;
+    // The meshes are consumed: each part is freed as soon as the BVH's leaves hold it, so a
+    // large scene is never in memory twice.
     let geometry =
-        Geometry::build(&data.meshes).map_err(|e| RenderError::scene(path, e.to_string()))?;
+        Geometry::build_owned(meshes).map_err(|e| RenderError::scene(path, e.to_string()))?;
     let report = *geometry.report();
     if report.dropped_degenerate > 0 {
         warnings.push(Warning {
@@ -164,12 +171,12 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
         });
     }
     let bounds = geometry.bounds();
-    let scene = Scene::new(geometry, data.materials)
-        .map_err(|e| RenderError::scene(path, e.to_string()))?;
+    let scene =
+        Scene::new(geometry, materials).map_err(|e| RenderError::scene(path, e.to_string()))?;
     Ok(LoadedScene {
         path: path.to_path_buf(),
         scene,
-        camera: data.camera,
+        camera,
         warnings,
         bounds,
     })
