@@ -493,7 +493,7 @@ fn reference_hits(g: &Geometry, ray: &Ray) -> Vec<(f64, u32, f64)> {
     let o = ray.origin.as_dvec3();
     let d = ray.direction.as_dvec3();
     let mut hits = Vec::new();
-    for (id, tri) in g.triangles().iter().enumerate() {
+    for (id, tri) in g.triangles().enumerate() {
         let [p0, p1, p2] = tri.p.map(Vec3::as_dvec3);
         let (e1, e2) = (p1 - p0, p2 - p0);
         let pv = d.cross(e2);
@@ -554,7 +554,12 @@ proptest! {
     /// found), so the two answers' t differ by at most the triangles' own error bound δt, which
     /// `tolerance` bounds (see `closest_hit_matches_an_f64_reference`).
     #[test]
-    fn bvh_equals_brute_force(seed: u64, soup in 1usize..200, grid in 1usize..8) {
+    fn bvh_equals_brute_force(
+        seed: u64,
+        // Small scenes are built with PLOC, those above 1024 triangles top down.
+        soup in prop_oneof![1usize..200, 1100usize..1600],
+        grid in 1usize..8,
+    ) {
         let mut rng = Rng(seed);
         let scene = random_scene(&mut rng, soup, grid);
         for layout in LAYOUTS {
@@ -690,7 +695,12 @@ proptest! {
     /// origin plus one ray that can hit nothing, four such gathers and 64 random rays from one
     /// random point per scene, all in one `intersect_many` call.
     #[test]
-    fn simd_paths_match_the_scalar_oracle(seed: u64, soup in 1usize..120, grid in 1usize..6) {
+    fn simd_paths_match_the_scalar_oracle(
+        seed: u64,
+        // Small scenes are built with PLOC, those above 1024 triangles top down.
+        soup in prop_oneof![1usize..120, 1100usize..1400],
+        grid in 1usize..6,
+    ) {
         let mut rng = Rng(seed);
         let unit = random_scene(&mut rng, soup, grid);
         for (scale, shift) in CONFIGS {

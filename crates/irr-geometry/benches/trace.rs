@@ -21,6 +21,11 @@
 //! `IRR_BUILD=<n>:ploc` times obvhs's PLOC + reinsertion alone, the build irr used before
 //! it handled such clusters).
 //!
+//! `IRR_BUILD=heightfield:<n>` times `Geometry::build_owned` on the heightfield of
+//! `docs/make-huge-scene.py` with about `n` triangles and prints its heap bytes per triangle
+//! (`IRR_BUILD_REPEATS=<k>`: best of k). `IRR_SCALE=<k>` shrinks the 10⁶-triangle scene (grid
+//! side / k, spheres / k²: 64 386 triangles at 4, 3 266 at 16) for measurements at other sizes.
+//!
 //! Run with `cargo bench -p irr-geometry`. For a profile, set
 //! `IRR_PROFILE=<cornell|million>:<bvh2|wide4|wide8>:<closest|occluded|gather<M>x<N>[many]>`
 //! and run the bench binary under `valgrind --tool=callgrind` (with
@@ -70,6 +75,9 @@ fn same_centroid(n: usize) -> Vec<TriangleMesh> {
 /// `Geometry::build` or (`:ploc`) with the obvhs recipe irr-geometry used before it detected
 /// such clusters (PLOC with search radius 14, then reinsertion).
 fn build_time(spec: &str) {
+    if let Some(n) = spec.strip_prefix("heightfield:") {
+        return heightfield_build_time(n);
+    }
     let (n, ploc) = match spec.split_once(':') {
         Some((n, _)) => (n, true),
         None => (spec, false),
@@ -113,6 +121,82 @@ fn build_time(spec: &str) {
         },
         start.elapsed().as_secs_f64()
     );
+}
+
+/// The scene of `docs/make-huge-scene.py` with about `n` triangles, as the glTF loader hands it
+/// over: a 2 × 2 heightfield of k × k quads (2k² ≥ n triangles, shared vertices, no normals) and
+/// a 1 m² emitter above it.
+fn heightfield(n: usize) -> Vec<TriangleMesh> {
+    let k = ((n as f64 / 2.0).sqrt().ceil() as u32).max(1);
+    let mut field = TriangleMesh::default();
+    for j in 0..=k {
+        let z = -1.0 + 2.0 * f64::from(j) / f64::from(k);
+        for i in 0..=k {
+            let x = -1.0 + 2.0 * f64::from(i) / f64::from(k);
+            let y = 0.05 * (7.0 * x).sin() * (5.0 * z).cos();
+            field
+                .positions
+                .push(Vec3::new(x as f32, y as f32, z as f32));
+        }
+    }
+    for j in 0..k {
+        for i in 0..k {
+            let a = j * (k + 1) + i;
+            let (b, c, d) = (a + 1, a + k + 1, a + k + 2);
+            field.indices.extend([[a, c, b], [b, c, d]]);
+        }
+    }
+    field.material_ids = vec![0; field.indices.len()];
+    let mut light = TriangleMesh::default();
+    let v = Vec3::new;
+    quad(
+        &mut light,
+        [
+            v(-0.5, 2.0, -0.5),
+            v(0.5, 2.0, -0.5),
+            v(0.5, 2.0, 0.5),
+            v(-0.5, 2.0, 0.5),
+        ],
+        1,
+    );
+    vec![field, light]
+}
+
+/// `IRR_BUILD=heightfield:<n>`: the time of `Geometry::build_owned` on [`heightfield`]`(n)`
+/// (best of `IRR_BUILD_REPEATS`, default 1) and the heap bytes per triangle of the result.
+fn heightfield_build_time(n: &str) {
+    let n: usize = n
+        .parse()
+        .unwrap_or_else(|_| panic!("IRR_BUILD=heightfield:{n}: not a count"));
+    let repeats: usize = std::env::var("IRR_BUILD_REPEATS")
+        .ok()
+        .and_then(|r| r.parse().ok())
+        .unwrap_or(1);
+    let mut best = f64::INFINITY;
+    for _ in 0..repeats {
+        let meshes = heightfield(n);
+        let start = Instant::now();
+        let g = Geometry::build_owned(meshes).unwrap_or_else(|e| panic!("{e}"));
+        let first = best.is_infinite();
+        best = best.min(start.elapsed().as_secs_f64());
+        if first {
+            let count = g.triangle_count() as f64;
+            let bytes = g.heap_bytes();
+            let total: usize = bytes.iter().map(|(_, b)| b).sum();
+            let parts: Vec<String> = bytes
+                .iter()
+                .map(|(name, b)| format!("{name} {:.1}", *b as f64 / count))
+                .collect();
+            eprintln!(
+                "heightfield: {} triangles, {} nodes, {:.1} heap bytes per triangle ({})",
+                g.triangle_count(),
+                g.node_count(),
+                total as f64 / count,
+                parts.join(", ")
+            );
+        }
+    }
+    println!("heightfield of {n} triangles: built in {best:.3} s (best of {repeats})");
 }
 
 /// Build time of `n` nested triangles sharing one centroid (see `same_centroid`); 10⁶ with
@@ -308,7 +392,13 @@ fn cornell_box() -> Vec<TriangleMesh> {
 /// light (2 triangles) high above.
 fn million() -> Vec<TriangleMesh> {
     let mut rng = Rng(0x1_000_000);
-    let n = 512u32;
+    // `IRR_SCALE` (see the module docs) shrinks the scene.
+    let scale: u32 = std::env::var("IRR_SCALE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1)
+        .clamp(1, 512);
+    let n = 512u32 / scale;
     let mut terrain = TriangleMesh::default();
     for j in 0..=n {
         for i in 0..=n {
@@ -331,7 +421,7 @@ fn million() -> Vec<TriangleMesh> {
 
     let (slices, stacks) = (32u32, 20u32);
     let mut spheres = TriangleMesh::default();
-    for _ in 0..420 {
+    for _ in 0..420 / (scale * scale) {
         let centre = rng.in_box(Vec3::new(-48.0, 4.0, -48.0), Vec3::new(48.0, 20.0, 48.0));
         let radius = 0.5 + 2.5 * rng.f32();
         let base = spheres.positions.len() as u32;
@@ -428,11 +518,13 @@ fn scene(
     let start = Instant::now();
     let geometry =
         Geometry::build_with_layout(meshes, layout).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let bytes: usize = geometry.heap_bytes().iter().map(|(_, b)| b).sum();
     eprintln!(
-        "{name} ({layout:?}): {} triangles, {} nodes, built in {:.2} s",
+        "{name} ({layout:?}): {} triangles, {} nodes, built in {:.2} s, {:.1} heap bytes per triangle",
         geometry.triangle_count(),
         geometry.node_count(),
-        start.elapsed().as_secs_f64()
+        start.elapsed().as_secs_f64(),
+        bytes as f64 / geometry.triangle_count() as f64
     );
     let lights: Vec<u32> = (0..geometry.triangle_count() as u32)
         .filter(|&t| geometry.triangle(t).material_id == light)

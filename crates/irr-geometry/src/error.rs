@@ -58,8 +58,9 @@ pub enum GeometryError {
         /// Length of `indices`.
         triangles: usize,
     },
-    /// More triangles survived than a `u32` triangle id can number.
-    #[error("{count} triangles kept: more than the 4294967295 that a u32 triangle id can number")]
+    /// More triangles survived than [`MAX_TRIANGLES`](crate::MAX_TRIANGLES) (2³⁰), the most a
+    /// geometry can hold.
+    #[error("{count} triangles kept: more than the 1073741824 (2^30) that irr can hold")]
     TooManyTriangles {
         /// How many triangles were kept.
         count: usize,

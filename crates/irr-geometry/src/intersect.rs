@@ -61,7 +61,7 @@ const BOX_FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
 
 /// A triangle as the hot path reads it: the x, y and z coordinates of its three vertices, and
 /// its unit normal. 64 bytes, aligned to a cache line.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 #[repr(C, align(64))]
 pub(crate) struct TriSoa {
     xs: Vec3A,
@@ -78,6 +78,18 @@ impl TriSoa {
             zs: Vec3A::new(p[0].z, p[1].z, p[2].z),
             n: cross_f64(p).normalize_or_zero().as_vec3a(),
         }
+    }
+
+    /// The vertices, bit for bit those given to [`TriSoa::new`].
+    #[inline]
+    pub(crate) fn vertices(&self) -> [Vec3; 3] {
+        [0, 1, 2].map(|v| Vec3::new(self.xs[v], self.ys[v], self.zs[v]))
+    }
+
+    /// The unit normal (normalised `(p1 − p0) × (p2 − p0)`, computed in `f64`).
+    #[inline]
+    pub(crate) fn normal(&self) -> Vec3 {
+        self.n.into()
     }
 }
 

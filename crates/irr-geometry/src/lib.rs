@@ -2,11 +2,13 @@
 //! occlusion queries, and ray offsets that stay robust at every scene scale.
 //!
 //! # What it owns
-//! - [`TriangleMesh`] (input) and [`Geometry::build`]: validation (typed [`GeometryError`]s
-//!   naming the mesh and triangle), dropping and counting of zero-area and non-finite triangles
-//!   ([`BuildReport`]), and the BVH: obvhs PLOC + reinsertion (or a top-down build where many
-//!   centroids coincide), then by default an 8-wide tree with four-triangle SIMD leaves
-//!   with exact float child boxes ([`BvhLayout`] lists the layouts and their measured cost).
+//! - [`TriangleMesh`] (input) and [`Geometry::build`] / [`Geometry::build_owned`]: validation
+//!   (typed [`GeometryError`]s naming the mesh and triangle), dropping and counting of zero-area
+//!   and non-finite triangles ([`BuildReport`]), and the BVH: obvhs PLOC + reinsertion for
+//!   small scenes, a lean top-down SAH build with leaves of four above, then by default an
+//!   8-wide tree with four-triangle SIMD leaves with exact float child boxes ([`BvhLayout`]
+//!   lists the layouts and their measured cost). The leaves hold each triangle's vertices,
+//!   once: about 80 bytes per triangle in all ([`Geometry::heap_bytes`]).
 //! - [`Geometry::intersect`] (closest hit: distance, triangle id, barycentrics) and
 //!   [`Geometry::occluded`] (any hit), with a watertight triangle test (Woop et al. 2013) that
 //!   reports a hit only when its distance is provably inside `(0, t_max)`.
@@ -84,7 +86,7 @@ mod ray;
 mod wide;
 
 pub use error::GeometryError;
-pub use geometry::{BvhLayout, Geometry, Hit, SurfacePoint};
+pub use geometry::{BvhLayout, Geometry, Hit, MAX_TRIANGLES, SurfacePoint};
 pub use mesh::{BuildReport, Triangle, TriangleMesh};
 pub use ray::{
     POSITION_RELATIVE_ERROR, Ray, offset_ray_origin, offset_ray_origin_with_error, position_error,

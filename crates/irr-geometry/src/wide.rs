@@ -3,15 +3,20 @@
 //! its traversals: ordered (nearest child first) for the closest hit, any order with early exit
 //! for occlusion.
 //!
-//! The tree is obvhs's BVH2 (PLOC + reinsertion, leaves collapsed to at most four triangles)
-//! with levels pulled up: a wide node takes its BVH2 node's two children and repeatedly
-//! replaces the inner child of largest surface area by its two children, until it has `4·G`
-//! children or only leaves (the usual BVH2 → BVH4/BVH8 collapse, as in Embree). Every child box
-//! is the exact `f32` box of its BVH2 node, so Ize's relative correction keeps the box test
-//! conservative.
+//! The tree is the BVH2 of `build.rs` (leaves of at most four triangles) with levels pulled
+//! up: a wide node takes its BVH2 node's two children and repeatedly replaces the inner child
+//! of largest surface area by its two children, until it has `4·G` children or only leaves
+//! (the usual BVH2 → BVH4/BVH8 collapse, as in Embree). Every child box is the exact `f32` box
+//! of its BVH2 node, so Ize's relative correction keeps the box test conservative.
+//!
+//! The conversion runs in two steps so that the BVH2's nodes are freed before the packets are
+//! allocated: [`WideBvh::topology`] makes the nodes (counted first, so allocated at their exact
+//! size) and lists the leaves, [`WideBvh::fill_packets`] makes the packets. The packets are
+//! also where [`Geometry`](crate::Geometry) keeps each triangle's vertices (bit for bit as
+//! given), which it reads back through [`WideBvh::triangle`].
 
 use glam::Vec4;
-use obvhs::{aabb::Aabb, bvh2::Bvh2};
+use obvhs::{aabb::Aabb, bvh2::node::Bvh2Node};
 
 use crate::intersect::{PreparedRay, Tri4, TriHit, TriSoa, intersect_tri4};
 
@@ -41,20 +46,74 @@ pub(crate) struct WideBvh<const G: usize> {
     stack_len: usize,
 }
 
+/// The children of a wide node made from BVH2 node `b` (inner), into `kids`: `b`'s two
+/// children, then repeatedly the inner child of largest area replaced by its two children,
+/// until there are `width` or only leaves.
+fn open(nodes: &[Bvh2Node], b: usize, width: usize, kids: &mut Vec<usize>) {
+    let first = nodes[b].first_index as usize;
+    kids.clear();
+    kids.extend([first, first + 1]);
+    while kids.len() < width {
+        let open = kids
+            .iter()
+            .enumerate()
+            .filter(|&(_, &k)| !nodes[k].is_leaf())
+            .max_by(|a, b| {
+                let area = |k: usize| nodes[k].aabb().half_area();
+                area(*a.1).total_cmp(&area(*b.1))
+            })
+            .map(|(i, _)| i);
+        let Some(i) = open else { break };
+        let c = nodes[kids[i]].first_index as usize;
+        kids[i] = c;
+        kids.push(c + 1);
+    }
+}
+
 /// A traversal stack entry: a child reference and the ray's entry distance into its box.
 pub(crate) type Entry = (u32, f32);
 
 impl<const G: usize> WideBvh<G> {
-    /// Converts `bvh` (leaves of at most four primitives; `triangles[i]` is primitive `i`).
-    pub(crate) fn new(bvh: &Bvh2, triangles: &[TriSoa]) -> WideBvh<G> {
+    /// Converts the BVH2 `nodes` (leaves of at most four primitives) into wide nodes, without
+    /// packets yet: leaf children are numbered in the order this visits them, and the returned
+    /// list gives, for each packet in that order, its BVH2 leaf's primitives packed as
+    /// `first << 2 | (count − 1)` (`first` indexes the BVH2's `primitive_indices`; the caller
+    /// keeps fewer than 2³⁰ primitives). [`WideBvh::fill_packets`] then makes the packets, so
+    /// that the BVH2 nodes can be dropped before the packets are allocated.
+    pub(crate) fn topology(nodes: &[Bvh2Node]) -> (WideBvh<G>, Vec<u32>) {
         let width = 4 * G;
+        let root = &nodes[0];
+        let mut kids: Vec<usize> = Vec::with_capacity(width);
+        // A first pass counts the wide nodes and the leaves, so that both lists are allocated
+        // at their exact size.
+        let (mut node_count, mut leaf_count) = (1, usize::from(root.is_leaf()));
+        let mut todo: Vec<usize> = Vec::new();
+        if !root.is_leaf() {
+            todo.push(0);
+        }
+        while let Some(b) = todo.pop() {
+            open(nodes, b, width, &mut kids);
+            for &k in &kids {
+                if nodes[k].is_leaf() {
+                    leaf_count += 1;
+                } else {
+                    node_count += 1;
+                    todo.push(k);
+                }
+            }
+        }
         let mut out = WideBvh {
-            nodes: Vec::with_capacity(bvh.nodes.len() / (width - 1) + 1),
-            packets: Vec::with_capacity(bvh.primitive_indices.len() / 2 + 1),
-            ids: Vec::with_capacity(bvh.primitive_indices.len() / 2 + 1),
+            nodes: Vec::with_capacity(node_count),
+            packets: Vec::new(),
+            ids: Vec::new(),
             stack_len: 0,
         };
-        let root = &bvh.nodes[0];
+        let mut leaves = Vec::with_capacity(leaf_count);
+        let mut leaf = |node: &Bvh2Node| {
+            let index = leaves.len() as u32;
+            leaves.push(node.first_index << 2 | (node.prim_count - 1));
+            LEAF | index
+        };
         // (BVH2 node whose children fill the wide node, wide node index, depth).
         let mut todo: Vec<(usize, usize, usize)> = Vec::new();
         let mut deepest = 1;
@@ -64,39 +123,20 @@ impl<const G: usize> WideBvh<G> {
         });
         if root.is_leaf() {
             // A single leaf: a root node with one leaf child.
-            let child = out.leaf(bvh, 0, triangles);
+            let child = leaf(root);
             out.set_children(0, &[(child, *root.aabb())]);
         } else {
             todo.push((0, 0, 1));
         }
-        let mut kids: Vec<usize> = Vec::with_capacity(width);
         let mut slots: Vec<(u32, Aabb)> = Vec::with_capacity(width);
         while let Some((b, w, depth)) = todo.pop() {
             deepest = deepest.max(depth + 1);
-            // Open the inner child of largest area until the node is full.
-            let first = bvh.nodes[b].first_index as usize;
-            kids.clear();
-            kids.extend([first, first + 1]);
-            while kids.len() < width {
-                let open = kids
-                    .iter()
-                    .enumerate()
-                    .filter(|&(_, &k)| !bvh.nodes[k].is_leaf())
-                    .max_by(|a, b| {
-                        let area = |k: usize| bvh.nodes[k].aabb().half_area();
-                        area(*a.1).total_cmp(&area(*b.1))
-                    })
-                    .map(|(i, _)| i);
-                let Some(i) = open else { break };
-                let c = bvh.nodes[kids[i]].first_index as usize;
-                kids[i] = c;
-                kids.push(c + 1);
-            }
+            open(nodes, b, width, &mut kids);
             slots.clear();
             for &k in &kids {
-                let node = &bvh.nodes[k];
+                let node = &nodes[k];
                 let child = if node.is_leaf() {
-                    out.leaf(bvh, k, triangles)
+                    leaf(node)
                 } else {
                     let index = out.nodes.len();
                     out.nodes.push(WideNode {
@@ -112,23 +152,62 @@ impl<const G: usize> WideBvh<G> {
         }
         // Each visited node pops one entry and pushes at most `4·G`.
         out.stack_len = (width - 1) * deepest + 1;
-        out
+        (out, leaves)
     }
 
-    /// Makes the packet of BVH2 leaf `k` and returns its child reference.
-    fn leaf(&mut self, bvh: &Bvh2, k: usize, triangles: &[TriSoa]) -> u32 {
-        let node = &bvh.nodes[k];
-        let first = node.first_index as usize;
-        let prims = &bvh.primitive_indices[first..first + node.prim_count as usize];
-        let tris: Vec<TriSoa> = prims.iter().map(|&p| triangles[p as usize]).collect();
-        let mut ids = [0; 4];
-        for (lane, id) in ids.iter_mut().enumerate() {
-            *id = prims[lane.min(prims.len() - 1)];
+    /// Makes the packets of `leaves` (from [`WideBvh::topology`]), whose primitives
+    /// `primitive_indices` numbers; `triangle(id)` gives triangle `id` as the scalar test reads
+    /// it. Sets `slots[id]` to `4·packet + lane` of the first lane holding triangle `id`.
+    pub(crate) fn fill_packets(
+        &mut self,
+        leaves: &[u32],
+        primitive_indices: &[u32],
+        triangle: impl Fn(u32) -> TriSoa,
+        slots: &mut [u32],
+    ) {
+        self.packets = Vec::with_capacity(leaves.len());
+        self.ids = Vec::with_capacity(leaves.len());
+        for (packet, &leaf) in leaves.iter().enumerate() {
+            let first = (leaf >> 2) as usize;
+            let count = (leaf & 3) as usize + 1;
+            let prims = &primitive_indices[first..first + count];
+            let mut tris = [TriSoa::default(); 4];
+            let mut ids = [0; 4];
+            for lane in 0..4 {
+                ids[lane] = prims[lane.min(count - 1)];
+            }
+            for (lane, &id) in prims.iter().enumerate() {
+                tris[lane] = triangle(id);
+                slots[id as usize] = (packet * 4 + lane) as u32;
+            }
+            self.packets.push(Tri4::new(&tris[..count]));
+            self.ids.push(ids);
         }
-        let index = self.packets.len() as u32;
-        self.packets.push(Tri4::new(&tris));
-        self.ids.push(ids);
-        LEAF | index
+    }
+
+    /// Triangle `slot >> 2`'s lane `slot & 3`, as the scalar test reads it: its vertices
+    /// exactly as given to the build, and its unit normal.
+    #[inline]
+    pub(crate) fn triangle(&self, slot: u32) -> TriSoa {
+        self.packets[(slot >> 2) as usize].lane((slot & 3) as usize)
+    }
+
+    /// Heap bytes of the nodes, the packets and the packets' triangle ids.
+    pub(crate) fn heap_bytes(&self) -> [(&'static str, usize); 3] {
+        [
+            (
+                "wide nodes",
+                self.nodes.capacity() * size_of::<WideNode<G>>(),
+            ),
+            (
+                "triangle packets",
+                self.packets.capacity() * size_of::<Tri4>(),
+            ),
+            (
+                "packet triangle ids",
+                self.ids.capacity() * size_of::<[u32; 4]>(),
+            ),
+        ]
     }
 
     /// Fills wide node `w`'s slots with `children` (reference, box); the rest stay empty.

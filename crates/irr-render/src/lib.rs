@@ -195,10 +195,25 @@ pub fn load_scene(path: &Path) -> Result<LoadedScene, RenderError> {
 
 /// [`load_scene`] with [`LoadOptions`] (the folder buffer files may be read from).
 pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene, RenderError> {
-    let data = load_gltf_with(path, options)?;
-    let mut warnings = data.warnings;
+    let SceneData {
+        meshes,
+        materials,
+        textures,
+        tex_coords,
+        camera,
+        cameras,
+        lights,
+        mut warnings,
+        ..
+    } = load_gltf_with(path, options)?;
+    // Texture coordinates by geometry id, before the meshes are consumed (degenerate triangles
+    // the build drops have none).
+    let tex_coords = load::tex_coords_by_id(&meshes, &materials, &tex_coords)
+        .map_err(|e| RenderError::scene(path, e))?;
+    // The meshes are consumed: each part is freed as soon as the BVH's leaves hold it, so a
+    // large scene is never in memory twice.
     let geometry =
-        Geometry::build(&data.meshes).map_err(|e| RenderError::scene(path, e.to_string()))?;
+        Geometry::build_owned(meshes).map_err(|e| RenderError::scene(path, e.to_string()))?;
     let report = *geometry.report();
     if report.dropped_degenerate > 0 {
         warnings.push(Warning {
@@ -217,16 +232,14 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
         });
     }
     let bounds = geometry.bounds();
-    let tex_coords = load::tex_coords_by_id(&data.meshes, &data.materials, &data.tex_coords)
-        .map_err(|e| RenderError::scene(path, e))?;
-    let scene = Scene::with_textures(geometry, data.materials, data.textures, tex_coords)
-        .and_then(|s| s.with_lights(data.lights))
+    let scene = Scene::with_textures(geometry, materials, textures, tex_coords)
+        .and_then(|s| s.with_lights(lights))
         .map_err(|e| RenderError::scene(path, e.to_string()))?;
     Ok(LoadedScene {
         path: path.to_path_buf(),
         scene,
-        camera: data.camera,
-        cameras: data.cameras,
+        camera,
+        cameras,
         warnings,
         bounds,
     })
