@@ -211,7 +211,7 @@ impl Scene {
             }
         }
         for id in 0..geometry.triangle_count() as u32 {
-            let material = geometry.triangle(id).material_id;
+            let material = geometry.material_id(id);
             if material as usize >= materials.len() {
                 return Err(SceneError::MissingMaterial {
                     triangle: id,
@@ -333,7 +333,7 @@ impl Scene {
     /// The material of triangle `triangle`.
     #[inline]
     pub fn material_of(&self, triangle: u32) -> &Material {
-        &self.materials[self.geometry.triangle(triangle).material_id as usize]
+        &self.materials[self.geometry.material_id(triangle) as usize]
     }
 
     /// The sampler over the emitting triangles and the punctual lights.
@@ -414,7 +414,7 @@ fn check_textures(
         });
     }
     for triangle in 0..geometry.triangle_count() as u32 {
-        let m = &materials[geometry.triangle(triangle).material_id as usize];
+        let m = &materials[geometry.material_id(triangle) as usize];
         let expected = m.tex_coord_sets().count();
         let found = tex_coords.of(triangle).len();
         if found != expected {
