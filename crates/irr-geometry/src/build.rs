@@ -31,11 +31,13 @@
 //!   the centroids on the longest axis, or of box size if they coincide, at a multiple of four:
 //!   nested boxes end up in a balanced tree ordered by size.
 //!
-//! Each level is linear and every split leaves at least one primitive on each side, binned
-//! splits by SAH and the rest by medians, so the build is `O(n log n)` on every input measured
-//! (a degenerate SAH split peeling one primitive at a time would be quadratic; the medians and
-//! the ≥ 1-primitive bins make it unlikely rather than impossible). It is single-threaded, so
-//! the tree does not depend on the thread count. Up to [`REINSERT_LIMIT`] triangles it is
+//! Each level costs `O(n)` in all. SAH alone could peel a few primitives per level off a long
+//! range (exponentially spaced centroids do that), which would make the build quadratic, so
+//! deeper than [`SAH_DEPTH_LIMIT`] (64; ordinary scenes stop before 30) ranges are split at
+//! medians instead: at most 64 SAH levels, then `⌈log₂ n⌉` median levels down to
+//! [`SWEEP_LIMIT`] primitives, then at most 32 sweep levels on ranges of at most 32: the build
+//! is `O(n log n)` whatever the input. It is single-threaded, so the tree does not depend on
+//! the thread count. Up to [`REINSERT_LIMIT`] triangles it is
 //! followed by obvhs's reinsertion over every node (skipped where many centroids share a cell:
 //! its search for a better place of each node descends every overlapping subtree, and a
 //! cluster of nested boxes overlaps everywhere).
@@ -62,7 +64,7 @@ pub(crate) const PLOC_LIMIT: usize = CLUSTER_LIMIT;
 
 /// The lean build is followed by a reinsertion pass over every node up to this many triangles
 /// (see the module docs for what it gains and costs).
-pub(crate) const REINSERT_LIMIT: usize = 1 << 21;
+pub(crate) const REINSERT_LIMIT: usize = 1 << 18;
 
 /// A range of at most [`LEAF_SIZE`] primitives is split rather than made a leaf when its two
 /// halves' box areas sum to less than this fraction of its own.
@@ -244,6 +246,8 @@ fn top_down(mut prims: Vec<Prim>) -> Bvh2 {
                 continue;
             }
             (mid, sides(&range[..mid]), sides(&range[mid..]))
+        } else if p.depth > SAH_DEPTH_LIMIT {
+            split_median(range, &p.centroids)
         } else {
             split_binned(range, &p.centroids)
         };
@@ -289,8 +293,15 @@ fn sides(part: &[Prim]) -> (Aabb, Aabb) {
         })
 }
 
+/// Below this depth, ranges are split by SAH; deeper (a tree that SAH keeps peeling a few
+/// primitives off, as it can for exponentially spaced centroids), by medians, so that the
+/// build stays `O(n log n)`. Far deeper than SAH goes on ordinary scenes (depth 21 on the
+/// 10⁶-triangle heightfield, 26 on the benchmark's 10⁶-triangle scene, 23 on 10⁶ nested
+/// triangles).
+pub(crate) const SAH_DEPTH_LIMIT: usize = 64;
+
 /// Ranges of at most this many primitives are split by a full sweep rather than by bins.
-const SWEEP_LIMIT: usize = 32;
+pub(crate) const SWEEP_LIMIT: usize = 32;
 
 /// The cheapest split of `range` (2 to [`SWEEP_LIMIT`] primitives) over every position of its
 /// centroids sorted on each axis (ties by position); reorders `range` to it (through `scratch`)
@@ -428,9 +439,16 @@ fn split_binned(range: &mut [Prim], centroids: &Aabb) -> (usize, (Aabb, Aabb), (
             (union(&bins[axis][b + 1..]), cr),
         );
     }
-    // No split separates the centroids (they coincide, or all fall in one bin): the median of
-    // the centroids on the longest axis, or where they coincide, of box size, at a multiple
-    // of the leaf size.
+    // No split separates the centroids (they coincide, or all fall in one bin).
+    split_median(range, centroids)
+}
+
+/// Splits `range` (more than [`LEAF_SIZE`] primitives) at the median of the centroids on their
+/// longest axis, or where they coincide, of box size, at a multiple of the leaf size (ties by
+/// index); returns the size of the first part and each part's (bounds, centroid bounds).
+fn split_median(range: &mut [Prim], centroids: &Aabb) -> (usize, (Aabb, Aabb), (Aabb, Aabb)) {
+    let len = range.len();
+    let extent = centroids.max - centroids.min;
     let mid = (len / 2).next_multiple_of(LEAF_SIZE).min(len - 1);
     let axis = extent.max_position();
     if extent[axis] > 0.0 {

@@ -1187,6 +1187,63 @@ mod tests {
         }
     }
 
+    /// Nested triangles whose centroids drift apart as they grow (each 1.002 times the
+    /// previous, its centroid 1.002 times farther out): SAH keeps peeling the largest few off,
+    /// so the build switches to medians below `SAH_DEPTH_LIMIT` and the tree stays shallower
+    /// (depth 94 against 117); it still traces like brute force.
+    #[test]
+    fn peeling_scenes_stay_shallow_and_trace_like_brute_force() {
+        let n = 40000u32;
+        let mut mesh = TriangleMesh::default();
+        let mut scale = 1.0f32;
+        for k in 0..n {
+            let c = Vec3::new(1.0, 0.5, 0.25) * (scale * 1e-3);
+            mesh.positions.extend([
+                c + Vec3::new(-1.0, -1.0, 0.0) * scale,
+                c + Vec3::new(1.0, -0.5, 0.2) * scale,
+                c + Vec3::new(0.0, 1.0, -0.2) * scale,
+            ]);
+            mesh.indices.push([3 * k, 3 * k + 1, 3 * k + 2]);
+            scale *= 1.002;
+        }
+        mesh.material_ids = vec![0; n as usize];
+        let prims: Vec<build::Prim> = mesh
+            .indices
+            .iter()
+            .enumerate()
+            .map(|(k, t)| {
+                let p = t.map(|i| mesh.positions[i as usize]);
+                build::Prim::new(p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]), k as u32)
+            })
+            .collect();
+        let (bvh, builder) = build::build_bvh2(prims);
+        assert_eq!(builder, build::Builder::TopDown);
+        // At most SAH_DEPTH_LIMIT levels of SAH, then medians that halve the range down to
+        // SWEEP_LIMIT primitives (⌈log₂ n⌉ levels at most), then sweeps that remove at least
+        // one primitive per level (SWEEP_LIMIT levels at most). Without the limit: depth 117.
+        let depth = bvh2_depth(&bvh.nodes);
+        let bound =
+            build::SAH_DEPTH_LIMIT + (f64::from(n)).log2().ceil() as usize + build::SWEEP_LIMIT;
+        assert!(depth <= bound, "depth {depth} > {bound}");
+        let g = Geometry::build(std::slice::from_ref(&mesh)).unwrap_or_else(|e| panic!("{e}"));
+        let mut seed = 0x0bad_cafe_u32;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            seed as f32 / u32::MAX as f32 * 2.0 - 1.0
+        };
+        for _ in 0..100 {
+            let o = Vec3::new(next(), next(), next()) * 30.0;
+            let ray = Ray::new(o, Vec3::new(next(), next(), next()) * 10.0 - o);
+            assert_eq!(
+                g.intersect(&ray).map(|h| h.triangle),
+                g.intersect_brute_force(&ray).map(|h| h.triangle),
+                "{ray:?}"
+            );
+        }
+    }
+
     /// The wide traversals give the same bits whichever instruction set pulp dispatches to:
     /// the one detected here (x86-64-v3 on an AVX2 machine) and the baseline build, which
     /// runs on CPUs without it. (Rust never fuses a multiply and an add, so both evaluate the
