@@ -83,13 +83,14 @@ impl LightSampler {
         };
         let mut powers = Vec::new();
         for id in 0..geometry.triangle_count() as u32 {
-            let tri = geometry.triangle(id);
-            let Some(m) = materials.get(tri.material_id as usize) else {
+            // The material first: only an emitter's vertices are read back from the BVH.
+            let Some(m) = materials.get(geometry.material_id(id) as usize) else {
                 continue;
             };
             if !m.is_emissive() {
                 continue;
             }
+            let tri = geometry.triangle(id);
             let area = tri.area();
             if area <= 0.0 || !area.is_finite() {
                 continue;
