@@ -517,8 +517,8 @@ fn shading_normals_far_from_the_geometric_normal() {
 /// A gather of 8×32 rays from the far floor passes through the slit with probability ~4·10⁻⁴
 /// per ray, ~0.1 per record: most records see nothing and the few that do carry a spike with a
 /// steep gradient, whose radius the gradient limit shrinks. The cache is consistent, not
-/// unbiased: at 8×32 and κ = 1 it measured 25 times darker than the path tracer on the far floor
-/// (6.3·10⁻⁵ against 1.6·10⁻³). The test pins that down as a convergence: at 32×128 and κ = 4
+/// unbiased: at 8×32 and κ = 1 it measured 4.8 times darker than the path tracer on the far floor
+/// (2.3·10⁻⁴ against 1.1·10⁻³; 25 times with independent samples and roulette from bounce 3). The test pins that down as a convergence: at 32×128 and κ = 4
 /// every region agrees with the path tracer, and the far floor's error is smaller than at 8×32
 /// and κ = 1.
 #[test]
