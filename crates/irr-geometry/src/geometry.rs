@@ -67,7 +67,9 @@ pub struct SurfacePoint {
 /// | former `Cwbvh` (quantised boxes) | 1196 | 1088 | 5197 | 4721 |
 ///
 /// (The 10⁶-triangle columns were measured before the four-triangle test learnt to return
-/// early when no lane can hit, which took 1–3% off on the Cornell box.)
+/// early when no lane can hit, which took 1–3% off on the Cornell box, and on PLOC's tree:
+/// the lean top-down build that replaced it for scenes above 1024 triangles takes `Wide8` to
+/// 2834 and 2022; see `build.rs`.)
 ///
 /// Wall clock (best of 30 runs, 6 on 10⁶ triangles, interleaved with the previous build, one
 /// thread, load ~4 on the 2-core development machine): Cornell closest 6.8 → 7.5 Mrays/s,
@@ -108,7 +110,8 @@ pub enum BvhLayout {
     Wide8,
 }
 
-/// The BVH nodes, in the chosen layout; leaves index `Geometry::bvh_triangles`.
+/// The BVH nodes, in the chosen layout; the wide layouts hold their leaves' packets, the BVH2
+/// layout's leaves index `Geometry::bvh_triangles`.
 #[derive(Debug, Clone)]
 enum Nodes {
     Bvh2(Vec<Bvh2Node>),
