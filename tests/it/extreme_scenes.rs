@@ -171,14 +171,14 @@ fn agree(
 /// The indirect part alone, on one region: K renders of the path tracer's and of the cache's
 /// `li_split().indirect` must agree as in [`agree`]. Returns the path tracer's indirect-to-direct
 /// ratio on the region (direct = total − indirect: the region must not be an emitter), so a test
-/// can check that its scene is the extreme it claims.
+/// can check that its scene is the extreme it claims, and the cache's K indirect images.
 fn indirect_agrees(
     name: &str,
     scene: &Scene,
     camera: &Camera,
     setup: &Setup,
     region: &[(u32, u32)],
-) -> f64 {
+) -> (f64, Vec<Image>) {
     let (w, h) = setup.size;
     let settings = |spp, seed| RenderSettings {
         width: w,
@@ -226,7 +226,7 @@ fn indirect_agrees(
         (m_ic - m_pt).abs() <= tol,
         "{name}: cache's indirect {m_ic:.4e} vs path's {m_pt:.4e} (tolerance {tol:.2e})"
     );
-    ratio
+    (ratio, cache)
 }
 
 /// A floor (y = 0) of half-size `half` around the origin, facing up.
@@ -517,10 +517,10 @@ fn shading_normals_far_from_the_geometric_normal() {
 /// A gather of 8×32 rays from the far floor passes through the slit with probability ~4·10⁻⁴
 /// per ray, ~0.1 per record: most records see nothing and the few that do carry a spike with a
 /// steep gradient, whose radius the gradient limit shrinks. The cache is consistent, not
-/// unbiased: at 8×32 and κ = 1 it measured 4.8 times darker than the path tracer on the far floor
-/// (2.3·10⁻⁴ against 1.1·10⁻³; 25 times with independent samples and roulette from bounce 3). The test pins that down as a convergence: at 32×128 and κ = 4
-/// every region agrees with the path tracer, and the far floor's error is smaller than at 8×32
-/// and κ = 1.
+/// unbiased: at 8×32 and κ = 1 it measured 4.8 times darker than the path tracer on the far
+/// floor (2.3·10⁻⁴ against 1.1·10⁻³; 25 times with independent samples and roulette from
+/// bounce 3). The test pins that down as a convergence: at 32×128 and κ = 4 every region agrees
+/// with the path tracer, and the far floor's error is smaller than at 8×32 and κ = 1.
 #[test]
 fn light_through_a_narrow_gap() {
     let slit = 2e-3f32;
@@ -671,7 +671,7 @@ fn indirect_a_millionth_of_direct() {
         &setup,
         &[("floor", floor.clone())],
     );
-    let ratio = indirect_agrees("indirect 1e-6", &s, &camera, &setup, &floor);
+    let (ratio, _) = indirect_agrees("indirect 1e-6", &s, &camera, &setup, &floor);
     // The walls' albedo sets the ratio: ~10⁻⁶ times the fraction of the floor's view the walls
     // fill (order 1): the scene is the extreme it claims within a factor of ten.
     assert!(
@@ -711,7 +711,7 @@ fn indirect_a_thousand_times_direct() {
         &setup,
         &[("floor", floor.clone())],
     );
-    let ratio = indirect_agrees("indirect 1e3", &s, &camera, &setup, &floor);
+    let (ratio, _) = indirect_agrees("indirect 1e3", &s, &camera, &setup, &floor);
     assert!((1e2..1e4).contains(&ratio), "indirect/direct = {ratio:.2e}");
 }
 
@@ -744,7 +744,7 @@ fn a_tiny_bright_emitter_does_not_poison_the_cache() {
     let setup = Setup::default();
     let (w, h) = setup.size;
     let all: Vec<(u32, u32)> = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).collect();
-    indirect_agrees("tiny bright emitter", &s, &camera, &setup, &all);
+    let (_, cache) = indirect_agrees("tiny bright emitter", &s, &camera, &setup, &all);
 
     let settings = |spp, seed| RenderSettings {
         width: w,
@@ -766,19 +766,6 @@ fn a_tiny_bright_emitter_does_not_poison_the_cache() {
     )
     .unwrap_or_else(|e| panic!("{e}"))
     .image;
-    let cache: Vec<Image> = (0..K)
-        .map(|k| {
-            let st = settings(setup.cache_spp, 500 + k);
-            let integrator = built(&s, &camera, setup.cache, &st);
-            let view = Indirect {
-                path: None,
-                ic: Some(&integrator),
-            };
-            render(&s, &camera, &view, &st, false)
-                .unwrap_or_else(|e| panic!("{e}"))
-                .image
-        })
-        .collect();
     let brightest = |im: &Image| {
         im.pixels()
             .iter()

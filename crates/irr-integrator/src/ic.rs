@@ -49,7 +49,7 @@
 //! 2). A record on the lit side of a 1 mm wall therefore never lights the dark side.
 
 use crate::integrator::{Integrator, RayCounter};
-use crate::path::{PathSettings, PathTracer, Radiance, ShadingPoint, sample_light};
+use crate::path::{PathSettings, PathTracer, Radiance, ShadingPoint, first_surface, sample_light};
 use crate::scene::Scene;
 use glam::Vec3;
 use irr_cache::{
@@ -1030,23 +1030,10 @@ impl IrradianceCacheIntegrator {
         dims: &mut Dimensions,
         rays: &mut RayCounter,
     ) -> Radiance {
-        rays.closest += 1;
-        let Some(hit) = scene.geometry().intersect(ray) else {
-            // The camera sees the background: a path `L B`.
-            return Radiance {
-                emitted: scene.background(),
-                ..Radiance::default()
-            };
+        let (surface, wo, emitted) = match first_surface(scene, ray, rays) {
+            Ok(first) => first,
+            Err(background) => return background,
         };
-        let surface = scene.geometry().surface(ray, &hit);
-        let wo = -ray.direction.normalize();
-        let emitted = scene.emitted(
-            surface.triangle,
-            surface.b1,
-            surface.b2,
-            surface.geometric_normal,
-            wo,
-        );
         let x = ShadingPoint::new(&surface, wo);
         // Direct light: NEE at x₀.
         let direct = direct_nee(scene, &x, self.core.settings.direct_samples, dims, rays);

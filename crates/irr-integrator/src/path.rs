@@ -244,6 +244,28 @@ pub fn sample_light(
     }
 }
 
+/// What a camera ray meets first, as both integrators' `li_split` start: the surface, the
+/// direction back to the camera and the radiance the surface emits towards it; or, for a ray
+/// that leaves the scene, the finished estimate: the background seen directly (a path `L B`,
+/// all `emitted`). Counts the ray.
+pub(crate) fn first_surface(
+    scene: &Scene,
+    ray: &Ray,
+    rays: &mut RayCounter,
+) -> Result<(SurfacePoint, Vec3, Vec3), Radiance> {
+    rays.closest += 1;
+    let Some(hit) = scene.geometry().intersect(ray) else {
+        return Err(Radiance {
+            emitted: scene.background(),
+            ..Radiance::default()
+        });
+    };
+    let surface = scene.geometry().surface(ray, &hit);
+    let wo = -ray.direction.normalize();
+    let emitted = scene.emitted_at(&surface, wo);
+    Ok((surface, wo, emitted))
+}
+
 /// The path-traced reference: Lambertian BSDF, NEE on area and punctual lights combined with BSDF
 /// sampling by MIS, the background found by BSDF sampling, Russian roulette after `rr_start`
 /// bounces (unbiased: survivors are divided by the survival probability).
@@ -267,23 +289,10 @@ impl PathTracer {
         dims: &mut Dimensions,
         rays: &mut RayCounter,
     ) -> Radiance {
-        rays.closest += 1;
-        let Some(hit) = scene.geometry().intersect(ray) else {
-            // The camera sees the background: a path `L B`.
-            return Radiance {
-                emitted: scene.background(),
-                ..Radiance::default()
-            };
+        let (surface, wo, emitted) = match first_surface(scene, ray, rays) {
+            Ok(first) => first,
+            Err(background) => return background,
         };
-        let surface = scene.geometry().surface(ray, &hit);
-        let wo = -ray.direction.normalize();
-        let emitted = scene.emitted(
-            surface.triangle,
-            surface.b1,
-            surface.b2,
-            surface.geometric_normal,
-            wo,
-        );
         let mut out = self.reflected(scene, &surface, wo, dims, rays);
         out.emitted = emitted;
         out
@@ -352,13 +361,7 @@ impl PathTracer {
                 if let Some(hit) = hit {
                     let surface = scene.geometry().surface(&ray, &hit);
                     // Emission found by the BSDF sample, weighted against NEE.
-                    let le = scene.emitted(
-                        surface.triangle,
-                        surface.b1,
-                        surface.b2,
-                        surface.geometric_normal,
-                        -wi,
-                    );
+                    let le = scene.emitted_at(&surface, -wi);
                     if le != Vec3::ZERO {
                         let dist2 = (surface.position - x.position).length_squared();
                         let cos_light = surface.geometric_normal.dot(wi).abs();

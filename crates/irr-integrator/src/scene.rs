@@ -6,7 +6,7 @@ use crate::light::LightSampler;
 use crate::punctual::PunctualLight;
 use crate::texture::{TexCoords, Texture, TextureRef};
 use glam::{Vec2, Vec3};
-use irr_geometry::Geometry;
+use irr_geometry::{Geometry, SurfacePoint};
 use thiserror::Error;
 
 /// A Lambertian surface that may also emit.
@@ -256,6 +256,19 @@ impl Scene {
             None => m.emission,
             Some(t) => m.emission * self.lookup(triangle, t, b1, b2),
         }
+    }
+
+    /// [`Scene::emitted`] at a surface point (its triangle, barycentrics and winding normal),
+    /// towards `wo`.
+    #[inline]
+    pub fn emitted_at(&self, surface: &SurfacePoint, wo: Vec3) -> Vec3 {
+        self.emitted(
+            surface.triangle,
+            surface.b1,
+            surface.b2,
+            surface.geometric_normal,
+            wo,
+        )
     }
 
     /// The coordinate at which `texture`, read by the material of `triangle`, is looked up at
