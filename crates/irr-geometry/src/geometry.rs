@@ -174,6 +174,9 @@ pub struct Geometry {
     bvh_ids: Vec<u32>,
     report: BuildReport,
     bounds: (Vec3, Vec3),
+    /// The largest vertex coordinate in magnitude, for the wide layouts' triangle screen
+    /// (`PreparedRay::set_screen`).
+    coordinate_bound: f32,
     /// The instruction set the wide traversals are compiled for, detected at build time:
     /// x86-64-v3 (AVX2) where the CPU has it, else the baseline. Both run the same operations
     /// (no fused multiply-adds: Rust never contracts), so the answers are the same bits.
@@ -359,6 +362,7 @@ impl Geometry {
             bvh_ids,
             report,
             bounds: (min, max),
+            coordinate_bound: min.abs().max(max.abs()).max_element(),
             arch: pulp::Arch::new(),
         })
     }
@@ -487,7 +491,7 @@ impl Geometry {
     /// direction, zero direction, NaN `t_max`) returns `None`.
     #[must_use]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let r = PreparedRay::new(ray)?;
+        let mut r = PreparedRay::new(ray)?;
         match &self.nodes {
             Nodes::Bvh2(n) => {
                 let found = match r.kz {
@@ -502,8 +506,14 @@ impl Geometry {
                     b2: h.b2,
                 })
             }
-            Nodes::Wide4(w) => self.arch.dispatch(WideQuery::closest(w, &r, self)).0,
-            Nodes::Wide8(w) => self.arch.dispatch(WideQuery::closest(w, &r, self)).0,
+            Nodes::Wide4(w) => {
+                r.set_screen(self.coordinate_bound);
+                self.arch.dispatch(WideQuery::closest(w, &r, self)).0
+            }
+            Nodes::Wide8(w) => {
+                r.set_screen(self.coordinate_bound);
+                self.arch.dispatch(WideQuery::closest(w, &r, self)).0
+            }
         }
     }
 
@@ -546,7 +556,7 @@ impl Geometry {
     /// [`Geometry::intersect`]). For shadow rays built with [`Ray::spawn_to`].
     #[must_use]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        let Some(r) = PreparedRay::new(ray) else {
+        let Some(mut r) = PreparedRay::new(ray) else {
             return false;
         };
         match &self.nodes {
@@ -555,8 +565,14 @@ impl Geometry {
                 1 => self.with_stack(|s| self.bvh2_any::<1>(n, &r, s)),
                 _ => self.with_stack(|s| self.bvh2_any::<2>(n, &r, s)),
             },
-            Nodes::Wide4(w) => self.arch.dispatch(WideQuery::any(w, &r, self)).1,
-            Nodes::Wide8(w) => self.arch.dispatch(WideQuery::any(w, &r, self)).1,
+            Nodes::Wide4(w) => {
+                r.set_screen(self.coordinate_bound);
+                self.arch.dispatch(WideQuery::any(w, &r, self)).1
+            }
+            Nodes::Wide8(w) => {
+                r.set_screen(self.coordinate_bound);
+                self.arch.dispatch(WideQuery::any(w, &r, self)).1
+            }
         }
     }
 
@@ -868,21 +884,20 @@ impl<const G: usize> pulp::WithSimd for Gather<'_, G> {
         for (ray, hit) in self.rays.iter().zip(self.hits.iter_mut()) {
             // No closure here: it would be compiled outside the dispatched instruction set.
             *hit = match PreparedRay::new(ray) {
-                Some(r) => wide_closest(self.w, &r, self.g),
+                Some(mut r) => {
+                    r.set_screen(self.g.coordinate_bound);
+                    wide_closest(self.w, &r, self.g)
+                }
                 None => None,
             };
         }
     }
 }
 
-/// Closest hit on a wide BVH, dispatched on the ray's permutation.
+/// Closest hit on a wide BVH.
 #[inline(always)]
 fn wide_closest<const G: usize>(w: &WideBvh<G>, r: &PreparedRay, g: &Geometry) -> Option<Hit> {
-    let found = on_stack!(g.stack_len, Entry, |s| match r.kz {
-        0 => w.closest::<0>(r, s),
-        1 => w.closest::<1>(r, s),
-        _ => w.closest::<2>(r, s),
-    });
+    let found = on_stack!(g.stack_len, Entry, |s| w.closest(r, s));
     found.map(|(p, lane, h)| Hit {
         t: h.t,
         triangle: w.id(p, lane),
@@ -891,14 +906,10 @@ fn wide_closest<const G: usize>(w: &WideBvh<G>, r: &PreparedRay, g: &Geometry) -
     })
 }
 
-/// Any hit on a wide BVH, dispatched on the ray's permutation.
+/// Any hit on a wide BVH.
 #[inline(always)]
 fn wide_any<const G: usize>(w: &WideBvh<G>, r: &PreparedRay, g: &Geometry) -> bool {
-    on_stack!(g.stack_len, Entry, |s| match r.kz {
-        0 => w.any::<0>(r, s),
-        1 => w.any::<1>(r, s),
-        _ => w.any::<2>(r, s),
-    })
+    on_stack!(g.stack_len, Entry, |s| w.any(r, s))
 }
 
 /// Checks a mesh's indices and array lengths.

@@ -16,8 +16,15 @@
 //!
 //! The triangle is stored as three `Vec3A` of x, y and z coordinates (one lane per vertex), so
 //! translation, shear and the three edge functions are a handful of 4-wide operations. The
-//! permutation depends only on the ray, so it is a const generic (`KZ`, the axis that becomes z)
-//! resolved once per ray, not per triangle. Multiplications and subtractions are written out
+//! permutation depends only on the ray: the scalar test takes it as a const generic (`KZ`, the
+//! axis that becomes z); the 4-wide test indexes its packet's coordinate arrays with the ray's
+//! `perm`, one body for every ray (three bodies chosen per ray cost a mispredicted branch per
+//! ray, and three copies of the traversal in the instruction cache).
+//!
+//! The 4-wide test first screens its packet: a lane with one edge function below `−s` and
+//! another above `s` certainly misses, where `s`, set once per ray from the scene's largest
+//! coordinate, is twice any filter bound the test can compute (see `PreparedRay::set_screen`).
+//! A packet whose four lanes all miss that way costs no filter, no division and no distance. Multiplications and subtractions are written out
 //! (glam's `cross` fuses with FMA when the target has it, which would break the bitwise
 //! antisymmetry that watertightness needs).
 //!
@@ -120,6 +127,15 @@ pub(crate) struct PreparedRay {
     pub(crate) inv4: [Vec4; 3],
     pub(crate) inv_far4: [Vec4; 3],
     pub(crate) near: [usize; 3],
+    /// The axes that become x, y and z in the triangle test: `[kz + 1, kz + 2, kz]` (mod 3).
+    /// The 4-wide test indexes the packet's coordinate arrays with them, so it has one body
+    /// for every ray rather than one per axis (a per-ray branch among three bodies was a
+    /// mispredicted branch per ray).
+    pub(crate) perm: [usize; 3],
+    /// The 4-wide test's screen: a lane whose edge functions include one below `−screen` and
+    /// one above `screen` certainly misses (see [`PreparedRay::set_screen`]). ∞ (no lane is
+    /// screened out) until it is set.
+    pub(crate) screen: f32,
 }
 
 impl PreparedRay {
@@ -137,13 +153,17 @@ impl PreparedRay {
         // kz is the largest component; kx = kz + 1, ky = kz + 2 (mod 3). pbrt-v4: Sx = −d_x/d_z,
         // Sy = −d_y/d_z in the permuted frame (Sz is not needed: the distance comes from the
         // plane, see the module docs).
-        let (kz, sx, sy) = if a.x > a.y && a.x > a.z {
-            (0, -d.y / d.x, -d.z / d.x)
+        // Selected without branches: the largest axis of a random direction is a coin toss.
+        let kz = if a.x > a.y && a.x > a.z {
+            0
         } else if a.y > a.z {
-            (1, -d.z / d.y, -d.x / d.y)
+            1
         } else {
-            (2, -d.x / d.z, -d.y / d.z)
+            2
         };
+        let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
+        let da = d.to_array();
+        let (sx, sy) = (-da[kx] / da[kz], -da[ky] / da[kz]);
         // 1/d, clamped to ±2⁶⁴ so that a zero component gives a large finite value instead of
         // ±∞ (∞·0 is NaN when the origin lies on a slab plane). The clamp
         // only changes components below 5.4e-20 (relative to the others: the ray is then
@@ -178,7 +198,41 @@ impl PreparedRay {
                 if inv_dir.y < 0.0 { 4 } else { 1 },
                 if inv_dir.z < 0.0 { 5 } else { 2 },
             ],
+            perm: [kx, ky, kz],
+            screen: f32::INFINITY,
         })
+    }
+
+    /// Sets [`PreparedRay::screen`] for a scene whose vertex coordinates are all at most
+    /// `coordinate_bound` in magnitude: twice a bound on every filter bound `δ` that
+    /// [`intersect_tri4`] can compute for this ray, so that a lane it screens out is one the
+    /// full test finds missed too (the same answer, sooner).
+    ///
+    /// The bound. With `C = (B + O)(1 + u)`, `B` the coordinate bound and `O` the origin's
+    /// largest component, every translated coordinate has `r ≤ C`, and every sheared one
+    /// `|x + Sx·z| ≤ 2r(1 + 3u)` (`|Sx|, |Sy| ≤ 1`). The computed
+    /// `δ = 2γ₃·xm·ym + 2e(xm + ym) + 2e² + MIN` (`e = 2γ₅r`, each term with ≤ 5 roundings) is
+    /// then at most `(1 + 12u)·C²·(8γ₃ + 16γ₅ + 8γ₅²) + (1 + 5u)·MIN`. Computed here in `f64`
+    /// with a relative margin of 2⁻¹⁶ (it covers the `(1 + 12u)` and this computation's own
+    /// roundings) and 4·MIN.
+    ///
+    /// Why twice δ: a lane with `e_i < −2δ` and `e_j > 2δ` has `|e_i|, |e_j| > δ`, so those two
+    /// signs are exact; and if its third edge function sends it to the `f64` test, that test's
+    /// exact values are `< −δ` and `> δ` (each `f32` value errs by at most `δ`), far beyond its
+    /// own rounding (2⁻²⁹ of `δ`'s), so it finds the same mixed signs: a miss either way.
+    ///
+    /// A huge bound (an origin or a scene near `f32::MAX`) gives ∞: nothing is screened out.
+    #[inline(always)]
+    pub(crate) fn set_screen(&mut self, coordinate_bound: f32) {
+        let u = f64::from(f32::EPSILON) * 0.5;
+        let g3 = f64::from(gamma(3));
+        let g5 = f64::from(gamma(5));
+        let c =
+            (f64::from(coordinate_bound) + f64::from(self.origin.abs().max_element())) * (1.0 + u);
+        let bound = (1.0 + 2f64.powi(-16)) * c * c * (8.0 * g3 + 16.0 * g5 + 8.0 * g5 * g5)
+            + 4.0 * f64::from(f32::MIN_POSITIVE);
+        // Rounded up into f32 (∞ beyond its range).
+        self.screen = ((2.0 * bound) * (1.0 + 2f64.powi(-20))) as f32;
     }
 
     /// Entry distances of four boxes given by their planes (min x, min y, min z, max x, max y,
@@ -326,50 +380,57 @@ fn edge_error(x: Vec3A, y: Vec3A, z: Vec3A, xt: Vec3A, yt: Vec3A) -> f32 {
     2.0 * gamma(3) * xm * ym + 2.0 * e * (xm + ym) + 2.0 * e * e + f32::MIN_POSITIVE
 }
 
-/// Four triangles as the 4-wide test reads them (lane = triangle): per vertex its x, y and z
-/// coordinates, and the components of the unit normal. A packet of fewer than four triangles
-/// repeats its last one in the spare lanes (a repeated triangle gives the same hit, so it
-/// changes no answer). 192 bytes, three cache lines.
+/// Four triangles as the 4-wide test reads them (lane = triangle): per axis, per vertex, the
+/// coordinates (`v[axis][vertex]`), and the components of the unit normal. A packet of fewer
+/// than four triangles repeats its last one in the spare lanes (a repeated triangle gives the
+/// same hit, so it changes no answer). 192 bytes, three cache lines.
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(64))]
 pub(crate) struct Tri4 {
-    x: [Vec4; 3],
-    y: [Vec4; 3],
-    z: [Vec4; 3],
+    v: [[Vec4; 3]; 3],
     n: [Vec4; 3],
 }
 
 impl Tri4 {
     /// A packet of one to four triangles (the first four of `tris`; `tris` must not be empty).
     pub(crate) fn new(tris: &[TriSoa]) -> Tri4 {
-        let mut p = Tri4 {
-            x: [Vec4::ZERO; 3],
-            y: [Vec4::ZERO; 3],
-            z: [Vec4::ZERO; 3],
-            n: [Vec4::ZERO; 3],
-        };
+        let mut v = [[[0.0f32; 4]; 3]; 3];
+        let mut n = [[0.0f32; 4]; 3];
         for lane in 0..4 {
             let t = &tris[lane.min(tris.len() - 1)];
-            for v in 0..3 {
-                p.x[v][lane] = t.xs[v];
-                p.y[v][lane] = t.ys[v];
-                p.z[v][lane] = t.zs[v];
+            for (axis, coordinates) in [t.xs, t.ys, t.zs].into_iter().enumerate() {
+                for vertex in 0..3 {
+                    v[axis][vertex][lane] = coordinates[vertex];
+                }
             }
-            p.n[0][lane] = t.n.x;
-            p.n[1][lane] = t.n.y;
-            p.n[2][lane] = t.n.z;
+            for (axis, c) in t.n.to_array().into_iter().enumerate() {
+                n[axis][lane] = c;
+            }
         }
-        p
+        Tri4 {
+            v: v.map(|axis| axis.map(Vec4::from_array)),
+            n: n.map(Vec4::from_array),
+        }
     }
 
     /// The triangle in `lane`, as the scalar test reads it (bit for bit the `TriSoa` it was
     /// made from).
     pub(crate) fn lane(&self, lane: usize) -> TriSoa {
+        // Through arrays: indexing a `Vec4` by a variable lane compiles to a jump table, whose
+        // jump a random lane mispredicts (measured: most of the path tracer's mispredicted
+        // indirect branches).
+        let get = |v: &[Vec4; 3]| {
+            Vec3A::new(
+                v[0].to_array()[lane],
+                v[1].to_array()[lane],
+                v[2].to_array()[lane],
+            )
+        };
         TriSoa {
-            xs: Vec3A::new(self.x[0][lane], self.x[1][lane], self.x[2][lane]),
-            ys: Vec3A::new(self.y[0][lane], self.y[1][lane], self.y[2][lane]),
-            zs: Vec3A::new(self.z[0][lane], self.z[1][lane], self.z[2][lane]),
-            n: Vec3A::new(self.n[0][lane], self.n[1][lane], self.n[2][lane]),
+            xs: get(&self.v[0]),
+            ys: get(&self.v[1]),
+            zs: get(&self.v[2]),
+            n: get(&self.n),
         }
     }
 }
@@ -388,18 +449,20 @@ impl Tri4Hits {
     /// The closest of the hits, as (lane, hit); `None` if no lane hit.
     #[inline(always)]
     pub(crate) fn closest(&self) -> Option<(usize, TriHit)> {
+        // Arrays, not `Vec4` indexing (see `Tri4::lane`).
+        let (t, b1, b2) = (self.t.to_array(), self.b1.to_array(), self.b2.to_array());
         let mut m = self.mask;
         let mut best: Option<(usize, TriHit)> = None;
         while m != 0 {
             let l = m.trailing_zeros() as usize;
             m &= m - 1;
-            if best.is_none_or(|(_, b)| self.t[l] < b.t) {
+            if best.is_none_or(|(_, b)| t[l] < b.t) {
                 best = Some((
                     l,
                     TriHit {
-                        t: self.t[l],
-                        b1: self.b1[l],
-                        b2: self.b2[l],
+                        t: t[l],
+                        b1: b1[l],
+                        b2: b2[l],
                     },
                 ));
             }
@@ -411,23 +474,26 @@ impl Tri4Hits {
 /// [`intersect_triangle`] on four triangles at once (lane = triangle), with the same operations
 /// in the same order on each lane, so each lane's answer is bit for bit the scalar test's. A
 /// lane whose edge functions fail the filter is redone by the scalar `f64` test, as there.
+///
+/// Before the filter, the packet is screened with the ray's [`PreparedRay::screen`]: when every
+/// lane has edge functions of certain opposite signs, the packet is a miss and nothing more is
+/// computed (most packets a ray reaches, it passes by). The permutation is the ray's `perm`,
+/// applied by indexing the packet's coordinate arrays, so one body serves every ray.
 #[inline(always)]
-pub(crate) fn intersect_tri4<const KZ: usize>(
-    tri: &Tri4,
-    ray: &PreparedRay,
-    t_best: f32,
-) -> Tri4Hits {
-    let o = &ray.o4;
-    // Translate the vertices so the ray starts at the origin (index = vertex).
-    let x = tri.x.map(|v| v - o[0]);
-    let y = tri.y.map(|v| v - o[1]);
-    let z = tri.z.map(|v| v - o[2]);
-    // Permute so that the ray's largest component is z (as in the scalar test).
-    let (px, py, pz) = match KZ {
-        0 => (&y, &z, &x),
-        1 => (&z, &x, &y),
-        _ => (&x, &y, &z),
+pub(crate) fn intersect_tri4(tri: &Tri4, ray: &PreparedRay, t_best: f32) -> Tri4Hits {
+    const MISS: Tri4Hits = Tri4Hits {
+        t: Vec4::ZERO,
+        b1: Vec4::ZERO,
+        b2: Vec4::ZERO,
+        mask: 0,
     };
+    let o = &ray.o4;
+    let [kx, ky, kz] = ray.perm;
+    // Translate the vertices so the ray starts at the origin (index = vertex), in the permuted
+    // frame where the ray's largest component is z (as in the scalar test).
+    let px = tri.v[kx].map(|v| v - o[kx]);
+    let py = tri.v[ky].map(|v| v - o[ky]);
+    let pz = tri.v[kz].map(|v| v - o[kz]);
     // Shear so the ray runs along +z.
     let sx = Vec4::splat(ray.sx);
     let sy = Vec4::splat(ray.sy);
@@ -437,13 +503,21 @@ pub(crate) fn intersect_tri4<const KZ: usize>(
     let e0 = xt[1] * yt[2] - xt[2] * yt[1];
     let e1 = xt[2] * yt[0] - xt[0] * yt[2];
     let e2 = xt[0] * yt[1] - xt[1] * yt[0];
-    // The filter bound of `edge_error`, per lane, with the same operations in the same order.
-    let r = x[0]
+    // The screen (see above): lanes certainly missed.
+    let screen = Vec4::splat(ray.screen);
+    let below = e0.cmplt(-screen) | e1.cmplt(-screen) | e2.cmplt(-screen);
+    let above = e0.cmpgt(screen) | e1.cmpgt(screen) | e2.cmpgt(screen);
+    if (below & above).bitmask() == 0xf {
+        return MISS;
+    }
+    // The filter bound of `edge_error`, per lane, with the same operations (max is exact, so
+    // its order does not matter).
+    let r = px[0]
         .abs()
-        .max(x[1].abs())
-        .max(x[2].abs())
-        .max(y[0].abs().max(y[1].abs()).max(y[2].abs()))
-        .max(z[0].abs().max(z[1].abs()).max(z[2].abs()));
+        .max(px[1].abs())
+        .max(px[2].abs())
+        .max(py[0].abs().max(py[1].abs()).max(py[2].abs()))
+        .max(pz[0].abs().max(pz[1].abs()).max(pz[2].abs()));
     let xm = xt[0].abs().max(xt[1].abs()).max(xt[2].abs());
     let ym = yt[0].abs().max(yt[1].abs()).max(yt[2].abs());
     let e = Vec4::splat(2.0 * gamma(5)) * r;
@@ -458,36 +532,42 @@ pub(crate) fn intersect_tri4<const KZ: usize>(
     let neg = e0.cmplt(zero) | e1.cmplt(zero) | e2.cmplt(zero);
     let pos = e0.cmpgt(zero) | e1.cmpgt(zero) | e2.cmpgt(zero);
     let mut inside = !(neg & pos).bitmask() & 0xf & !near;
-    // Most packets a ray reaches it passes by: skip the divisions and the distance bound.
     if inside | near == 0 {
-        return Tri4Hits {
-            t: Vec4::ZERO,
-            b1: Vec4::ZERO,
-            b2: Vec4::ZERO,
-            mask: 0,
-        };
+        return MISS;
     }
     let inv_det = Vec4::ONE / (e0 + e1 + e2);
-    let mut b1 = e1 * inv_det;
-    let mut b2 = e2 * inv_det;
+    let b1 = e1 * inv_det;
+    let b2 = e2 * inv_det;
     // Lanes within rounding distance of an edge: the scalar f64 test decides.
-    if near != 0 {
+    let (b1, b2) = if near == 0 {
+        (b1, b2)
+    } else {
+        let (mut b1, mut b2) = (b1.to_array(), b2.to_array());
         let mut m = near;
         while m != 0 {
             let l = m.trailing_zeros() as usize;
             m &= m - 1;
-            if let Some((c1, c2)) = edge_test_f64::<KZ>(&tri.lane(l), ray.origin, ray.sx, ray.sy) {
+            let lane = tri.lane(l);
+            let found = match kz {
+                0 => edge_test_f64::<0>(&lane, ray.origin, ray.sx, ray.sy),
+                1 => edge_test_f64::<1>(&lane, ray.origin, ray.sx, ray.sy),
+                _ => edge_test_f64::<2>(&lane, ray.origin, ray.sx, ray.sy),
+            };
+            if let Some((c1, c2)) = found {
                 inside |= 1 << l;
                 b1[l] = c1;
                 b2[l] = c2;
             }
         }
-    }
-    // Distance to the plane through p0, and its error bound (see `intersect_triangle`).
+        (Vec4::from_array(b1), Vec4::from_array(b2))
+    };
+    // Distance to the plane through p0, and its error bound (see `intersect_triangle`), in
+    // world axis order, as the scalar test sums.
+    let a = [0, 1, 2].map(|axis| tri.v[axis][0] - o[axis]);
     let d = &ray.d4;
     let n = &tri.n;
     let den = (d[0] * n[0] + d[1] * n[1]) + d[2] * n[2];
-    let an = [x[0] * n[0], y[0] * n[1], z[0] * n[2]];
+    let an = [a[0] * n[0], a[1] * n[1], a[2] * n[2]];
     let t = ((an[0] + an[1]) + an[2]) / den;
     let t_abs = t.abs();
     let dn = (d[0] * n[0]).abs() + (d[1] * n[1]).abs() + (d[2] * n[2]).abs();
@@ -667,5 +747,64 @@ mod tests {
         let r = PreparedRay::new(&Ray::new(Vec3::new(-1.0, 0.5, 0.5), Vec3::X))
             .unwrap_or_else(|| panic!("valid ray"));
         assert_eq!(box_entry(min, max, &r, f32::INFINITY), f32::INFINITY);
+    }
+
+    proptest::proptest! {
+        /// The screen only ever skips work: a packet tested with the ray's screen set gives
+        /// the same bits as with no screen (∞), for rays through a random point, an edge or a
+        /// vertex of the packet's triangles (where edge functions are within the filter), and
+        /// at scales and translations up to 1e5.
+        #[test]
+        fn the_screen_never_changes_a_packet_answer(
+            seed in proptest::num::u64::ANY,
+            scale in proptest::sample::select(vec![1e-3f32, 1.0, 1e3]),
+            shift in proptest::sample::select(vec![0.0f32, 1e3, 1e5]),
+            aim in 0usize..3,
+        ) {
+            // SplitMix64 values in [−0.5, 0.5).
+            let mut state = seed;
+            let values: Vec<f32> = (0..48)
+                .map(|_| {
+                    state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+                    let mut z = state;
+                    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+                    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+                    ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32 - 0.5
+                })
+                .collect();
+            let point = |i: usize, k: f32| {
+                Vec3::new(values[3 * i], values[3 * i + 1], values[3 * i + 2]) * k * scale
+                    + Vec3::splat(shift)
+            };
+            let tris: Vec<[Vec3; 3]> =
+                (0..4).map(|t| [point(3 * t, 1.0), point(3 * t + 1, 1.0), point(3 * t + 2, 1.0)]).collect();
+            let bound = tris
+                .iter()
+                .flatten()
+                .fold(0.0f32, |m, p| m.max(p.abs().max_element()));
+            // Aim at a random point, an edge point or a vertex of the first triangle.
+            let [a, b, c] = tris[0];
+            let w = values[47] + 0.5;
+            let target = match aim {
+                0 => a * 0.25 + b * 0.25 + c * 0.5,
+                1 => a * w + b * (1.0 - w),
+                _ => b,
+            };
+            let origin = point(13, 3.0);
+            let ray = Ray::new(origin, target - origin);
+            let packet = Tri4::new(&tris.iter().map(|t| TriSoa::new(*t)).collect::<Vec<_>>());
+            if let Some(mut r) = PreparedRay::new(&ray) {
+                let open = intersect_tri4(&packet, &r, r.t_max);
+                r.set_screen(bound);
+                proptest::prop_assert!(r.screen.is_finite() && r.screen > 0.0);
+                let screened = intersect_tri4(&packet, &r, r.t_max);
+                proptest::prop_assert_eq!(open.mask, screened.mask);
+                for l in (0..4).filter(|l| open.mask & (1 << l) != 0) {
+                    for (x, y) in [(open.t, screened.t), (open.b1, screened.b1), (open.b2, screened.b2)] {
+                        proptest::prop_assert_eq!(x.to_array()[l].to_bits(), y.to_array()[l].to_bits());
+                    }
+                }
+            }
+        }
     }
 }

@@ -247,7 +247,7 @@ impl<const G: usize> WideBvh<G> {
     /// of a node are pushed farthest first, and an entry farther than the best hit so far is
     /// dropped when popped.
     #[inline(always)]
-    pub(crate) fn closest<const KZ: usize>(
+    pub(crate) fn closest(
         &self,
         r: &PreparedRay,
         stack: &mut [Entry],
@@ -259,7 +259,7 @@ impl<const G: usize> WideBvh<G> {
         loop {
             if current & LEAF != 0 {
                 let p = current & !LEAF;
-                let hits = intersect_tri4::<KZ>(&self.packets[p as usize], r, t_best);
+                let hits = intersect_tri4(&self.packets[p as usize], r, t_best);
                 if let Some((lane, h)) = hits.closest() {
                     t_best = h.t;
                     best = Some((p, lane, h));
@@ -269,6 +269,8 @@ impl<const G: usize> WideBvh<G> {
                 let first = sp;
                 for g in 0..G {
                     let (t_near, mut hit) = r.hits4(&node.planes[g], t_best);
+                    // An array: indexing a `Vec4` by a variable lane is a jump table.
+                    let t_near = t_near.to_array();
                     while hit != 0 {
                         let lane = hit.trailing_zeros() as usize;
                         hit &= hit - 1;
@@ -300,13 +302,13 @@ impl<const G: usize> WideBvh<G> {
 
     /// Any hit (for occlusion): children in any order, stopping at the first hit.
     #[inline(always)]
-    pub(crate) fn any<const KZ: usize>(&self, r: &PreparedRay, stack: &mut [Entry]) -> bool {
+    pub(crate) fn any(&self, r: &PreparedRay, stack: &mut [Entry]) -> bool {
         let mut sp = 0;
         let mut current = 0u32;
         loop {
             if current & LEAF != 0 {
                 let p = (current & !LEAF) as usize;
-                if intersect_tri4::<KZ>(&self.packets[p], r, r.t_max).mask != 0 {
+                if intersect_tri4(&self.packets[p], r, r.t_max).mask != 0 {
                     return true;
                 }
             } else {
