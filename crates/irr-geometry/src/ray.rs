@@ -7,8 +7,12 @@
 //! never a fixed epsilon. We keep that principle in the form of pbrt-v4's `OffsetRayOrigin`
 //! (Pharr, Jakob & Humphreys, *Physically Based Rendering*, 4th ed., §6.8.6): with a
 //! per-component bound `err` on how far a point may be from the true surface, move it along the
-//! normal by `d = |n|·err` (the largest distance that error can put it from the plane), then
-//! round every moved component one more float away so rounding cannot pull it back.
+//! normal by at least `d = |n|·err` (the largest distance that error can put it from the plane).
+//! pbrt then rounds every moved component one more float away so that the rounding of `p +
+//! offset` cannot pull it back; irr instead adds that rounding's bound (half an ulp of each
+//! moved component, at most `2⁻²³·|p_i|` plus the smallest normal float) to `err` before moving,
+//! which gives the same guarantee without a branch per component on the offset's sign (a coin
+//! toss per ray).
 //!
 //! The bound `err` is [`position_error`]: `2⁻²²·|p_i|` per component. The points this crate
 //! produces ([`SurfacePoint::position`](crate::SurfacePoint), [`Triangle::point`](crate::Triangle))
@@ -123,54 +127,43 @@ pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
     offset_ray_origin_with_error(p, n, position_error(p))
 }
 
-/// Offsets `p` along `n` past a per-component error bound `err` (all components ≥ 0): moves it
-/// by `d = Σ|n̂_i|·err_i`, the furthest that error can put `p` from its plane along the unit
-/// normal `n̂`, then rounds each moved component one float further in the direction it moved,
-/// so the final rounding of `p + d·n̂` cannot bring the point back (pbrt-v4 §6.8.6,
-/// `OffsetRayOrigin`). The result lies strictly on `n`'s side of the plane through the true
-/// point. A zero or non-finite `n` returns `p` unchanged.
+/// Offsets `p` along `n` past a per-component error bound `err` (all components ≥ 0): the
+/// result lies strictly on `n`'s side of the plane through the true point, farther from it
+/// than `d = Σ|n̂_i|·err_i`, the furthest that error can put `p` from its plane along the unit
+/// normal `n̂`. A zero or non-finite `n` returns `p` unchanged.
+///
+/// The move is `n̂·d'·(1 + 2⁻¹⁸)` with `d' = Σ|n̂_i|·(err_i + 2⁻²³·|p_i| + MIN)` (MIN the
+/// smallest normal float), computed as `n·(|n|·err')/|n|²` (no square root for a normal of
+/// length between ½ and 2; others are normalised first, so that this cannot underflow). Why it
+/// is enough:
+/// - the expression has about a dozen roundings, so the computed move along `n̂` is at least
+///   `d'·(1 + 2⁻¹⁸)(1 − γ₁₂) ≥ d'·(1 + 51·2⁻²⁴)`;
+/// - rounding `p_i + offset_i` loses at most half an ulp of the result, `2⁻²⁴·|p_i + offset_i|`
+///   (or `2⁻¹⁵⁰` for a subnormal one), so the point loses at most
+///   `2⁻²⁴·(Σ|n̂_i||p_i| + d'(1 + 2⁻¹⁸)) + 3·2⁻¹⁵⁰` of that along `n̂`;
+/// - what is left exceeds `d` by at least `Σ|n̂_i|·(2⁻²⁴·|p_i| + MIN) − 3·2⁻¹⁵⁰ > 0`, for any
+///   `err ≥ 0` (however large against `p`, as the end of a long shadow ray's is).
+///
+/// pbrt-v4 instead rounds each moved component one float further; that needs a branch per
+/// component on the offset's sign, a coin toss per ray.
 #[must_use]
 #[inline]
 pub fn offset_ray_origin_with_error(p: Vec3, n: Vec3, err: Vec3) -> Vec3 {
-    // n̂·(|n̂|·err) = n·(|n|·err)/|n|²: the same offset without a square root. The few
-    // roundings of this expression change `d` by a few u relative, far inside the factor-4
-    // margin of `position_error`.
-    let len2 = n.length_squared();
+    const ROUNDING: f32 = 1.0 / 8_388_608.0; // 2⁻²³
+    const MARGIN: f32 = 1.0 + 1.0 / 262_144.0; // 1 + 2⁻¹⁸
+    let mut len2 = n.length_squared();
     if !(len2 > 0.0 && len2.is_finite()) {
         return p;
     }
-    let offset = n * (n.abs().dot(err) / len2);
-    let po = p + offset;
-    Vec3::new(
-        step_toward(po.x, offset.x),
-        step_toward(po.y, offset.y),
-        step_toward(po.z, offset.z),
-    )
-}
-
-/// `x.next_up()` if `direction > 0`, `x.next_down()` if `direction < 0`, else `x`: the same bits
-/// as those std functions, computed without branches (the sign of an offset component is a
-/// coin toss per ray, so branches on it are mispredicted half the time: measured at about 10 %
-/// of the path tracer's time).
-#[inline]
-fn step_toward(x: f32, direction: f32) -> f32 {
-    const SIGN: u32 = 0x8000_0000;
-    let bits = x.to_bits();
-    let toward = direction.to_bits() & SIGN;
-    // Away from zero when x has the direction's sign (+1), toward zero otherwise (−1); from ±0
-    // to the smallest subnormal of the direction's sign. Integer arithmetic and masks rather
-    // than `if`s, which the compiler would turn back into branches.
-    let same = 1 - ((bits ^ toward) >> 31);
-    let stepped = bits.wrapping_add(2 * same).wrapping_sub(1);
-    let zero = u32::from(bits & !SIGN == 0).wrapping_neg();
-    let stepped = (stepped & !zero) | ((toward | 1) & zero);
-    // next_up(∞) = ∞ and next_down(−∞) = −∞; NaN stays NaN (the only non-finite cases).
-    let keep = direction == 0.0
-        || direction.is_nan()
-        || x.is_nan()
-        || (x.is_infinite() && bits & SIGN == toward);
-    let keep = u32::from(keep).wrapping_neg();
-    f32::from_bits((bits & keep) | (stepped & !keep))
+    // Far from unit length, normalise first, so that `|n|·err'/|n|²` cannot underflow (the
+    // normals irr passes are unit: this branch is never taken there).
+    let mut n = n;
+    if !(0.25..=4.0).contains(&len2) {
+        n /= len2.sqrt();
+        len2 = n.length_squared();
+    }
+    let err = err + p.abs() * ROUNDING + Vec3::splat(f32::MIN_POSITIVE);
+    p + n * (n.abs().dot(err) / len2 * MARGIN)
 }
 
 #[cfg(test)]
@@ -196,51 +189,32 @@ mod tests {
         }
     }
 
-    #[test]
-    fn step_toward_is_next_up_and_next_down() {
-        let xs = [
-            0.0f32,
-            -0.0,
-            1.0,
-            -1.0,
-            f32::MIN_POSITIVE,
-            -f32::MIN_POSITIVE,
-            f32::from_bits(1),
-            -f32::from_bits(1),
-            f32::MAX,
-            f32::MIN,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::NAN,
-            3.5e-20,
-            -7.25e12,
-        ];
-        for x in xs {
-            for d in [1.0f32, -1.0, 0.0, -0.0, 1e-30, -1e-30, f32::NAN] {
-                let want = if d > 0.0 {
-                    x.next_up()
-                } else if d < 0.0 {
-                    x.next_down()
-                } else {
-                    x
-                };
-                let got = step_toward(x, d);
-                assert!(
-                    got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
-                    "step_toward({x:e}, {d:e}) = {got:e}, want {want:e}"
-                );
-            }
-        }
-    }
-
     proptest::proptest! {
+        /// The guarantee of `offset_ray_origin_with_error`, checked in f64 (exact for these
+        /// differences and products, up to a relative 2⁻⁵⁰): the point moves along n̂ by more
+        /// than Σ|n̂_i|·err_i, for points from 1e-30 to 1e30, normals of any length and
+        /// direction, and error bounds from none to far larger than the point.
         #[test]
-        fn step_toward_matches_std_for_every_float(bits in proptest::num::u32::ANY, d in -2i8..=2) {
-            let x = f32::from_bits(bits);
-            let d = f32::from(d);
-            let want = if d > 0.0 { x.next_up() } else if d < 0.0 { x.next_down() } else { x };
-            let got = step_toward(x, d);
-            proptest::prop_assert!(got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()));
+        fn the_offset_clears_any_error_bound(
+            p in proptest::array::uniform3(-1.0f32..1.0),
+            n in proptest::array::uniform3(-1.0f32..1.0),
+            e in proptest::array::uniform3(0.0f32..1.0),
+            scale in -30i32..=30,
+            n_scale in -10i32..=10,
+            e_scale in -40i32..=10,
+        ) {
+            let p = Vec3::from(p) * 10f32.powi(scale);
+            let n = Vec3::from(n) * 10f32.powi(n_scale);
+            let err = Vec3::from(e) * 10f32.powi(scale + e_scale);
+            proptest::prop_assume!(n.length_squared() > 0.0 && n.length_squared().is_finite());
+            // An error bound near f32::MAX moves the point to infinity: not a bound of a
+            // representable point's error.
+            proptest::prop_assume!((p + err * 4.0).is_finite());
+            let po = offset_ray_origin_with_error(p, n, err);
+            let nh = n.as_dvec3().normalize();
+            let moved = (po.as_dvec3() - p.as_dvec3()).dot(nh);
+            let d = nh.abs().dot(err.as_dvec3());
+            proptest::prop_assert!(moved > d * (1.0 + 1e-12), "moved {moved:e}, need {d:e}");
         }
     }
 
