@@ -8,7 +8,9 @@ use obvhs::bvh2::node::Bvh2Node;
 
 use crate::build;
 use crate::intersect::{PreparedRay, TriHit, TriSoa, box_entry, intersect_triangle};
-use crate::wide::{Entry, WideBvh};
+#[cfg(target_arch = "x86_64")]
+use crate::wide::Lanes8;
+use crate::wide::{Entry, Lanes4, NodeTest, WideBvh};
 use crate::{BuildReport, GeometryError, Ray, Triangle, TriangleMesh};
 
 /// A closest hit: the distance along the ray, the triangle, and the barycentrics of its
@@ -75,9 +77,20 @@ pub struct SurfacePoint {
 /// thread, load ~4 on the 2-core development machine): Cornell closest 6.8 → 7.5 Mrays/s,
 /// occlusion 15.4 → 14.7; 10⁶ triangles closest 0.70 → 0.74, occlusion 0.95 → 1.16.
 ///
-/// Per ray on the 10⁶-triangle scene, `Wide8` visits 12.8 nodes and 2.5 leaves (four-triangle
-/// packets) for a closest hit, `Wide4` 18.9 and 2.5; the former `Bvh8` visited about 14.7 nodes
-/// and tested 5.8 triangles one at a time.
+/// Per ray on the 10⁶-triangle scene (the lean build's tree, counted in December 2026),
+/// `Wide8` visits 24.4 nodes and tests 4.2 four-triangle packets for a closest hit (22.8 and
+/// 4.1 for occlusion), `Wide4` 36.6 and 4.2; on the Cornell box `Wide8` visits 2.6 nodes and
+/// 2.4 packets (2.5 and 1.7).
+///
+/// Since then (issue 11): an 8-lane AVX node test for `Wide8` where the CPU has AVX2 (the
+/// same bits as two 4-lane tests, half the instructions), one packet test for every ray
+/// permutation, a screen that skips most of a missed packet's test, and lanes read through
+/// arrays. Callgrind (with fat LTO), per ray, closest / occlusion: Cornell 731 / 471,
+/// 10⁶ triangles 2462 / 1860; mispredicted branches per ray 8.4 → 3.4 (Cornell, closest) and
+/// 38.3 → 17.7 (10⁶, closest). Wall clock, one thread, best of 20, side by side with the
+/// previous build on the other core: Cornell closest 7.3 → 9.6 Mrays/s, occlusion 14.7 →
+/// 16.5; 10⁶ triangles closest 0.70–0.72 → 0.74–0.77, occlusion 1.33–1.37 → 1.27–1.33 (that
+/// scene is bound by memory latency: 4 cache lines per node, 3 per packet).
 ///
 /// Two ways of tracing a gather's rays together were measured and lost to tracing them one
 /// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree
@@ -103,8 +116,8 @@ pub enum BvhLayout {
     /// 4-wide BVH (one 4-wide slab test per node, 128-byte nodes) whose leaves are packets of
     /// up to four triangles tested at once; ordered traversal for closest hits.
     Wide4,
-    /// 8-wide BVH (two 4-wide slab tests per node, 256-byte nodes) with the same
-    /// four-triangle packets. The fewest node visits and instructions per ray on both
+    /// 8-wide BVH (one 8-lane slab test per node where the CPU has AVX2, else two 4-lane ones;
+    /// 256-byte nodes) with the same four-triangle packets. The fewest node visits and instructions per ray on both
     /// benchmark scenes, so the default.
     #[default]
     Wide8,
@@ -181,6 +194,10 @@ pub struct Geometry {
     /// x86-64-v3 (AVX2) where the CPU has it, else the baseline. Both run the same operations
     /// (no fused multiply-adds: Rust never contracts), so the answers are the same bits.
     arch: pulp::Arch,
+    /// AVX2 where the CPU has it (and `arch` is not forced to the baseline): the 8-wide
+    /// layout's nodes are then tested with one 8-lane slab test instead of two 4-lane ones.
+    #[cfg(target_arch = "x86_64")]
+    v3: Option<pulp::x86::V3>,
 }
 
 /// The shading normals of one mesh that has them: the mesh's per-vertex normals and the vertex
@@ -364,6 +381,8 @@ impl Geometry {
             bounds: (min, max),
             coordinate_bound: min.abs().max(max.abs()).max_element(),
             arch: pulp::Arch::new(),
+            #[cfg(target_arch = "x86_64")]
+            v3: pulp::x86::V3::try_new(),
         })
     }
 
@@ -508,11 +527,15 @@ impl Geometry {
             }
             Nodes::Wide4(w) => {
                 r.set_screen(self.coordinate_bound);
-                self.arch.dispatch(WideQuery::closest(w, &r, self)).0
+                self.arch.dispatch(self.query(w, &r, false, Lanes4)).0
             }
             Nodes::Wide8(w) => {
                 r.set_screen(self.coordinate_bound);
-                self.arch.dispatch(WideQuery::closest(w, &r, self)).0
+                #[cfg(target_arch = "x86_64")]
+                if let Some(v3) = self.v3 {
+                    return pulp::Simd::vectorize(v3, self.query(w, &r, false, Lanes8(v3))).0;
+                }
+                self.arch.dispatch(self.query(w, &r, false, Lanes4)).0
             }
         }
     }
@@ -537,13 +560,30 @@ impl Geometry {
                 rays,
                 hits,
                 g: self,
+                test: Lanes4,
             }),
-            Nodes::Wide8(w) => self.arch.dispatch(Gather {
-                w,
-                rays,
-                hits,
-                g: self,
-            }),
+            Nodes::Wide8(w) => {
+                #[cfg(target_arch = "x86_64")]
+                if let Some(v3) = self.v3 {
+                    return pulp::Simd::vectorize(
+                        v3,
+                        Gather {
+                            w,
+                            rays,
+                            hits,
+                            g: self,
+                            test: Lanes8(v3),
+                        },
+                    );
+                }
+                self.arch.dispatch(Gather {
+                    w,
+                    rays,
+                    hits,
+                    g: self,
+                    test: Lanes4,
+                })
+            }
             Nodes::Bvh2(_) => {
                 for (ray, hit) in rays.iter().zip(hits) {
                     *hit = self.intersect(ray);
@@ -567,11 +607,15 @@ impl Geometry {
             },
             Nodes::Wide4(w) => {
                 r.set_screen(self.coordinate_bound);
-                self.arch.dispatch(WideQuery::any(w, &r, self)).1
+                self.arch.dispatch(self.query(w, &r, true, Lanes4)).1
             }
             Nodes::Wide8(w) => {
                 r.set_screen(self.coordinate_bound);
-                self.arch.dispatch(WideQuery::any(w, &r, self)).1
+                #[cfg(target_arch = "x86_64")]
+                if let Some(v3) = self.v3 {
+                    return pulp::Simd::vectorize(v3, self.query(w, &r, true, Lanes8(v3))).1;
+                }
+                self.arch.dispatch(self.query(w, &r, true, Lanes4)).1
             }
         }
     }
@@ -676,6 +720,24 @@ impl Geometry {
             Nodes::Bvh2(_) => BvhLayout::Bvh2,
             Nodes::Wide4(_) => BvhLayout::Wide4,
             Nodes::Wide8(_) => BvhLayout::Wide8,
+        }
+    }
+
+    /// A query on a wide BVH with node test `test`, as a pulp operation.
+    #[inline(always)]
+    fn query<'a, const G: usize, N: NodeTest<G>>(
+        &'a self,
+        w: &'a WideBvh<G>,
+        r: &'a PreparedRay,
+        any: bool,
+        test: N,
+    ) -> WideQuery<'a, G, N> {
+        WideQuery {
+            w,
+            r,
+            g: self,
+            any,
+            test,
         }
     }
 
@@ -830,30 +892,16 @@ impl Geometry {
 /// A closest-hit (`any: false`) or occlusion (`any: true`) query on a wide BVH, as a pulp
 /// operation: `with_simd` is inlined into pulp's function compiled for the detected
 /// instruction set, and the traversal (all `#[inline(always)]`) into it. (A closure would be
-/// compiled once, for the baseline, and only called from there.)
-struct WideQuery<'a, const G: usize> {
+/// compiled once, for the baseline, and only called from there.) `N` tests the nodes.
+struct WideQuery<'a, const G: usize, N> {
     w: &'a WideBvh<G>,
     r: &'a PreparedRay,
     g: &'a Geometry,
     any: bool,
+    test: N,
 }
 
-impl<'a, const G: usize> WideQuery<'a, G> {
-    fn closest(w: &'a WideBvh<G>, r: &'a PreparedRay, g: &'a Geometry) -> Self {
-        WideQuery {
-            w,
-            r,
-            g,
-            any: false,
-        }
-    }
-
-    fn any(w: &'a WideBvh<G>, r: &'a PreparedRay, g: &'a Geometry) -> Self {
-        WideQuery { w, r, g, any: true }
-    }
-}
-
-impl<const G: usize> pulp::WithSimd for WideQuery<'_, G> {
+impl<const G: usize, N: NodeTest<G>> pulp::WithSimd for WideQuery<'_, G, N> {
     type Output = (Option<Hit>, bool);
 
     #[inline(always)]
@@ -861,22 +909,23 @@ impl<const G: usize> pulp::WithSimd for WideQuery<'_, G> {
         // The ray is prepared outside: prepared in here, its fields compete for registers
         // with the traversal's (measured: 15% more instructions for closest hits).
         if self.any {
-            (None, wide_any(self.w, self.r, self.g))
+            (None, wide_any(self.w, self.r, self.g, self.test))
         } else {
-            (wide_closest(self.w, self.r, self.g), false)
+            (wide_closest(self.w, self.r, self.g, self.test), false)
         }
     }
 }
 
 /// [`Geometry::intersect_many`] on a wide BVH, as a pulp operation (see [`WideQuery`]).
-struct Gather<'a, const G: usize> {
+struct Gather<'a, const G: usize, N> {
     w: &'a WideBvh<G>,
     rays: &'a [Ray],
     hits: &'a mut [Option<Hit>],
     g: &'a Geometry,
+    test: N,
 }
 
-impl<const G: usize> pulp::WithSimd for Gather<'_, G> {
+impl<const G: usize, N: NodeTest<G>> pulp::WithSimd for Gather<'_, G, N> {
     type Output = ();
 
     #[inline(always)]
@@ -886,7 +935,7 @@ impl<const G: usize> pulp::WithSimd for Gather<'_, G> {
             *hit = match PreparedRay::new(ray) {
                 Some(mut r) => {
                     r.set_screen(self.g.coordinate_bound);
-                    wide_closest(self.w, &r, self.g)
+                    wide_closest(self.w, &r, self.g, self.test)
                 }
                 None => None,
             };
@@ -896,8 +945,13 @@ impl<const G: usize> pulp::WithSimd for Gather<'_, G> {
 
 /// Closest hit on a wide BVH.
 #[inline(always)]
-fn wide_closest<const G: usize>(w: &WideBvh<G>, r: &PreparedRay, g: &Geometry) -> Option<Hit> {
-    let found = on_stack!(g.stack_len, Entry, |s| w.closest(r, s));
+fn wide_closest<const G: usize, N: NodeTest<G>>(
+    w: &WideBvh<G>,
+    r: &PreparedRay,
+    g: &Geometry,
+    test: N,
+) -> Option<Hit> {
+    let found = on_stack!(g.stack_len, Entry, |s| w.closest(r, s, test));
     found.map(|(p, lane, h)| Hit {
         t: h.t,
         triangle: w.id(p, lane),
@@ -908,8 +962,13 @@ fn wide_closest<const G: usize>(w: &WideBvh<G>, r: &PreparedRay, g: &Geometry) -
 
 /// Any hit on a wide BVH.
 #[inline(always)]
-fn wide_any<const G: usize>(w: &WideBvh<G>, r: &PreparedRay, g: &Geometry) -> bool {
-    on_stack!(g.stack_len, Entry, |s| w.any(r, s))
+fn wide_any<const G: usize, N: NodeTest<G>>(
+    w: &WideBvh<G>,
+    r: &PreparedRay,
+    g: &Geometry,
+    test: N,
+) -> bool {
+    on_stack!(g.stack_len, Entry, |s| w.any(r, s, test))
 }
 
 /// Checks a mesh's indices and array lengths.
@@ -1284,6 +1343,8 @@ mod tests {
                 .unwrap_or_else(|e| panic!("{e}"));
             let baseline = Geometry {
                 arch: pulp::Arch::Scalar,
+                #[cfg(target_arch = "x86_64")]
+                v3: None,
                 ..fast.clone()
             };
             let rays: Vec<Ray> = (0..2000)

@@ -235,16 +235,22 @@ impl PreparedRay {
         self.screen = ((2.0 * bound) * (1.0 + 2f64.powi(-20))) as f32;
     }
 
-    /// Entry distances of four boxes given by their planes (min x, min y, min z, max x, max y,
-    /// max z; lane = box), and the mask of those entered within `[0, t_best]`, conservatively
-    /// (Ize's factor on the far distances; the planes must be exact box bounds).
+    /// Entry distances of the four boxes of group `g` of a wide node's planes (min x, min y,
+    /// min z, max x, max y, max z; per group, lane = box), and the mask of those entered within
+    /// `[0, t_best]`, conservatively (Ize's factor on the far distances; the planes must be
+    /// exact box bounds).
     #[inline(always)]
-    pub(crate) fn hits4(&self, planes: &[Vec4; 6], t_best: f32) -> (Vec4, u32) {
+    pub(crate) fn hits4<const G: usize>(
+        &self,
+        planes: &[[[f32; 4]; G]; 6],
+        g: usize,
+        t_best: f32,
+    ) -> (Vec4, u32) {
         let mut t_near = Vec4::ZERO;
         let mut t_far = Vec4::splat(t_best);
         for a in 0..3 {
-            let near = planes[self.near[a]];
-            let far = planes[(self.near[a] + 3) % 6];
+            let near = Vec4::from_array(planes[self.near[a]][g]);
+            let far = Vec4::from_array(planes[(self.near[a] + 3) % 6][g]);
             t_near = t_near.max((near - self.o4[a]) * self.inv4[a]);
             t_far = t_far.min((far - self.o4[a]) * self.inv_far4[a]);
         }

@@ -1,5 +1,6 @@
-//! The wide BVH: nodes of `4·G` children (`G` groups of four, tested with one 4-wide slab test
-//! per group) whose leaves are packets of up to four triangles ([`Tri4`], tested at once), and
+//! The wide BVH: nodes of `4·G` children (`G` groups of four, tested with one 4-lane slab test
+//! per group, or for `G = 2` with one 8-lane AVX test where the CPU has AVX2: [`NodeTest`])
+//! whose leaves are packets of up to four triangles ([`Tri4`], tested at once), and
 //! its traversals: ordered (nearest child first) for the closest hit, any order with early exit
 //! for occlusion.
 //!
@@ -15,7 +16,6 @@
 //! also where [`Geometry`](crate::Geometry) keeps each triangle's vertices (bit for bit as
 //! given), which it reads back through [`WideBvh::triangle`].
 
-use glam::Vec4;
 use obvhs::{aabb::Aabb, bvh2::node::Bvh2Node};
 
 use crate::intersect::{PreparedRay, Tri4, TriHit, TriSoa, intersect_tri4};
@@ -25,14 +25,73 @@ const LEAF: u32 = 1 << 31;
 /// An empty child slot (its box is the empty box, which no ray enters).
 const EMPTY: u32 = u32::MAX;
 
-/// A node of `4·G` children: per group of four, the child boxes' min x, y, z and max x, y, z
-/// planes (lane = child) and the child references (a node index, `LEAF | packet`, or
-/// `EMPTY`).
+/// A node of `4·G` children: the child boxes' min x, y, z and max x, y, z planes, each as `G`
+/// groups of four lanes (lane = child), so that one plane of all `4·G` children is contiguous
+/// (one 8-lane load for the 8-lane test), and the child references (a node index,
+/// `LEAF | packet`, or `EMPTY`).
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(64))]
 pub(crate) struct WideNode<const G: usize> {
-    planes: [[Vec4; 6]; G],
+    planes: [[[f32; 4]; G]; 6],
     children: [[u32; 4]; G],
+}
+
+/// How a traversal tests a wide node's children: the entry distances of the `4·G` child boxes
+/// (group, lane) and the mask of those entered within `[0, t_best]` (bit `4·group + lane`).
+pub(crate) trait NodeTest<const G: usize>: Copy {
+    fn hits(self, node: &WideNode<G>, r: &PreparedRay, t_best: f32) -> ([[f32; 4]; G], u32);
+}
+
+/// The node test as `G` four-lane slab tests (`PreparedRay::hits4`), for any instruction set.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Lanes4;
+
+impl<const G: usize> NodeTest<G> for Lanes4 {
+    #[inline(always)]
+    fn hits(self, node: &WideNode<G>, r: &PreparedRay, t_best: f32) -> ([[f32; 4]; G], u32) {
+        let mut t = [[0.0; 4]; G];
+        let mut mask = 0;
+        for (g, t) in t.iter_mut().enumerate() {
+            let (t_near, hit) = r.hits4(&node.planes, g, t_best);
+            *t = t_near.to_array();
+            mask |= hit << (4 * g);
+        }
+        (t, mask)
+    }
+}
+
+/// The 8-wide node test as one 8-lane (AVX) slab test: the same operations on each lane, in the
+/// same order, as [`Lanes4`], so the same bits; half the instructions.
+#[cfg(target_arch = "x86_64")]
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Lanes8(pub(crate) pulp::x86::V3);
+
+#[cfg(target_arch = "x86_64")]
+impl NodeTest<2> for Lanes8 {
+    #[inline(always)]
+    fn hits(self, node: &WideNode<2>, r: &PreparedRay, t_best: f32) -> ([[f32; 4]; 2], u32) {
+        use pulp::bytemuck::cast;
+        use std::arch::x86_64::{__m256, _CMP_LE_OQ};
+        let avx = self.0.avx;
+        let plane = |k: usize| -> __m256 { cast(node.planes[k]) };
+        let mut t_near = avx._mm256_setzero_ps();
+        let mut t_far = avx._mm256_set1_ps(t_best);
+        for a in 0..3 {
+            let o = avx._mm256_set1_ps(r.o4[a].x);
+            let near = avx._mm256_sub_ps(plane(r.near[a]), o);
+            let far = avx._mm256_sub_ps(plane((r.near[a] + 3) % 6), o);
+            t_near = avx._mm256_max_ps(
+                t_near,
+                avx._mm256_mul_ps(near, avx._mm256_set1_ps(r.inv4[a].x)),
+            );
+            t_far = avx._mm256_min_ps(
+                t_far,
+                avx._mm256_mul_ps(far, avx._mm256_set1_ps(r.inv_far4[a].x)),
+            );
+        }
+        let mask = avx._mm256_movemask_ps(avx._mm256_cmp_ps::<_CMP_LE_OQ>(t_near, t_far)) as u32;
+        (cast(t_near), mask)
+    }
 }
 
 /// A wide BVH with `4·G` children per node (`G` = 1: BVH4, `G` = 2: BVH8).
@@ -118,7 +177,7 @@ impl<const G: usize> WideBvh<G> {
         let mut todo: Vec<(usize, usize, usize)> = Vec::new();
         let mut deepest = 1;
         out.nodes.push(WideNode {
-            planes: [[Vec4::ZERO; 6]; G],
+            planes: [[[0.0; 4]; G]; 6],
             children: [[EMPTY; 4]; G],
         });
         if root.is_leaf() {
@@ -140,7 +199,7 @@ impl<const G: usize> WideBvh<G> {
                 } else {
                     let index = out.nodes.len();
                     out.nodes.push(WideNode {
-                        planes: [[Vec4::ZERO; 6]; G],
+                        planes: [[[0.0; 4]; G]; 6],
                         children: [[EMPTY; 4]; G],
                     });
                     todo.push((k, index, depth + 1));
@@ -213,18 +272,16 @@ impl<const G: usize> WideBvh<G> {
     /// Fills wide node `w`'s slots with `children` (reference, box); the rest stay empty.
     fn set_children(&mut self, w: usize, children: &[(u32, Aabb)]) {
         let node = &mut self.nodes[w];
-        for g in 0..G {
-            for axis in 0..3 {
-                node.planes[g][axis] = Vec4::splat(f32::INFINITY);
-                node.planes[g][3 + axis] = Vec4::splat(f32::NEG_INFINITY);
-            }
+        for axis in 0..3 {
+            node.planes[axis] = [[f32::INFINITY; 4]; G];
+            node.planes[3 + axis] = [[f32::NEG_INFINITY; 4]; G];
         }
         for (slot, (child, b)) in children.iter().enumerate() {
             let (g, lane) = (slot / 4, slot % 4);
             node.children[g][lane] = *child;
             for axis in 0..3 {
-                node.planes[g][axis][lane] = b.min[axis];
-                node.planes[g][3 + axis][lane] = b.max[axis];
+                node.planes[axis][g][lane] = b.min[axis];
+                node.planes[3 + axis][g][lane] = b.max[axis];
             }
         }
     }
@@ -247,10 +304,11 @@ impl<const G: usize> WideBvh<G> {
     /// of a node are pushed farthest first, and an entry farther than the best hit so far is
     /// dropped when popped.
     #[inline(always)]
-    pub(crate) fn closest(
+    pub(crate) fn closest<N: NodeTest<G>>(
         &self,
         r: &PreparedRay,
         stack: &mut [Entry],
+        test: N,
     ) -> Option<(u32, usize, TriHit)> {
         let mut t_best = r.t_max;
         let mut best = None;
@@ -267,23 +325,19 @@ impl<const G: usize> WideBvh<G> {
             } else {
                 let node = &self.nodes[current as usize];
                 let first = sp;
-                for g in 0..G {
-                    let (t_near, mut hit) = r.hits4(&node.planes[g], t_best);
-                    // An array: indexing a `Vec4` by a variable lane is a jump table.
-                    let t_near = t_near.to_array();
-                    while hit != 0 {
-                        let lane = hit.trailing_zeros() as usize;
-                        hit &= hit - 1;
-                        // Insertion sort, farthest at the bottom: the nearest is popped first.
-                        let entry = (node.children[g][lane], t_near[lane]);
-                        let mut i = sp;
-                        while i > first && stack[i - 1].1 < entry.1 {
-                            stack[i] = stack[i - 1];
-                            i -= 1;
-                        }
-                        stack[i] = entry;
-                        sp += 1;
+                let (t_near, mut hit) = test.hits(node, r, t_best);
+                while hit != 0 {
+                    let l = hit.trailing_zeros() as usize;
+                    hit &= hit - 1;
+                    // Insertion sort, farthest at the bottom: the nearest is popped first.
+                    let entry = (node.children[l / 4][l % 4], t_near[l / 4][l % 4]);
+                    let mut i = sp;
+                    while i > first && stack[i - 1].1 < entry.1 {
+                        stack[i] = stack[i - 1];
+                        i -= 1;
                     }
+                    stack[i] = entry;
+                    sp += 1;
                 }
             }
             loop {
@@ -302,7 +356,12 @@ impl<const G: usize> WideBvh<G> {
 
     /// Any hit (for occlusion): children in any order, stopping at the first hit.
     #[inline(always)]
-    pub(crate) fn any(&self, r: &PreparedRay, stack: &mut [Entry]) -> bool {
+    pub(crate) fn any<N: NodeTest<G>>(
+        &self,
+        r: &PreparedRay,
+        stack: &mut [Entry],
+        test: N,
+    ) -> bool {
         let mut sp = 0;
         let mut current = 0u32;
         loop {
@@ -313,14 +372,12 @@ impl<const G: usize> WideBvh<G> {
                 }
             } else {
                 let node = &self.nodes[current as usize];
-                for g in 0..G {
-                    let (_, mut hit) = r.hits4(&node.planes[g], r.t_max);
-                    while hit != 0 {
-                        let lane = hit.trailing_zeros() as usize;
-                        hit &= hit - 1;
-                        stack[sp].0 = node.children[g][lane];
-                        sp += 1;
-                    }
+                let (_, mut hit) = test.hits(node, r, r.t_max);
+                while hit != 0 {
+                    let l = hit.trailing_zeros() as usize;
+                    hit &= hit - 1;
+                    stack[sp].0 = node.children[l / 4][l % 4];
+                    sp += 1;
                 }
             }
             if sp == 0 {
