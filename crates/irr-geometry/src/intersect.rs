@@ -63,6 +63,13 @@ pub(crate) const fn gamma(n: i32) -> f32 {
 /// The clamp on `1/d` (2⁶⁴).
 const INV_DIR_LIMIT: Vec3A = Vec3A::splat(18_446_744_073_709_551_616.0);
 
+/// The constant of [`PreparedRay::set_screen`]:
+/// `2(1 + 2⁻¹⁶)(1 + 2⁻¹²)·(8γ₃ + 16γ₅ + 8γ₅²)`.
+const SCREEN_FACTOR: f32 = 2.0
+    * (1.0 + 1.0 / 65_536.0)
+    * (1.0 + 1.0 / 4096.0)
+    * (8.0 * gamma(3) + 16.0 * gamma(5) + 8.0 * gamma(5) * gamma(5));
+
 /// Ize's factor on the far slab distance: `1 + 2γ₃`.
 const BOX_FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
 
@@ -213,8 +220,10 @@ impl PreparedRay {
     /// `|x + Sx·z| ≤ 2r(1 + 3u)` (`|Sx|, |Sy| ≤ 1`). The computed
     /// `δ = 2γ₃·xm·ym + 2e(xm + ym) + 2e² + MIN` (`e = 2γ₅r`, each term with ≤ 5 roundings) is
     /// then at most `(1 + 12u)·C²·(8γ₃ + 16γ₅ + 8γ₅²) + (1 + 5u)·MIN`. Computed here in `f64`
-    /// with a relative margin of 2⁻¹⁶ (it covers the `(1 + 12u)` and this computation's own
-    /// roundings) and 4·MIN.
+    /// with a relative margin of 2⁻¹⁶ (it covers the `(1 + 12u)`) and 4·MIN, then doubled:
+    /// `s = 2(1 + 2⁻¹⁶)·C²·(8γ₃ + 16γ₅ + 8γ₅²) + 8·MIN`. Evaluated in `f32` as
+    /// `fl(B + O)²·SCREEN_FACTOR + 8·MIN`, whose constant carries a further `1 + 2⁻¹²` for the
+    /// `(1 + u)²` of `C` and the half-dozen roundings of the evaluation and of the constant.
     ///
     /// Why twice δ: a lane with `e_i < −2δ` and `e_j > 2δ` has `|e_i|, |e_j| > δ`, so those two
     /// signs are exact; and if its third edge function sends it to the `f64` test, that test's
@@ -224,15 +233,8 @@ impl PreparedRay {
     /// A huge bound (an origin or a scene near `f32::MAX`) gives ∞: nothing is screened out.
     #[inline(always)]
     pub(crate) fn set_screen(&mut self, coordinate_bound: f32) {
-        let u = f64::from(f32::EPSILON) * 0.5;
-        let g3 = f64::from(gamma(3));
-        let g5 = f64::from(gamma(5));
-        let c =
-            (f64::from(coordinate_bound) + f64::from(self.origin.abs().max_element())) * (1.0 + u);
-        let bound = (1.0 + 2f64.powi(-16)) * c * c * (8.0 * g3 + 16.0 * g5 + 8.0 * g5 * g5)
-            + 4.0 * f64::from(f32::MIN_POSITIVE);
-        // Rounded up into f32 (∞ beyond its range).
-        self.screen = ((2.0 * bound) * (1.0 + 2f64.powi(-20))) as f32;
+        let c = coordinate_bound + self.origin.abs().max_element();
+        self.screen = c * c * SCREEN_FACTOR + 8.0 * f32::MIN_POSITIVE;
     }
 
     /// Entry distances of the four boxes of group `g` of a wide node's planes (min x, min y,
@@ -393,8 +395,8 @@ fn edge_error(x: Vec3A, y: Vec3A, z: Vec3A, xt: Vec3A, yt: Vec3A) -> f32 {
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(64))]
 pub(crate) struct Tri4 {
-    v: [[Vec4; 3]; 3],
-    n: [Vec4; 3],
+    v: [[[f32; 4]; 3]; 3],
+    n: [[f32; 4]; 3],
 }
 
 impl Tri4 {
@@ -413,31 +415,28 @@ impl Tri4 {
                 n[axis][lane] = c;
             }
         }
-        Tri4 {
-            v: v.map(|axis| axis.map(Vec4::from_array)),
-            n: n.map(Vec4::from_array),
-        }
+        Tri4 { v, n }
     }
 
     /// The triangle in `lane`, as the scalar test reads it (bit for bit the `TriSoa` it was
-    /// made from).
+    /// made from). Twelve scalar loads: the packet is stored as plain arrays because indexing
+    /// a `Vec4` by a variable lane compiles to a jump table (a mispredicted jump for a random
+    /// lane) or to a spill of the whole vector.
+    #[inline]
     pub(crate) fn lane(&self, lane: usize) -> TriSoa {
-        // Through arrays: indexing a `Vec4` by a variable lane compiles to a jump table, whose
-        // jump a random lane mispredicts (measured: most of the path tracer's mispredicted
-        // indirect branches).
-        let get = |v: &[Vec4; 3]| {
-            Vec3A::new(
-                v[0].to_array()[lane],
-                v[1].to_array()[lane],
-                v[2].to_array()[lane],
-            )
-        };
+        let get = |v: &[[f32; 4]; 3]| Vec3A::new(v[0][lane], v[1][lane], v[2][lane]);
         TriSoa {
             xs: get(&self.v[0]),
             ys: get(&self.v[1]),
             zs: get(&self.v[2]),
             n: get(&self.n),
         }
+    }
+
+    /// Coordinate `axis` of the three vertices, per vertex four lanes.
+    #[inline(always)]
+    fn axis(&self, axis: usize) -> [Vec4; 3] {
+        self.v[axis].map(Vec4::from_array)
     }
 }
 
@@ -497,9 +496,9 @@ pub(crate) fn intersect_tri4(tri: &Tri4, ray: &PreparedRay, t_best: f32) -> Tri4
     let [kx, ky, kz] = ray.perm;
     // Translate the vertices so the ray starts at the origin (index = vertex), in the permuted
     // frame where the ray's largest component is z (as in the scalar test).
-    let px = tri.v[kx].map(|v| v - o[kx]);
-    let py = tri.v[ky].map(|v| v - o[ky]);
-    let pz = tri.v[kz].map(|v| v - o[kz]);
+    let px = tri.axis(kx).map(|v| v - o[kx]);
+    let py = tri.axis(ky).map(|v| v - o[ky]);
+    let pz = tri.axis(kz).map(|v| v - o[kz]);
     // Shear so the ray runs along +z.
     let sx = Vec4::splat(ray.sx);
     let sy = Vec4::splat(ray.sy);
@@ -569,9 +568,9 @@ pub(crate) fn intersect_tri4(tri: &Tri4, ray: &PreparedRay, t_best: f32) -> Tri4
     };
     // Distance to the plane through p0, and its error bound (see `intersect_triangle`), in
     // world axis order, as the scalar test sums.
-    let a = [0, 1, 2].map(|axis| tri.v[axis][0] - o[axis]);
+    let a = [0, 1, 2].map(|axis| Vec4::from_array(tri.v[axis][0]) - o[axis]);
     let d = &ray.d4;
-    let n = &tri.n;
+    let n = &tri.n.map(Vec4::from_array);
     let den = (d[0] * n[0] + d[1] * n[1]) + d[2] * n[2];
     let an = [a[0] * n[0], a[1] * n[1], a[2] * n[2]];
     let t = ((an[0] + an[1]) + an[2]) / den;
