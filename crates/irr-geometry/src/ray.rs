@@ -25,7 +25,7 @@
 //! distance is provably positive and provably below `t_max` (see `intersect.rs`), so an origin
 //! that is merely on the right side of its own plane — by however little — cannot re-hit it.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// A ray `origin + t·direction` for `t` in `(0, t_max)`.
 ///
@@ -162,8 +162,10 @@ pub fn offset_ray_origin_with_error(p: Vec3, n: Vec3, err: Vec3) -> Vec3 {
         n /= len2.sqrt();
         len2 = n.length_squared();
     }
-    let err = err + p.abs() * ROUNDING + Vec3::splat(f32::MIN_POSITIVE);
-    p + n * (n.abs().dot(err) / len2 * MARGIN)
+    // In 4-lane vectors: the same operations on each component, in fewer instructions.
+    let (p, n) = (Vec3A::from(p), Vec3A::from(n));
+    let err = Vec3A::from(err) + p.abs() * ROUNDING + Vec3A::splat(f32::MIN_POSITIVE);
+    (p + n * (n.abs().dot(err) / len2 * MARGIN)).into()
 }
 
 #[cfg(test)]
