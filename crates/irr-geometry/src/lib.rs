@@ -6,8 +6,9 @@
 //!   (typed [`GeometryError`]s naming the mesh and triangle), dropping and counting of zero-area
 //!   and non-finite triangles ([`BuildReport`]), and the BVH: obvhs PLOC + reinsertion for
 //!   small scenes, a lean top-down SAH build with leaves of four above, then by default an
-//!   8-wide tree with four-triangle SIMD leaves with exact float child boxes ([`BvhLayout`]
-//!   lists the layouts and their measured cost). The leaves hold each triangle's vertices,
+//!   8-wide tree with four-triangle SIMD leaves with exact float child boxes, its nodes tested
+//!   8 lanes at once where the CPU has AVX2 (detected at run time; any x86-64 CPU runs the
+//!   4-lane path) ([`BvhLayout`] lists the layouts and their measured cost). The leaves hold each triangle's vertices,
 //!   once: about 80 bytes per triangle in all ([`Geometry::heap_bytes`]).
 //! - [`Geometry::intersect`] (closest hit: distance, triangle id, barycentrics) and
 //!   [`Geometry::occluded`] (any hit), with a watertight triangle test (Woop et al. 2013) that
