@@ -510,7 +510,10 @@ impl Geometry {
     /// direction, zero direction, NaN `t_max`) returns `None`.
     #[must_use]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let mut r = PreparedRay::new(ray)?;
+        if !PreparedRay::traceable(ray) {
+            return None;
+        }
+        let mut r = PreparedRay::prepare(ray);
         match &self.nodes {
             Nodes::Bvh2(n) => {
                 let found = match r.kz {
@@ -596,9 +599,10 @@ impl Geometry {
     /// [`Geometry::intersect`]). For shadow rays built with [`Ray::spawn_to`].
     #[must_use]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        let Some(mut r) = PreparedRay::new(ray) else {
+        if !PreparedRay::traceable(ray) {
             return false;
-        };
+        }
+        let mut r = PreparedRay::prepare(ray);
         match &self.nodes {
             Nodes::Bvh2(n) => match r.kz {
                 0 => self.with_stack(|s| self.bvh2_any::<0>(n, &r, s)),
@@ -932,12 +936,12 @@ impl<const G: usize, N: NodeTest<G>> pulp::WithSimd for Gather<'_, G, N> {
     fn with_simd<S: pulp::Simd>(self, _: S) {
         for (ray, hit) in self.rays.iter().zip(self.hits.iter_mut()) {
             // No closure here: it would be compiled outside the dispatched instruction set.
-            *hit = match PreparedRay::new(ray) {
-                Some(mut r) => {
-                    r.set_screen(self.g.coordinate_bound);
-                    wide_closest(self.w, &r, self.g, self.test)
-                }
-                None => None,
+            *hit = if PreparedRay::traceable(ray) {
+                let mut r = PreparedRay::prepare(ray);
+                r.set_screen(self.g.coordinate_bound);
+                wide_closest(self.w, &r, self.g, self.test)
+            } else {
+                None
             };
         }
     }

@@ -114,9 +114,6 @@ pub(crate) struct PreparedRay {
     pub(crate) origin: Vec3A,
     pub(crate) dir: Vec3A,
     pub(crate) inv_dir: Vec3A,
-    ox: Vec3A,
-    oy: Vec3A,
-    oz: Vec3A,
     pub(crate) sx: f32,
     pub(crate) sy: f32,
     /// The axis of the largest direction component, which the triangle test maps to z.
@@ -150,12 +147,24 @@ impl PreparedRay {
     /// direction, or a `t_max` that is NaN or not positive.
     #[inline(always)]
     pub(crate) fn new(ray: &Ray) -> Option<PreparedRay> {
+        Self::traceable(ray).then(|| Self::prepare(ray))
+    }
+
+    /// Whether `ray` can hit anything (see [`PreparedRay::new`]).
+    #[inline(always)]
+    pub(crate) fn traceable(ray: &Ray) -> bool {
         let o = Vec3A::from(ray.origin);
         let d = Vec3A::from(ray.direction);
-        let finite = o.is_finite() && d.is_finite();
-        if !finite || d.cmpeq(Vec3A::ZERO).all() || ray.t_max.is_nan() || ray.t_max <= 0.0 {
-            return None;
-        }
+        o.is_finite() && d.is_finite() && !d.cmpeq(Vec3A::ZERO).all() && ray.t_max > 0.0
+    }
+
+    /// The prepared ray, for a `ray` that is [`PreparedRay::traceable`]. (Separate from the
+    /// check so that the hot callers build it in place: returned in an `Option`, its 300 bytes
+    /// were copied once more per ray.)
+    #[inline(always)]
+    pub(crate) fn prepare(ray: &Ray) -> PreparedRay {
+        let o = Vec3A::from(ray.origin);
+        let d = Vec3A::from(ray.direction);
         let a = d.abs();
         // kz is the largest component; kx = kz + 1, ky = kz + 2 (mod 3). pbrt-v4: Sx = −d_x/d_z,
         // Sy = −d_y/d_z in the permuted frame (Sz is not needed: the distance comes from the
@@ -177,13 +186,10 @@ impl PreparedRay {
         // parallel to that axis to within 5e-20 rad).
         let inv_dir = (Vec3A::ONE / d).clamp(-INV_DIR_LIMIT, INV_DIR_LIMIT);
         let inv_far = inv_dir * BOX_FAR_SCALE;
-        Some(PreparedRay {
+        PreparedRay {
             origin: o,
             dir: d,
             inv_dir,
-            ox: Vec3A::splat(o.x),
-            oy: Vec3A::splat(o.y),
-            oz: Vec3A::splat(o.z),
             sx,
             sy,
             kz,
@@ -207,7 +213,7 @@ impl PreparedRay {
             ],
             perm: [kx, ky, kz],
             screen: f32::INFINITY,
-        })
+        }
     }
 
     /// Sets [`PreparedRay::screen`] for a scene whose vertex coordinates are all at most
@@ -296,9 +302,9 @@ pub(crate) fn intersect_triangle<const KZ: usize>(
     t_best: f32,
 ) -> Option<TriHit> {
     // Translate the vertices so the ray starts at the origin.
-    let x = tri.xs - ray.ox;
-    let y = tri.ys - ray.oy;
-    let z = tri.zs - ray.oz;
+    let x = tri.xs - Vec3A::splat(ray.origin.x);
+    let y = tri.ys - Vec3A::splat(ray.origin.y);
+    let z = tri.zs - Vec3A::splat(ray.origin.z);
     // Permute so that the ray's largest component is z (kx = kz + 1, ky = kz + 2, mod 3; a
     // cyclic permutation, so the winding keeps its sign).
     let (px, py, pz) = match KZ {
