@@ -85,8 +85,8 @@ pub struct SurfacePoint {
 /// Since then (issue 11): an 8-lane AVX node test for `Wide8` where the CPU has AVX2 (the
 /// same bits as two 4-lane tests, half the instructions), one packet test for every ray
 /// permutation, a screen that skips most of a missed packet's test, and lanes read through
-/// arrays. Callgrind (with fat LTO), per ray, closest / occlusion: Cornell 731 / 471,
-/// 10⁶ triangles 2462 / 1860; mispredicted branches per ray 8.4 → 3.4 (Cornell, closest) and
+/// arrays, and the ray prepared in place. Callgrind (with fat LTO), per ray, closest /
+/// occlusion: Cornell 717 / 459, 10⁶ triangles 2448 / 1848; mispredicted branches per ray 8.4 → 3.4 (Cornell, closest) and
 /// 38.3 → 17.7 (10⁶, closest). Wall clock, one thread, best of 20, side by side with the
 /// previous build on the other core: Cornell closest 7.3 → 9.6 Mrays/s, occlusion 14.7 →
 /// 16.5; 10⁶ triangles closest 0.70–0.72 → 0.74–0.77, occlusion 1.33–1.37 → 1.27–1.33 (that
