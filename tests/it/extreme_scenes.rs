@@ -27,13 +27,7 @@ fn grey(albedo: f32) -> Material {
 
 /// A black emitter of radiance `le`, emitting from its front face only.
 fn light(le: f32) -> Material {
-    Material {
-        albedo: Vec3::ZERO,
-        emission: Vec3::splat(le),
-        two_sided: false,
-        albedo_texture: None,
-        emission_texture: None,
-    }
+    Material::emitter(Vec3::splat(le))
 }
 
 fn scene(meshes: &[TriangleMesh], materials: Vec<Material>) -> Scene {

@@ -218,13 +218,7 @@ fn a_tiny_bright_emitter_gives_the_known_direct_light() {
     let geometry = Geometry::build(&[floor, light]).unwrap_or_else(|e| panic!("{e}"));
     let materials = vec![
         irr_integrator::Material::diffuse(Vec3::splat(0.5)),
-        irr_integrator::Material {
-            albedo: Vec3::ZERO,
-            emission: Vec3::splat(1e6),
-            two_sided: false,
-            albedo_texture: None,
-            emission_texture: None,
-        },
+        irr_integrator::Material::emitter(Vec3::splat(1e6)),
     ];
     let scene = Scene::new(geometry, materials).unwrap_or_else(|e| panic!("{e}"));
     // Looking straight down from 0.5 m (below the emitter) at the floor, a narrow field of view:

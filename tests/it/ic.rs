@@ -126,13 +126,7 @@ fn two_rooms() -> Scene {
     let geometry = Geometry::build(&meshes).unwrap_or_else(|e| panic!("{e}"));
     let materials = vec![
         Material::diffuse(Vec3::splat(0.8)),
-        Material {
-            albedo: Vec3::ZERO,
-            emission: Vec3::splat(20.0),
-            two_sided: false,
-            albedo_texture: None,
-            emission_texture: None,
-        },
+        Material::emitter(Vec3::splat(20.0)),
     ];
     Scene::new(geometry, materials).unwrap_or_else(|e| panic!("{e}"))
 }

@@ -8,14 +8,14 @@
 //! systematic differences the scenes allow, each bounded beside its assertion; zero-variance
 //! estimators against f32 rounding bounds.
 
+use crate::support::Indirect;
 use glam::{DVec3, Vec3};
 use irr_geometry::{Geometry, TriangleMesh};
-use irr_integrator::{Integrator, Material, PunctualLight, RayCounter, Scene};
+use irr_integrator::{Integrator, Material, PunctualLight, Scene};
 use irr_render::{
     Camera, IcSettings, Image, IrradianceCacheIntegrator, LoadedScene, PathSettings, PathTracer,
     RenderSettings, build_cache, load_scene, render,
 };
-use irr_sampling::rng::Dimensions;
 use serde_json::{Value, json};
 use std::f64::consts::PI;
 use std::path::Path;
@@ -428,31 +428,6 @@ fn an_open_plane_under_a_constant_background_has_radiance_rho_l() {
                 ic.cache(0).is_some_and(|c| !c.is_empty()),
                 "no record was built"
             );
-        }
-    }
-}
-
-/// Only the indirect part of an integrator's estimate (`li_split().indirect`).
-struct Indirect<'a> {
-    path: Option<&'a PathTracer>,
-    ic: Option<&'a IrradianceCacheIntegrator>,
-}
-
-impl Integrator for Indirect<'_> {
-    fn name(&self) -> &'static str {
-        "indirect"
-    }
-    fn li(
-        &self,
-        scene: &Scene,
-        ray: &irr_geometry::Ray,
-        dims: &mut Dimensions,
-        rays: &mut RayCounter,
-    ) -> Vec3 {
-        match (self.path, self.ic) {
-            (Some(p), _) => p.li_split(scene, ray, dims, rays).indirect,
-            (_, Some(c)) => c.li_split(scene, ray, dims, rays).indirect,
-            _ => Vec3::ZERO,
         }
     }
 }

@@ -292,13 +292,12 @@ fn split_layers_sum_to_the_colour() {
     let work = temp();
     let scene = cornell().to_string_lossy().into_owned();
     for integrator in ["path", "ic"] {
-        let out = format!("{integrator}.exr");
-        irr_ok(
-            work.path(),
-            &[
-                &scene,
+        // The same small render, to `out`, with `extra` options.
+        let render = |out: &str, extra: &[&str]| {
+            let mut args = vec![
+                scene.as_str(),
                 "-o",
-                &out,
+                out,
                 "--integrator",
                 integrator,
                 "--width",
@@ -307,10 +306,12 @@ fn split_layers_sum_to_the_colour() {
                 "2",
                 "--strata",
                 "4x16",
-                "--aov",
-                "emitted,direct,indirect",
-            ],
-        );
+            ];
+            args.extend_from_slice(extra);
+            irr_ok(work.path(), &args);
+        };
+        let out = format!("{integrator}.exr");
+        render(&out, &["--aov", "emitted,direct,indirect"]);
         let exr = Exr::read(&work.path().join(&out));
         assert_eq!((exr.width, exr.height), (12, 12));
         let mut indirect = 0.0f32;
@@ -334,24 +335,7 @@ fn split_layers_sum_to_the_colour() {
         assert_eq!(exr.text("irr.integrator"), integrator);
         // Without AOVs, and on one thread, the colour is the same to the last bit.
         let plain = format!("{integrator}-plain.exr");
-        irr_ok(
-            work.path(),
-            &[
-                &scene,
-                "-o",
-                &plain,
-                "--integrator",
-                integrator,
-                "--width",
-                "12",
-                "--spp",
-                "2",
-                "--strata",
-                "4x16",
-                "--threads",
-                "1",
-            ],
-        );
+        render(&plain, &["--threads", "1"]);
         let plain = Exr::read(&work.path().join(&plain));
         assert_eq!(plain.names(), ["B", "G", "R"]);
         for c in ["R", "G", "B"] {

@@ -86,7 +86,7 @@ pub struct SurfacePoint {
 /// same bits as two 4-lane tests, half the instructions), one packet test for every ray
 /// permutation, a screen that skips most of a missed packet's test, and lanes read through
 /// arrays, and the ray prepared in place. Callgrind (with fat LTO), per ray, closest /
-/// occlusion: Cornell 717 / 459, 10⁶ triangles 2448 / 1848; mispredicted branches per ray 8.4 → 3.4 (Cornell, closest) and
+/// occlusion: Cornell 694 / 458, 10⁶ triangles 2419 / 1846; mispredicted branches per ray 8.4 → 3.4 (Cornell, closest) and
 /// 38.3 → 17.7 (10⁶, closest). Wall clock, one thread, best of 20, side by side with the
 /// previous build on the other core: Cornell closest 7.3 → 9.6 Mrays/s, occlusion 14.7 →
 /// 16.5; 10⁶ triangles closest 0.70–0.72 → 0.74–0.77, occlusion 1.33–1.37 → 1.27–1.33 (that
@@ -513,34 +513,8 @@ impl Geometry {
         if !PreparedRay::traceable(ray) {
             return None;
         }
-        let mut r = PreparedRay::prepare(ray);
-        match &self.nodes {
-            Nodes::Bvh2(n) => {
-                let found = match r.kz {
-                    0 => self.with_stack(|s| self.bvh2_closest::<0>(n, &r, s)),
-                    1 => self.with_stack(|s| self.bvh2_closest::<1>(n, &r, s)),
-                    _ => self.with_stack(|s| self.bvh2_closest::<2>(n, &r, s)),
-                };
-                found.map(|(i, h)| Hit {
-                    t: h.t,
-                    triangle: self.bvh_ids[i],
-                    b1: h.b1,
-                    b2: h.b2,
-                })
-            }
-            Nodes::Wide4(w) => {
-                r.set_screen(self.coordinate_bound);
-                self.arch.dispatch(self.query(w, &r, false, Lanes4)).0
-            }
-            Nodes::Wide8(w) => {
-                r.set_screen(self.coordinate_bound);
-                #[cfg(target_arch = "x86_64")]
-                if let Some(v3) = self.v3 {
-                    return pulp::Simd::vectorize(v3, self.query(w, &r, false, Lanes8(v3))).0;
-                }
-                self.arch.dispatch(self.query(w, &r, false, Lanes4)).0
-            }
-        }
+        let r = PreparedRay::prepare(ray, self.coordinate_bound);
+        self.trace(Closest(&r))
     }
 
     /// The closest hits of many rays: `hits[i]` is exactly what [`Geometry::intersect`]
@@ -557,42 +531,7 @@ impl Geometry {
     /// If `rays` and `hits` differ in length.
     pub fn intersect_many(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
-        match &self.nodes {
-            Nodes::Wide4(w) => self.arch.dispatch(Gather {
-                w,
-                rays,
-                hits,
-                g: self,
-                test: Lanes4,
-            }),
-            Nodes::Wide8(w) => {
-                #[cfg(target_arch = "x86_64")]
-                if let Some(v3) = self.v3 {
-                    return pulp::Simd::vectorize(
-                        v3,
-                        Gather {
-                            w,
-                            rays,
-                            hits,
-                            g: self,
-                            test: Lanes8(v3),
-                        },
-                    );
-                }
-                self.arch.dispatch(Gather {
-                    w,
-                    rays,
-                    hits,
-                    g: self,
-                    test: Lanes4,
-                })
-            }
-            Nodes::Bvh2(_) => {
-                for (ray, hit) in rays.iter().zip(hits) {
-                    *hit = self.intersect(ray);
-                }
-            }
-        }
+        self.trace(Many(rays, hits));
     }
 
     /// Whether anything is hit with `t` in `(0, ray.t_max)` (with the same error margins as
@@ -602,26 +541,8 @@ impl Geometry {
         if !PreparedRay::traceable(ray) {
             return false;
         }
-        let mut r = PreparedRay::prepare(ray);
-        match &self.nodes {
-            Nodes::Bvh2(n) => match r.kz {
-                0 => self.with_stack(|s| self.bvh2_any::<0>(n, &r, s)),
-                1 => self.with_stack(|s| self.bvh2_any::<1>(n, &r, s)),
-                _ => self.with_stack(|s| self.bvh2_any::<2>(n, &r, s)),
-            },
-            Nodes::Wide4(w) => {
-                r.set_screen(self.coordinate_bound);
-                self.arch.dispatch(self.query(w, &r, true, Lanes4)).1
-            }
-            Nodes::Wide8(w) => {
-                r.set_screen(self.coordinate_bound);
-                #[cfg(target_arch = "x86_64")]
-                if let Some(v3) = self.v3 {
-                    return pulp::Simd::vectorize(v3, self.query(w, &r, true, Lanes8(v3))).1;
-                }
-                self.arch.dispatch(self.query(w, &r, true, Lanes4)).1
-            }
-        }
+        let r = PreparedRay::prepare(ray, self.coordinate_bound);
+        self.trace(Any(&r))
     }
 
     /// The surface point of a hit returned by [`Geometry::intersect`]. The ray is not needed
@@ -672,7 +593,7 @@ impl Geometry {
         let mut best = None;
         for (id, tri) in self.triangles().enumerate() {
             let soa = TriSoa::new(tri.p);
-            let h = match r.kz {
+            let h = match r.kz() {
                 0 => intersect_triangle::<0>(&soa, &r, t_best),
                 1 => intersect_triangle::<1>(&soa, &r, t_best),
                 _ => intersect_triangle::<2>(&soa, &r, t_best),
@@ -698,7 +619,7 @@ impl Geometry {
         };
         self.triangles().any(|tri| {
             let soa = TriSoa::new(tri.p);
-            match r.kz {
+            match r.kz() {
                 0 => intersect_triangle::<0>(&soa, &r, r.t_max),
                 1 => intersect_triangle::<1>(&soa, &r, r.t_max),
                 _ => intersect_triangle::<2>(&soa, &r, r.t_max),
@@ -727,21 +648,40 @@ impl Geometry {
         }
     }
 
-    /// A query on a wide BVH with node test `test`, as a pulp operation.
+    /// Runs `job` on this BVH: the scalar traversal for the BVH2 layout; on the wide layouts,
+    /// the traversal compiled for the CPU found at build time, with the 8-lane node test where
+    /// there is AVX2.
     #[inline(always)]
-    fn query<'a, const G: usize, N: NodeTest<G>>(
-        &'a self,
-        w: &'a WideBvh<G>,
-        r: &'a PreparedRay,
-        any: bool,
-        test: N,
-    ) -> WideQuery<'a, G, N> {
-        WideQuery {
-            w,
-            r,
-            g: self,
-            any,
-            test,
+    fn trace<J: Job>(&self, job: J) -> J::Output {
+        match &self.nodes {
+            Nodes::Bvh2(n) => job.bvh2(self, n),
+            Nodes::Wide4(w) => self.arch.dispatch(WideOp {
+                w,
+                g: self,
+                job,
+                test: Lanes4,
+            }),
+            Nodes::Wide8(w) => {
+                #[cfg(target_arch = "x86_64")]
+                if let Some(v3) = self.v3 {
+                    let test = Lanes8(v3);
+                    return pulp::Simd::vectorize(
+                        v3,
+                        WideOp {
+                            w,
+                            g: self,
+                            job,
+                            test,
+                        },
+                    );
+                }
+                self.arch.dispatch(WideOp {
+                    w,
+                    g: self,
+                    job,
+                    test: Lanes4,
+                })
+            }
         }
     }
 
@@ -893,57 +833,119 @@ impl Geometry {
     }
 }
 
-/// A closest-hit (`any: false`) or occlusion (`any: true`) query on a wide BVH, as a pulp
-/// operation: `with_simd` is inlined into pulp's function compiled for the detected
-/// instruction set, and the traversal (all `#[inline(always)]`) into it. (A closure would be
-/// compiled once, for the baseline, and only called from there.) `N` tests the nodes.
-struct WideQuery<'a, const G: usize, N> {
-    w: &'a WideBvh<G>,
-    r: &'a PreparedRay,
-    g: &'a Geometry,
-    any: bool,
-    test: N,
+/// What [`Geometry::trace`] computes, on each layout. The one-ray jobs take the ray prepared
+/// outside the dispatched function: prepared in there, its fields compete for registers with
+/// the traversal's (measured: 15% more instructions for closest hits).
+trait Job {
+    type Output;
+    /// On a wide BVH, with node test `test`.
+    fn wide<const G: usize, N: NodeTest<G>>(
+        self,
+        w: &WideBvh<G>,
+        g: &Geometry,
+        test: N,
+    ) -> Self::Output;
+    /// On the BVH2 layout (the scalar oracle).
+    fn bvh2(self, g: &Geometry, nodes: &[Bvh2Node]) -> Self::Output;
 }
 
-impl<const G: usize, N: NodeTest<G>> pulp::WithSimd for WideQuery<'_, G, N> {
-    type Output = (Option<Hit>, bool);
+/// One ray's closest hit.
+struct Closest<'a>(&'a PreparedRay);
+
+impl Job for Closest<'_> {
+    type Output = Option<Hit>;
 
     #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _: S) -> (Option<Hit>, bool) {
-        // The ray is prepared outside: prepared in here, its fields compete for registers
-        // with the traversal's (measured: 15% more instructions for closest hits).
-        if self.any {
-            (None, wide_any(self.w, self.r, self.g, self.test))
-        } else {
-            (wide_closest(self.w, self.r, self.g, self.test), false)
+    fn wide<const G: usize, N: NodeTest<G>>(
+        self,
+        w: &WideBvh<G>,
+        g: &Geometry,
+        test: N,
+    ) -> Option<Hit> {
+        wide_closest(w, self.0, g, test)
+    }
+
+    fn bvh2(self, g: &Geometry, nodes: &[Bvh2Node]) -> Option<Hit> {
+        let r = self.0;
+        let found = match r.kz() {
+            0 => g.with_stack(|s| g.bvh2_closest::<0>(nodes, r, s)),
+            1 => g.with_stack(|s| g.bvh2_closest::<1>(nodes, r, s)),
+            _ => g.with_stack(|s| g.bvh2_closest::<2>(nodes, r, s)),
+        };
+        found.map(|(i, h)| Hit {
+            t: h.t,
+            triangle: g.bvh_ids[i],
+            b1: h.b1,
+            b2: h.b2,
+        })
+    }
+}
+
+/// Whether one ray hits anything.
+struct Any<'a>(&'a PreparedRay);
+
+impl Job for Any<'_> {
+    type Output = bool;
+
+    #[inline(always)]
+    fn wide<const G: usize, N: NodeTest<G>>(self, w: &WideBvh<G>, g: &Geometry, test: N) -> bool {
+        wide_any(w, self.0, g, test)
+    }
+
+    fn bvh2(self, g: &Geometry, nodes: &[Bvh2Node]) -> bool {
+        let r = self.0;
+        match r.kz() {
+            0 => g.with_stack(|s| g.bvh2_any::<0>(nodes, r, s)),
+            1 => g.with_stack(|s| g.bvh2_any::<1>(nodes, r, s)),
+            _ => g.with_stack(|s| g.bvh2_any::<2>(nodes, r, s)),
         }
     }
 }
 
-/// [`Geometry::intersect_many`] on a wide BVH, as a pulp operation (see [`WideQuery`]).
-struct Gather<'a, const G: usize, N> {
-    w: &'a WideBvh<G>,
-    rays: &'a [Ray],
-    hits: &'a mut [Option<Hit>],
-    g: &'a Geometry,
-    test: N,
-}
+/// The closest hits of many rays (a gather's), written in place, within one run-time dispatch
+/// whose setup is then paid once.
+struct Many<'a>(&'a [Ray], &'a mut [Option<Hit>]);
 
-impl<const G: usize, N: NodeTest<G>> pulp::WithSimd for Gather<'_, G, N> {
+impl Job for Many<'_> {
     type Output = ();
 
     #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _: S) {
-        for (ray, hit) in self.rays.iter().zip(self.hits.iter_mut()) {
+    fn wide<const G: usize, N: NodeTest<G>>(self, w: &WideBvh<G>, g: &Geometry, test: N) {
+        for (ray, hit) in self.0.iter().zip(self.1.iter_mut()) {
             // No closure here: it would be compiled outside the dispatched instruction set.
             *hit = if PreparedRay::traceable(ray) {
-                let mut r = PreparedRay::prepare(ray);
-                r.set_screen(self.g.coordinate_bound);
-                wide_closest(self.w, &r, self.g, self.test)
+                let r = PreparedRay::prepare(ray, g.coordinate_bound);
+                wide_closest(w, &r, g, test)
             } else {
                 None
             };
         }
+    }
+
+    fn bvh2(self, g: &Geometry, _: &[Bvh2Node]) {
+        for (ray, hit) in self.0.iter().zip(self.1.iter_mut()) {
+            *hit = g.intersect(ray);
+        }
+    }
+}
+
+/// A [`Job`] on a wide BVH with node test `N`, as a pulp operation: `with_simd` is inlined
+/// into pulp's function compiled for the detected instruction set, and the traversal (all
+/// `#[inline(always)]`) into it. (A closure would be compiled once, for the baseline, and only
+/// called from there.)
+struct WideOp<'a, const G: usize, N, J> {
+    w: &'a WideBvh<G>,
+    g: &'a Geometry,
+    job: J,
+    test: N,
+}
+
+impl<const G: usize, N: NodeTest<G>, J: Job> pulp::WithSimd for WideOp<'_, G, N, J> {
+    type Output = J::Output;
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) -> J::Output {
+        self.job.wide(self.w, self.g, self.test)
     }
 }
 

@@ -116,8 +116,6 @@ pub(crate) struct PreparedRay {
     pub(crate) inv_dir: Vec3A,
     pub(crate) sx: f32,
     pub(crate) sy: f32,
-    /// The axis of the largest direction component, which the triangle test maps to z.
-    pub(crate) kz: usize,
     /// The caller's `t_max`.
     pub(crate) t_max: f32,
     /// For the 4-wide tests: the origin, direction and inverse direction per axis, splatted,
@@ -131,7 +129,8 @@ pub(crate) struct PreparedRay {
     pub(crate) inv4: [Vec4; 3],
     pub(crate) inv_far4: [Vec4; 3],
     pub(crate) near: [usize; 3],
-    /// The axes that become x, y and z in the triangle test: `[kz + 1, kz + 2, kz]` (mod 3).
+    /// The axes that become x, y and z in the triangle test: `[kz + 1, kz + 2, kz]` (mod 3),
+    /// `kz` the axis of the largest direction component.
     /// The 4-wide test indexes the packet's coordinate arrays with them, so it has one body
     /// for every ray rather than one per axis (a per-ray branch among three bodies was a
     /// mispredicted branch per ray).
@@ -147,7 +146,13 @@ impl PreparedRay {
     /// direction, or a `t_max` that is NaN or not positive.
     #[inline(always)]
     pub(crate) fn new(ray: &Ray) -> Option<PreparedRay> {
-        Self::traceable(ray).then(|| Self::prepare(ray))
+        Self::traceable(ray).then(|| Self::prepare(ray, f32::INFINITY))
+    }
+
+    /// The axis of the largest direction component, which the triangle test maps to z.
+    #[inline(always)]
+    pub(crate) fn kz(&self) -> usize {
+        self.perm[2]
     }
 
     /// Whether `ray` can hit anything (see [`PreparedRay::new`]).
@@ -158,11 +163,13 @@ impl PreparedRay {
         o.is_finite() && d.is_finite() && !d.cmpeq(Vec3A::ZERO).all() && ray.t_max > 0.0
     }
 
-    /// The prepared ray, for a `ray` that is [`PreparedRay::traceable`]. (Separate from the
-    /// check so that the hot callers build it in place: returned in an `Option`, its 300 bytes
-    /// were copied once more per ray.)
+    /// The prepared ray, for a `ray` that is [`PreparedRay::traceable`], in a scene whose vertex
+    /// coordinates are at most `coordinate_bound` in magnitude (its screen, see
+    /// [`PreparedRay::set_screen`]; ∞ screens nothing out). Separate from the check so that
+    /// the hot callers build it in place: returned in an `Option`, its 300 bytes were copied
+    /// once more per ray.
     #[inline(always)]
-    pub(crate) fn prepare(ray: &Ray) -> PreparedRay {
+    pub(crate) fn prepare(ray: &Ray, coordinate_bound: f32) -> PreparedRay {
         let o = Vec3A::from(ray.origin);
         let d = Vec3A::from(ray.direction);
         let a = d.abs();
@@ -186,13 +193,12 @@ impl PreparedRay {
         // parallel to that axis to within 5e-20 rad).
         let inv_dir = (Vec3A::ONE / d).clamp(-INV_DIR_LIMIT, INV_DIR_LIMIT);
         let inv_far = inv_dir * BOX_FAR_SCALE;
-        PreparedRay {
+        let mut r = PreparedRay {
             origin: o,
             dir: d,
             inv_dir,
             sx,
             sy,
-            kz,
             t_max: ray.t_max,
             o4: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
             d4: [Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z)],
@@ -213,7 +219,9 @@ impl PreparedRay {
             ],
             perm: [kx, ky, kz],
             screen: f32::INFINITY,
-        }
+        };
+        r.set_screen(coordinate_bound);
+        r
     }
 
     /// Sets [`PreparedRay::screen`] for a scene whose vertex coordinates are all at most
@@ -644,7 +652,7 @@ mod tests {
     fn hit(tri: [Vec3; 3], ray: &Ray) -> Option<TriHit> {
         let r = PreparedRay::new(ray)?;
         let t = TriSoa::new(tri);
-        match r.kz {
+        match r.kz() {
             0 => intersect_triangle::<0>(&t, &r, r.t_max),
             1 => intersect_triangle::<1>(&t, &r, r.t_max),
             _ => intersect_triangle::<2>(&t, &r, r.t_max),

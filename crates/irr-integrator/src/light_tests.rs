@@ -421,13 +421,7 @@ fn area_and_point_lights_add_up() {
         &[floor, light],
         vec![
             Material::diffuse(Vec3::splat(rho)),
-            Material {
-                albedo: Vec3::ZERO,
-                emission: Vec3::splat(l),
-                two_sided: false,
-                albedo_texture: None,
-                emission_texture: None,
-            },
+            Material::emitter(Vec3::splat(l)),
         ],
     )
     .with_lights(vec![PunctualLight::point(point_at, Vec3::splat(intensity))])
@@ -452,13 +446,7 @@ fn light_sampler_chooses_by_power() {
     let emitter = square(Vec3::new(0.0, 1.0, 0.0), -Vec3::Y, 0.5, 1);
     let materials = vec![
         Material::diffuse(Vec3::splat(0.5)),
-        Material {
-            albedo: Vec3::ZERO,
-            emission: Vec3::splat(2.0),
-            two_sided: false,
-            albedo_texture: None,
-            emission_texture: None,
-        },
+        Material::emitter(Vec3::splat(2.0)),
     ];
     let geometry = Geometry::build(&[floor, emitter]).unwrap_or_else(|e| panic!("{e}"));
     let (lo, hi) = geometry.bounds();
@@ -543,13 +531,7 @@ fn nee_draws_the_same_dimensions_for_every_light() {
         &[floor, emitter],
         vec![
             Material::diffuse(Vec3::splat(0.5)),
-            Material {
-                albedo: Vec3::ZERO,
-                emission: Vec3::splat(2.0),
-                two_sided: false,
-                albedo_texture: None,
-                emission_texture: None,
-            },
+            Material::emitter(Vec3::splat(2.0)),
         ],
     )
     .with_lights(vec![

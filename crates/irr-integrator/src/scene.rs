@@ -41,6 +41,18 @@ impl Material {
         }
     }
 
+    /// A black, untextured emitter of radiance `emission` from the front of its triangles only
+    /// (the side their winding faces), as glTF's single-sided emissive materials.
+    pub fn emitter(emission: Vec3) -> Self {
+        Self {
+            albedo: Vec3::ZERO,
+            emission,
+            two_sided: false,
+            albedo_texture: None,
+            emission_texture: None,
+        }
+    }
+
     /// Whether the material's emission factor is non-zero (a texture can still make it black
     /// in places).
     #[inline]

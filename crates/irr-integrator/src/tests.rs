@@ -248,13 +248,7 @@ fn disk_light_over_a_plane() {
         &[floor, light],
         vec![
             Material::diffuse(Vec3::splat(rho)),
-            Material {
-                albedo: Vec3::ZERO,
-                emission: Vec3::splat(l),
-                two_sided: false,
-                albedo_texture: None,
-                emission_texture: None,
-            },
+            Material::emitter(Vec3::splat(l)),
         ],
     );
     let e_polygon = polygon_irradiance(&vertices, f64::from(l));
@@ -325,13 +319,7 @@ fn light_sampler_is_a_distribution() {
         &[floor, light, other],
         vec![
             Material::diffuse(Vec3::splat(0.5)),
-            Material {
-                albedo: Vec3::ZERO,
-                emission: Vec3::new(1.0, 2.0, 3.0),
-                two_sided: false,
-                albedo_texture: None,
-                emission_texture: None,
-            },
+            Material::emitter(Vec3::new(1.0, 2.0, 3.0)),
             Material {
                 albedo: Vec3::ZERO,
                 emission: Vec3::splat(0.1),

@@ -665,13 +665,7 @@ mod tests {
             square(50.0, 5.0, 1, true),
         ];
         let geometry = Geometry::build(&meshes).unwrap_or_else(|e| panic!("{e}"));
-        let light = Material {
-            albedo: Vec3::ZERO,
-            emission: Vec3::ONE,
-            two_sided: false,
-            albedo_texture: None,
-            emission_texture: None,
-        };
+        let light = Material::emitter(Vec3::ONE);
         let scene = Scene::new(geometry, vec![Material::diffuse(albedo), light])
             .unwrap_or_else(|e| panic!("{e}"));
         let mut camera =
