@@ -1190,19 +1190,23 @@ mod tests {
         mesh
     }
 
-    #[test]
-    fn nested_same_centroid_triangles_build_top_down_and_trace_like_brute_force() {
-        let n = 3 * build::CLUSTER_LIMIT as u32;
-        let mesh = nested(n);
-        let prims: Vec<build::Prim> = mesh
-            .indices
+    /// The build's primitives (box and index) of `mesh`'s triangles.
+    fn prims_of(mesh: &TriangleMesh) -> Vec<build::Prim> {
+        mesh.indices
             .iter()
             .enumerate()
             .map(|(k, t)| {
                 let p = t.map(|i| mesh.positions[i as usize]);
                 build::Prim::new(p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]), k as u32)
             })
-            .collect();
+            .collect()
+    }
+
+    #[test]
+    fn nested_same_centroid_triangles_build_top_down_and_trace_like_brute_force() {
+        let n = 3 * build::CLUSTER_LIMIT as u32;
+        let mesh = nested(n);
+        let prims = prims_of(&mesh);
         let (bvh, builder) = build::build_bvh2(prims.clone());
         assert_eq!(builder, build::Builder::TopDown);
         // Leaves of one to four primitives, every primitive in exactly one.
@@ -1286,15 +1290,7 @@ mod tests {
             scale *= 1.002;
         }
         mesh.material_ids = vec![0; n as usize];
-        let prims: Vec<build::Prim> = mesh
-            .indices
-            .iter()
-            .enumerate()
-            .map(|(k, t)| {
-                let p = t.map(|i| mesh.positions[i as usize]);
-                build::Prim::new(p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]), k as u32)
-            })
-            .collect();
+        let prims = prims_of(&mesh);
         let (bvh, builder) = build::build_bvh2(prims);
         assert_eq!(builder, build::Builder::TopDown);
         // At most SAH_DEPTH_LIMIT levels of SAH, then medians that halve the range down to
