@@ -79,6 +79,8 @@
 //! on the 10⁶-triangle heightfield 103 bytes per triangle of heap (packets 48.8, wide nodes
 //! 18.8, the loader's indices 12 and positions 6, packet ids 4.1, material ids 4, slots 4, the
 //! leaf order 4, the leaf list 1), and 108 of resident memory for the whole `irr` process.
+//! (Measured before the wide tree's pair leaves, which took its nodes from 18.8 to 9.7 bytes
+//! per triangle there: 73 531 → 38 080 nodes, 79.7 → 70.6 bytes per triangle kept.)
 
 use glam::Vec3A;
 use obvhs::{
