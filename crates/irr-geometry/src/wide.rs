@@ -15,9 +15,8 @@
 //! (a leaf reference with [`PAIR`] set). Without pairs, 40% of the wide nodes of the
 //! 10⁶-triangle benchmark scene held just two packets (38 065 of 93 989; another 21 356 held
 //! three): a node visit, with its four cache lines, only to choose between two packets. With
-//! pairs that scene has 55 924 nodes, and the tree takes
-//! 75.7 instead of 85.1 bytes per triangle. The Cornell box's tree has no such node, and is
-//! unchanged.
+//! pairs that scene has 55 924 nodes, and the tree takes 75.7 instead of 85.1 bytes per
+//! triangle. The Cornell box's tree has no such node, and is unchanged.
 //!
 //! On a tree larger than the caches (more than [`PREFETCH_BYTES`]), the 8-lane traversal
 //! prefetches each child as it pushes it: the nearest child is visited next, and the others
@@ -48,9 +47,9 @@ const PACKET_MASK: u32 = PAIR - 1;
 
 /// Trees of more bytes (nodes and packets) than this prefetch what they push (see the module
 /// docs): 1 MiB. Measured on a machine with 48 KiB of L1 data cache and 2 MiB of L2 a core
-/// (`BvhLayout`'s docs): every tree of about 1 MB and more gained on closest hits (1.11× to
-/// 1.35×), occlusion gained or lost within the noise but on the 72-MB tree (1.40×), and a
-/// 0.2-MB tree only lost.
+/// (`BvhLayout`'s docs), prefetching against none: every tree of about 1 MB and more gained
+/// on closest hits (1.11× to 1.29×), occlusion moved within the noise but on the 72-MB tree
+/// (1.18×), and a 0.2-MB tree only lost.
 const PREFETCH_BYTES: usize = 1 << 20;
 
 /// The two BVH2 leaves under inner node `b`, if both its children are leaves: such a subtree
