@@ -1335,8 +1335,9 @@ mod tests {
 
     /// The wide traversals give the same bits whichever instruction set pulp dispatches to:
     /// the one detected here (x86-64-v3 on an AVX2 machine) and the baseline build, which
-    /// runs on CPUs without it; and with prefetching or without. (Rust never fuses a multiply and an add, so both evaluate the
-    /// same IEEE operations in the same order.)
+    /// runs on CPUs without it; and with prefetching or without (only the 8-lane test
+    /// prefetches). (Rust never fuses a multiply and an add, so both evaluate the same IEEE
+    /// operations in the same order.)
     #[test]
     fn dispatched_and_baseline_traversals_agree_bit_for_bit() {
         let mut mesh = nested(200);
