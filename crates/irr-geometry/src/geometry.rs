@@ -94,7 +94,7 @@ pub struct SurfacePoint {
 ///
 /// Then pair leaves and prefetching (see `wide.rs`). `Wide8` on the 10⁶-triangle scene:
 /// 93 989 → 55 924 nodes, 85.1 → 75.7 heap bytes per triangle; callgrind per ray, closest /
-/// occlusion, 2419 / 1846 → 2938 / 2256 instructions (the prefetches, and pair packets that
+/// occlusion, 2419 / 1846 → 2874 / 2179 instructions (the prefetches, and pair packets that
 /// a node test would have culled), while the time falls: one thread, side by side with the
 /// previous build on the other core, swapping cores each round, geometric mean of six rounds'
 /// ratios, closest 1.35× (best 0.75 → 1.07 Mrays/s), occlusion 1.40× (1.11 → 1.53). Apart,
@@ -1185,6 +1185,26 @@ mod tests {
         assert_eq!(g.triangle(hit.triangle).material_id, 4, "{hit:?}");
     }
 
+    /// An `n × n`-quad grid, vertex `(i, j)` at `vertex(i, j)`, two triangles per quad,
+    /// material 0.
+    fn grid(n: u32, mut vertex: impl FnMut(u32, u32) -> Vec3) -> TriangleMesh {
+        let mut m = TriangleMesh::default();
+        for j in 0..=n {
+            for i in 0..=n {
+                m.positions.push(vertex(i, j));
+            }
+        }
+        for j in 0..n {
+            for i in 0..n {
+                let v = j * (n + 1) + i;
+                m.indices
+                    .extend([[v, v + n + 1, v + 1], [v + 1, v + n + 1, v + n + 2]]);
+            }
+        }
+        m.material_ids = vec![0; m.indices.len()];
+        m
+    }
+
     /// `n` coplanar triangles nested about one centroid (also their boxes' centre), each
     /// 1.001 times the previous: the input that stalled PLOC.
     fn nested(n: u32) -> TriangleMesh {
@@ -1350,25 +1370,15 @@ mod tests {
         }
         // A wavy 32 × 32-quad grid through the middle (2048 triangles): a surface, whose BVH
         // has the pair leaves of the 8-wide layout.
-        let (n, base) = (32u32, mesh.positions.len() as u32);
-        for j in 0..=n {
-            for i in 0..=n {
-                let (x, z) = (
-                    i as f32 / n as f32 * 2.0 - 1.0,
-                    j as f32 / n as f32 * 2.0 - 1.0,
-                );
-                mesh.positions
-                    .push(Vec3::new(x, 0.1 * (5.0 * x).sin() * (4.0 * z).cos(), z));
-            }
-        }
-        for j in 0..n {
-            for i in 0..n {
-                let v = |di: u32, dj: u32| base + (j + dj) * (n + 1) + i + di;
-                mesh.indices.push([v(0, 0), v(0, 1), v(1, 1)]);
-                mesh.indices.push([v(0, 0), v(1, 1), v(1, 0)]);
-                mesh.material_ids.extend([0, 0]);
-            }
-        }
+        let wavy = grid(32, |i, j| {
+            let (x, z) = (i as f32 / 16.0 - 1.0, j as f32 / 16.0 - 1.0);
+            Vec3::new(x, 0.1 * (5.0 * x).sin() * (4.0 * z).cos(), z)
+        });
+        let base = mesh.positions.len() as u32;
+        mesh.positions.extend(wavy.positions);
+        mesh.indices
+            .extend(wavy.indices.iter().map(|t| t.map(|v| v + base)));
+        mesh.material_ids.extend(wavy.material_ids);
         let mut seed = 0x9E37_79B9_u32;
         let mut next = move || {
             seed ^= seed << 13;
@@ -1464,25 +1474,10 @@ mod tests {
                 .map(|_| Vec3::new(next(), next(), next()))
                 .collect(),
         );
-        let mut grid = TriangleMesh::default();
-        let n = 20u32;
-        for j in 0..=n {
-            for i in 0..=n {
-                grid.positions.push(Vec3::new(
-                    i as f32 * 0.1,
-                    0.05 * next() - 2.0,
-                    j as f32 * 0.1,
-                ));
-            }
-        }
-        for j in 0..n {
-            for i in 0..n {
-                let v = j * (n + 1) + i;
-                grid.indices
-                    .extend([[v, v + n + 1, v + 1], [v + 1, v + n + 1, v + n + 2]]);
-            }
-        }
-        grid.material_ids = vec![7; grid.indices.len()];
+        let mut grid = grid(20, |i, j| {
+            Vec3::new(i as f32 * 0.1, 0.05 * next() - 2.0, j as f32 * 0.1)
+        });
+        grid.material_ids.fill(7);
         let mut top = quad(4.0, 9);
         top.normals = Some(vec![Vec3::new(0.1, 0.2, 1.0); 4]);
         vec![a, TriangleMesh::default(), grid, top]
@@ -1588,23 +1583,11 @@ mod tests {
     /// under the 150 bytes per triangle of peak memory.
     #[test]
     fn a_built_heightfield_holds_under_100_bytes_per_triangle() {
-        let mut m = TriangleMesh::default();
         let n = 64u32;
-        for j in 0..=n {
-            for i in 0..=n {
-                let (x, z) = (i as f32 / n as f32, j as f32 / n as f32);
-                m.positions
-                    .push(Vec3::new(x, 0.05 * (7.0 * x).sin() * (5.0 * z).cos(), z));
-            }
-        }
-        for j in 0..n {
-            for i in 0..n {
-                let v = j * (n + 1) + i;
-                m.indices
-                    .extend([[v, v + n + 1, v + 1], [v + 1, v + n + 1, v + n + 2]]);
-            }
-        }
-        m.material_ids = vec![0; m.indices.len()];
+        let m = grid(n, |i, j| {
+            let (x, z) = (i as f32 / n as f32, j as f32 / n as f32);
+            Vec3::new(x, 0.05 * (7.0 * x).sin() * (5.0 * z).cos(), z)
+        });
         let g = Geometry::build_owned(vec![m]).unwrap_or_else(|e| panic!("{e}"));
         let bytes = g.heap_bytes();
         let total: usize = bytes.iter().map(|(_, b)| b).sum();

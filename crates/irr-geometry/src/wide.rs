@@ -453,12 +453,14 @@ impl<const G: usize> WideBvh<G> {
     /// Prefetches child reference `child` (a node, a packet or a pair) with `test`.
     #[inline(always)]
     fn prefetch_child<N: NodeTest<G>>(&self, test: N, child: u32) {
-        // Selected without a branch: leaf or node is a coin toss.
+        // Selected without a branch: leaf or node is a coin toss. A node's reference is its
+        // index, below 2³⁰ like a packet's (a tree has fewer nodes than packets), so `PAIR`
+        // is clear for nodes and single packets, and the mask gives either index.
         let leaf = (child >> 31) as usize;
         let base: [*const u8; 2] = [self.nodes.as_ptr().cast(), self.packets.as_ptr().cast()];
         let size = [size_of::<WideNode<G>>(), size_of::<Tri4>()][leaf];
-        let count = [0, (child >> 30) as usize & 1][leaf] + 1;
-        let index = [child as usize, (child & PACKET_MASK) as usize][leaf];
+        let index = (child & PACKET_MASK) as usize;
+        let count = 1 + (child & PAIR != 0) as usize;
         test.prefetch(base[leaf].wrapping_add(index * size), size * count);
     }
 
