@@ -1185,6 +1185,16 @@ mod tests {
         assert_eq!(g.triangle(hit.triangle).material_id, 4, "{hit:?}");
     }
 
+    /// A reproducible stream of numbers in [−1, 1] (xorshift32 from `seed`).
+    fn xorshift(mut seed: u32) -> impl FnMut() -> f32 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            seed as f32 / u32::MAX as f32 * 2.0 - 1.0
+        }
+    }
+
     /// An `n × n`-quad grid, vertex `(i, j)` at `vertex(i, j)`, two triangles per quad,
     /// material 0.
     fn grid(n: u32, mut vertex: impl FnMut(u32, u32) -> Vec3) -> TriangleMesh {
@@ -1265,13 +1275,7 @@ mod tests {
             build::Builder::Ploc
         );
 
-        let mut seed = 0x1234_5678_u32;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 17;
-            seed ^= seed << 5;
-            seed as f32 / u32::MAX as f32 * 2.0 - 1.0
-        };
+        let mut next = xorshift(0x1234_5678_u32);
         for layout in [BvhLayout::Bvh2, BvhLayout::Wide4, BvhLayout::Wide8] {
             let g = Geometry::build_with_layout(std::slice::from_ref(&mesh), layout)
                 .unwrap_or_else(|e| panic!("{e}"));
@@ -1335,13 +1339,7 @@ mod tests {
             build::SAH_DEPTH_LIMIT + (f64::from(n)).log2().ceil() as usize + build::SWEEP_LIMIT;
         assert!(depth <= bound, "depth {depth} > {bound}");
         let g = Geometry::build(std::slice::from_ref(&mesh)).unwrap_or_else(|e| panic!("{e}"));
-        let mut seed = 0x0bad_cafe_u32;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 17;
-            seed ^= seed << 5;
-            seed as f32 / u32::MAX as f32 * 2.0 - 1.0
-        };
+        let mut next = xorshift(0x0bad_cafe_u32);
         for _ in 0..100 {
             let o = Vec3::new(next(), next(), next()) * 30.0;
             let ray = Ray::new(o, Vec3::new(next(), next(), next()) * 10.0 - o);
@@ -1379,13 +1377,7 @@ mod tests {
         mesh.indices
             .extend(wavy.indices.iter().map(|t| t.map(|v| v + base)));
         mesh.material_ids.extend(wavy.material_ids);
-        let mut seed = 0x9E37_79B9_u32;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 17;
-            seed ^= seed << 5;
-            seed as f32 / u32::MAX as f32 * 2.0 - 1.0
-        };
+        let mut next = xorshift(0x9E37_79B9_u32);
         for layout in [BvhLayout::Wide4, BvhLayout::Wide8] {
             let fast = Geometry::build_with_layout(std::slice::from_ref(&mesh), layout)
                 .unwrap_or_else(|e| panic!("{e}"));
@@ -1450,13 +1442,7 @@ mod tests {
     /// degenerate, one non-finite), an empty mesh, a heightfield without normals, and a quad with
     /// normals; `soup` triangles in the soup.
     fn mixed_meshes(soup: u32) -> Vec<TriangleMesh> {
-        let mut seed = 0x2545_f491_u32;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 17;
-            seed ^= seed << 5;
-            seed as f32 / u32::MAX as f32 * 2.0 - 1.0
-        };
+        let mut next = xorshift(0x2545_f491_u32);
         let mut a = TriangleMesh::default();
         for k in 0..soup {
             let c = Vec3::new(next(), next(), next()) * 3.0;
@@ -1523,13 +1509,7 @@ mod tests {
                     assert_eq!(a.material_id(id), t.material_id);
                 }
                 assert!(a.triangles().eq(kept.iter().copied()));
-                let mut seed = 0x1357_9bdf_u32;
-                let mut next = move || {
-                    seed ^= seed << 13;
-                    seed ^= seed >> 17;
-                    seed ^= seed << 5;
-                    seed as f32 / u32::MAX as f32 * 2.0 - 1.0
-                };
+                let mut next = xorshift(0x1357_9bdf_u32);
                 let mut hits = 0;
                 for _ in 0..2000 {
                     let o = Vec3::new(next(), next(), next()) * 6.0;
