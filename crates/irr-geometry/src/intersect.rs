@@ -49,7 +49,7 @@
 //! distance `(b − o)·(1/d)` carries at most three roundings, so the far distance is scaled by
 //! `1 + 2γ₃` and a box that the exact ray touches is never rejected.
 
-use glam::{DVec3, Vec3, Vec3A, Vec3Swizzles, Vec4};
+use glam::{BVec4A, DVec3, Vec3, Vec3A, Vec3Swizzles, Vec4};
 
 use crate::Ray;
 use crate::mesh::cross_f64;
@@ -107,6 +107,29 @@ impl TriSoa {
     }
 }
 
+/// An axis, as an index the compiler knows to be below 3 (a `usize` field would be bounds-checked
+/// at every use: a compare and a branch for each coordinate array a packet test reads).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(usize)]
+pub(crate) enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+/// A plane of a box, as an index into a wide node's planes (min x, min y, min z, max x, max y,
+/// max z) that the compiler knows to be below 6 (as [`Axis`]: no bounds check per node test).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(usize)]
+pub(crate) enum Plane {
+    MinX,
+    MinY,
+    MinZ,
+    MaxX,
+    MaxY,
+    MaxZ,
+}
+
 /// A ray prepared once for all its tests: origin (also splatted per axis), the clamped inverse
 /// direction for the box test, and the shear constants of the triangle test.
 #[derive(Debug, Clone, Copy)]
@@ -118,23 +141,24 @@ pub(crate) struct PreparedRay {
     pub(crate) sy: f32,
     /// The caller's `t_max`.
     pub(crate) t_max: f32,
-    /// For the 4-wide tests: the origin, direction and inverse direction per axis, splatted,
-    /// and the inverse direction scaled by Ize's `1 + 2γ₃` for far distances (one more
-    /// rounding of at most u, which the factor's margin of γ₃ − u covers). Splatting them where
-    /// they are used instead cost the closest-hit traversal ~25% more instructions (they do not
-    /// all stay in registers). Per axis, the index of the near plane among (min x, min y,
-    /// min z, max x, max y, max z).
-    pub(crate) o4: [Vec4; 3],
-    pub(crate) d4: [Vec4; 3],
-    pub(crate) inv4: [Vec4; 3],
-    pub(crate) inv_far4: [Vec4; 3],
-    pub(crate) near: [usize; 3],
+    /// The inverse direction scaled by Ize's `1 + 2γ₃`, for far slab distances (one more
+    /// rounding of at most u, which the factor's margin of γ₃ − u covers).
+    pub(crate) inv_far: Vec3A,
+    /// Per axis, the near plane of a box (the min plane where the direction is positive).
+    ///
+    /// The vector tests splat the origin and the inverse directions where they use them: on
+    /// x86-64-v3, where they run, a splat from memory is one `vbroadcastss`, as cheap as the
+    /// load of a splatted copy (keeping twelve such copies made the prepared ray 300 bytes,
+    /// whose stores cost 30 instructions a ray).
+    pub(crate) near: [Plane; 3],
+    /// Per axis, the far plane (the other one).
+    pub(crate) far: [Plane; 3],
     /// The axes that become x, y and z in the triangle test: `[kz + 1, kz + 2, kz]` (mod 3),
     /// `kz` the axis of the largest direction component.
     /// The 4-wide test indexes the packet's coordinate arrays with them, so it has one body
     /// for every ray rather than one per axis (a per-ray branch among three bodies was a
     /// mispredicted branch per ray).
-    pub(crate) perm: [usize; 3],
+    pub(crate) perm: [Axis; 3],
     /// The 4-wide test's screen: a lane whose edge functions include one below `−screen` and
     /// one above `screen` certainly misses (see [`PreparedRay::set_screen`]). ∞ (no lane is
     /// screened out) until it is set.
@@ -152,7 +176,7 @@ impl PreparedRay {
     /// The axis of the largest direction component, which the triangle test maps to z.
     #[inline(always)]
     pub(crate) fn kz(&self) -> usize {
-        self.perm[2]
+        self.perm[2] as usize
     }
 
     /// Whether `ray` can hit anything (see [`PreparedRay::new`]).
@@ -170,6 +194,21 @@ impl PreparedRay {
     /// once more per ray.
     #[inline(always)]
     pub(crate) fn prepare(ray: &Ray, coordinate_bound: f32) -> PreparedRay {
+        use Axis::{X, Y, Z};
+        use Plane::{MaxX, MaxY, MaxZ, MinX, MinY, MinZ};
+        /// `perm` by `kz`.
+        const PERMUTATION: [[Axis; 3]; 3] = [[Y, Z, X], [Z, X, Y], [X, Y, Z]];
+        /// The near planes by the signs of the direction (bit `a` set: axis `a` negative).
+        const NEAR: [[Plane; 3]; 8] = [
+            [MinX, MinY, MinZ],
+            [MaxX, MinY, MinZ],
+            [MinX, MaxY, MinZ],
+            [MaxX, MaxY, MinZ],
+            [MinX, MinY, MaxZ],
+            [MaxX, MinY, MaxZ],
+            [MinX, MaxY, MaxZ],
+            [MaxX, MaxY, MaxZ],
+        ];
         let o = Vec3A::from(ray.origin);
         let d = Vec3A::from(ray.direction);
         let a = d.abs();
@@ -193,6 +232,7 @@ impl PreparedRay {
         // parallel to that axis to within 5e-20 rad).
         let inv_dir = (Vec3A::ONE / d).clamp(-INV_DIR_LIMIT, INV_DIR_LIMIT);
         let inv_far = inv_dir * BOX_FAR_SCALE;
+        let signs = (inv_dir.is_negative_bitmask() & 7) as usize;
         let mut r = PreparedRay {
             origin: o,
             dir: d,
@@ -200,24 +240,12 @@ impl PreparedRay {
             sx,
             sy,
             t_max: ray.t_max,
-            o4: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
-            d4: [Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z)],
-            inv4: [
-                Vec4::splat(inv_dir.x),
-                Vec4::splat(inv_dir.y),
-                Vec4::splat(inv_dir.z),
-            ],
-            inv_far4: [
-                Vec4::splat(inv_far.x),
-                Vec4::splat(inv_far.y),
-                Vec4::splat(inv_far.z),
-            ],
-            near: [
-                if inv_dir.x < 0.0 { 3 } else { 0 },
-                if inv_dir.y < 0.0 { 4 } else { 1 },
-                if inv_dir.z < 0.0 { 5 } else { 2 },
-            ],
-            perm: [kx, ky, kz],
+            inv_far,
+            // Looked up by the signs (`inv_dir` is never ±0 or NaN, so its sign bit is
+            // `< 0`): table loads rather than a select per axis.
+            near: NEAR[signs],
+            far: NEAR[7 - signs],
+            perm: PERMUTATION[kz],
             screen: f32::INFINITY,
         };
         r.set_screen(coordinate_bound);
@@ -265,10 +293,11 @@ impl PreparedRay {
         let mut t_near = Vec4::ZERO;
         let mut t_far = Vec4::splat(t_best);
         for a in 0..3 {
-            let near = Vec4::from_array(planes[self.near[a]][g]);
-            let far = Vec4::from_array(planes[(self.near[a] + 3) % 6][g]);
-            t_near = t_near.max((near - self.o4[a]) * self.inv4[a]);
-            t_far = t_far.min((far - self.o4[a]) * self.inv_far4[a]);
+            let near = Vec4::from_array(planes[self.near[a] as usize][g]);
+            let far = Vec4::from_array(planes[self.far[a] as usize][g]);
+            let o = Vec4::splat(self.origin[a]);
+            t_near = t_near.max((near - o) * Vec4::splat(self.inv_dir[a]));
+            t_far = t_far.min((far - o) * Vec4::splat(self.inv_far[a]));
         }
         (t_near, t_near.cmple(t_far).bitmask())
     }
@@ -446,16 +475,10 @@ impl Tri4 {
             n: get(&self.n),
         }
     }
-
-    /// Coordinate `axis` of the three vertices, per vertex four lanes.
-    #[inline(always)]
-    fn axis(&self, axis: usize) -> [Vec4; 3] {
-        self.v[axis].map(Vec4::from_array)
-    }
 }
 
-/// The hits of a ray on a [`Tri4`]: per lane the distance and barycentrics, and the mask of the
-/// lanes that hit.
+/// The hits of a ray on a [`Tri4`]: per lane the distance (∞ for a lane that missed) and
+/// barycentrics, and the mask of the lanes that hit.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Tri4Hits {
     pub(crate) t: Vec4,
@@ -465,29 +488,70 @@ pub(crate) struct Tri4Hits {
 }
 
 impl Tri4Hits {
-    /// The closest of the hits, as (lane, hit); `None` if no lane hit.
+    /// The closest of the hits, as (lane, hit); lane 4 (and distance ∞) if no lane hit. Of
+    /// equal distances, the lowest lane. Without a branch: which lanes hit, and how many, is a
+    /// coin toss (a loop over the hit lanes mispredicted 0.7 times per closest-hit ray in the
+    /// Cornell box).
     #[inline(always)]
-    pub(crate) fn closest(&self) -> Option<(usize, TriHit)> {
+    pub(crate) fn closest(&self) -> (usize, TriHit) {
+        // Lanes that missed have distance ∞ and a hit's is finite, so the minimum is a hit's
+        // unless there is none.
+        let t = self.t.min_element();
+        let lane = ((self.t.cmpeq(Vec4::splat(t)).bitmask() & self.mask) | 16).trailing_zeros();
         // Arrays, not `Vec4` indexing (see `Tri4::lane`).
-        let (t, b1, b2) = (self.t.to_array(), self.b1.to_array(), self.b2.to_array());
-        let mut m = self.mask;
-        let mut best: Option<(usize, TriHit)> = None;
-        while m != 0 {
-            let l = m.trailing_zeros() as usize;
-            m &= m - 1;
-            if best.is_none_or(|(_, b)| t[l] < b.t) {
-                best = Some((
-                    l,
-                    TriHit {
-                        t: t[l],
-                        b1: b1[l],
-                        b2: b2[l],
-                    },
-                ));
-            }
-        }
-        best
+        let (b1, b2) = (self.b1.to_array(), self.b2.to_array());
+        let l = lane as usize & 3;
+        (
+            lane as usize,
+            TriHit {
+                t,
+                b1: b1[l],
+                b2: b2[l],
+            },
+        )
     }
+}
+
+/// A packet translated to the ray's origin and permuted (`p`: per axis x, y, z of the permuted
+/// frame, per vertex), and sheared so that the ray runs along +z (`xt`, `yt`, per vertex), with
+/// the same operations as the scalar test. The origin is splatted from memory (one
+/// `vbroadcastss` where the tests run) and the arrays are indexed by [`Axis`] (no bounds check).
+#[inline(always)]
+fn sheared(tri: &Tri4, ray: &PreparedRay) -> ([[Vec4; 3]; 3], [Vec4; 3], [Vec4; 3]) {
+    let o: &[f32; 3] = ray.origin.as_ref();
+    let p = ray
+        .perm
+        .map(|k| tri.v[k as usize].map(|v| Vec4::from_array(v) - Vec4::splat(o[k as usize])));
+    let [px, py, pz] = p;
+    let sx = Vec4::splat(ray.sx);
+    let sy = Vec4::splat(ray.sy);
+    let xt = [0, 1, 2].map(|v| px[v] + sx * pz[v]);
+    let yt = [0, 1, 2].map(|v| py[v] + sy * pz[v]);
+    (p, xt, yt)
+}
+
+/// The lanes of [`intersect_tri4`] with an edge function `e` within the filter bound of
+/// `edge_error` (computed per lane with the same operations; max is exact, so its order does
+/// not matter): those the scalar `f64` test decides. Out of line, and recomputing the sheared
+/// packet, so that the common path keeps nothing alive for it (it spilled nine vectors per
+/// packet test).
+#[inline(always)]
+fn near_lanes(tri: &Tri4, ray: &PreparedRay, e: [Vec4; 3]) -> u32 {
+    let ([px, py, pz], xt, yt) = sheared(tri, ray);
+    let r = px[0]
+        .abs()
+        .max(px[1].abs())
+        .max(px[2].abs())
+        .max(py[0].abs().max(py[1].abs()).max(py[2].abs()))
+        .max(pz[0].abs().max(pz[1].abs()).max(pz[2].abs()));
+    let xm = xt[0].abs().max(xt[1].abs()).max(xt[2].abs());
+    let ym = yt[0].abs().max(yt[1].abs()).max(yt[2].abs());
+    let err = Vec4::splat(2.0 * gamma(5)) * r;
+    let delta_e = Vec4::splat(2.0 * gamma(3)) * xm * ym
+        + Vec4::splat(2.0) * err * (xm + ym)
+        + Vec4::splat(2.0) * err * err
+        + Vec4::splat(f32::MIN_POSITIVE);
+    (e[0].abs().cmple(delta_e) | e[1].abs().cmple(delta_e) | e[2].abs().cmple(delta_e)).bitmask()
 }
 
 /// [`intersect_triangle`] on four triangles at once (lane = triangle), with the same operations
@@ -506,18 +570,7 @@ pub(crate) fn intersect_tri4(tri: &Tri4, ray: &PreparedRay, t_best: f32) -> Tri4
         b2: Vec4::ZERO,
         mask: 0,
     };
-    let o = &ray.o4;
-    let [kx, ky, kz] = ray.perm;
-    // Translate the vertices so the ray starts at the origin (index = vertex), in the permuted
-    // frame where the ray's largest component is z (as in the scalar test).
-    let px = tri.axis(kx).map(|v| v - o[kx]);
-    let py = tri.axis(ky).map(|v| v - o[ky]);
-    let pz = tri.axis(kz).map(|v| v - o[kz]);
-    // Shear so the ray runs along +z.
-    let sx = Vec4::splat(ray.sx);
-    let sy = Vec4::splat(ray.sy);
-    let xt = [0, 1, 2].map(|v| px[v] + sx * pz[v]);
-    let yt = [0, 1, 2].map(|v| py[v] + sy * pz[v]);
+    let (_, xt, yt) = sheared(tri, ray);
     // Edge functions e_i = x_j·y_k − x_k·y_j for (i, j, k) cyclic.
     let e0 = xt[1] * yt[2] - xt[2] * yt[1];
     let e1 = xt[2] * yt[0] - xt[0] * yt[2];
@@ -529,23 +582,19 @@ pub(crate) fn intersect_tri4(tri: &Tri4, ray: &PreparedRay, t_best: f32) -> Tri4
     if (below & above).bitmask() == 0xf {
         return MISS;
     }
-    // The filter bound of `edge_error`, per lane, with the same operations (max is exact, so
-    // its order does not matter).
-    let r = px[0]
-        .abs()
-        .max(px[1].abs())
-        .max(px[2].abs())
-        .max(py[0].abs().max(py[1].abs()).max(py[2].abs()))
-        .max(pz[0].abs().max(pz[1].abs()).max(pz[2].abs()));
-    let xm = xt[0].abs().max(xt[1].abs()).max(xt[2].abs());
-    let ym = yt[0].abs().max(yt[1].abs()).max(yt[2].abs());
-    let e = Vec4::splat(2.0 * gamma(5)) * r;
-    let delta_e = Vec4::splat(2.0 * gamma(3)) * xm * ym
-        + Vec4::splat(2.0) * e * (xm + ym)
-        + Vec4::splat(2.0) * e * e
-        + Vec4::splat(f32::MIN_POSITIVE);
+    // Lanes with an edge function within the filter bound `δ` of zero (`near`), which the
+    // scalar `f64` test decides. Half the screen is at least every lane's `δ`, so when no edge
+    // function is within it, no lane is near and `δ` need not be computed (the common case in
+    // a small scene: the ray passes 10⁻⁵ of the scene's size away from every edge's line).
+    // Halving is exact (the screen is at least 8·MIN, a normal number, or ∞).
+    let half = Vec4::splat(0.5 * ray.screen);
+    let e = [e0, e1, e2];
     let near =
-        (e0.abs().cmple(delta_e) | e1.abs().cmple(delta_e) | e2.abs().cmple(delta_e)).bitmask();
+        if (e0.abs().cmple(half) | e1.abs().cmple(half) | e2.abs().cmple(half)).bitmask() == 0 {
+            0
+        } else {
+            near_lanes(std::hint::black_box(tri), ray, e)
+        };
     // The ray passes a triangle only if its three edge functions have the same sign.
     let zero = Vec4::ZERO;
     let neg = e0.cmplt(zero) | e1.cmplt(zero) | e2.cmplt(zero);
@@ -557,9 +606,10 @@ pub(crate) fn intersect_tri4(tri: &Tri4, ray: &PreparedRay, t_best: f32) -> Tri4
     let inv_det = Vec4::ONE / (e0 + e1 + e2);
     let b1 = e1 * inv_det;
     let b2 = e2 * inv_det;
-    // Lanes within rounding distance of an edge: the scalar f64 test decides.
-    let (b1, b2) = if near == 0 {
-        (b1, b2)
+    // Lanes within rounding distance of an edge: the scalar f64 test decides. The lanes the
+    // ray passes, as a vector mask too (for `Tri4Hits::t`).
+    let (b1, b2, inside_v) = if near == 0 {
+        (b1, b2, !(neg & pos))
     } else {
         let (mut b1, mut b2) = (b1.to_array(), b2.to_array());
         let mut m = near;
@@ -567,7 +617,7 @@ pub(crate) fn intersect_tri4(tri: &Tri4, ray: &PreparedRay, t_best: f32) -> Tri4
             let l = m.trailing_zeros() as usize;
             m &= m - 1;
             let lane = tri.lane(l);
-            let found = match kz {
+            let found = match ray.kz() {
                 0 => edge_test_f64::<0>(&lane, ray.origin, ray.sx, ray.sy),
                 1 => edge_test_f64::<1>(&lane, ray.origin, ray.sx, ray.sy),
                 _ => edge_test_f64::<2>(&lane, ray.origin, ray.sx, ray.sy),
@@ -578,12 +628,14 @@ pub(crate) fn intersect_tri4(tri: &Tri4, ray: &PreparedRay, t_best: f32) -> Tri4
                 b2[l] = c2;
             }
         }
-        (Vec4::from_array(b1), Vec4::from_array(b2))
+        let lane = |l: u32| inside & (1 << l) != 0;
+        let inside_v = BVec4A::new(lane(0), lane(1), lane(2), lane(3));
+        (Vec4::from_array(b1), Vec4::from_array(b2), inside_v)
     };
     // Distance to the plane through p0, and its error bound (see `intersect_triangle`), in
     // world axis order, as the scalar test sums.
-    let a = [0, 1, 2].map(|axis| Vec4::from_array(tri.v[axis][0]) - o[axis]);
-    let d = &ray.d4;
+    let a = [0, 1, 2].map(|axis| Vec4::from_array(tri.v[axis][0]) - Vec4::splat(ray.origin[axis]));
+    let d = [0, 1, 2].map(|axis| Vec4::splat(ray.dir[axis]));
     let n = &tri.n.map(Vec4::from_array);
     let den = (d[0] * n[0] + d[1] * n[1]) + d[2] * n[2];
     let an = [a[0] * n[0], a[1] * n[1], a[2] * n[2]];
@@ -598,11 +650,13 @@ pub(crate) fn intersect_tri4(tri: &Tri4, ray: &PreparedRay, t_best: f32) -> Tri4
     let ok = t.cmple(Vec4::splat(t_best))
         & t.cmpgt(delta_t)
         & (t + delta_t).cmplt(Vec4::splat(ray.t_max));
+    let hit = ok & inside_v;
+    // A hit's distance is finite (`t + δt < t_max` fails for ∞); the other lanes get ∞.
     Tri4Hits {
-        t,
+        t: Vec4::select(hit, t, Vec4::INFINITY),
         b1,
         b2,
-        mask: ok.bitmask() & inside,
+        mask: hit.bitmask(),
     }
 }
 

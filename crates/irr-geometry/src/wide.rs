@@ -121,16 +121,16 @@ impl<const PREFETCH: bool> NodeTest<2> for Lanes8<PREFETCH> {
         let mut t_near = avx._mm256_setzero_ps();
         let mut t_far = avx._mm256_set1_ps(t_best);
         for a in 0..3 {
-            let o = avx._mm256_set1_ps(r.o4[a].x);
-            let near = avx._mm256_sub_ps(plane(r.near[a]), o);
-            let far = avx._mm256_sub_ps(plane((r.near[a] + 3) % 6), o);
+            let o = avx._mm256_set1_ps(r.origin[a]);
+            let near = avx._mm256_sub_ps(plane(r.near[a] as usize), o);
+            let far = avx._mm256_sub_ps(plane(r.far[a] as usize), o);
             t_near = avx._mm256_max_ps(
                 t_near,
-                avx._mm256_mul_ps(near, avx._mm256_set1_ps(r.inv4[a].x)),
+                avx._mm256_mul_ps(near, avx._mm256_set1_ps(r.inv_dir[a])),
             );
             t_far = avx._mm256_min_ps(
                 t_far,
-                avx._mm256_mul_ps(far, avx._mm256_set1_ps(r.inv_far4[a].x)),
+                avx._mm256_mul_ps(far, avx._mm256_set1_ps(r.inv_far[a])),
             );
         }
         let mask = avx._mm256_movemask_ps(avx._mm256_cmp_ps::<_CMP_LE_OQ>(t_near, t_far)) as u32;
@@ -389,7 +389,8 @@ impl<const G: usize> WideBvh<G> {
             if current & LEAF != 0 {
                 let p = current & PACKET_MASK;
                 let hits = intersect_tri4(&self.packets[p as usize], r, t_best);
-                if let Some((lane, h)) = hits.closest() {
+                let (lane, h) = hits.closest();
+                if lane < 4 {
                     t_best = h.t;
                     best = Some((p, lane, h));
                 }
