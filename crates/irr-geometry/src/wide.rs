@@ -402,6 +402,30 @@ impl<const G: usize> WideBvh<G> {
                 let node = &self.nodes[current as usize];
                 let first = sp;
                 let (t_near, mut hit) = test.hits(node, r, t_best);
+                if hit.is_power_of_two() {
+                    // One child hit: visit it next, without the stack.
+                    let l = hit.trailing_zeros() as usize;
+                    current = node.children[l / 4][l % 4];
+                    self.prefetch_child(test, current);
+                    continue;
+                }
+                if hit.count_ones() == 2 {
+                    // Two: push the farther, visit the nearer (of equal distances the second,
+                    // as the insertion below orders them).
+                    let (a, b) = (
+                        hit.trailing_zeros() as usize,
+                        31 - hit.leading_zeros() as usize,
+                    );
+                    let ea = (node.children[a / 4][a % 4], t_near[a / 4][a % 4]);
+                    let eb = (node.children[b / 4][b % 4], t_near[b / 4][b % 4]);
+                    let (near, far) = if ea.1 < eb.1 { (ea, eb) } else { (eb, ea) };
+                    self.prefetch_child(test, far.0);
+                    self.prefetch_child(test, near.0);
+                    stack[sp] = far;
+                    sp += 1;
+                    current = near.0;
+                    continue;
+                }
                 while hit != 0 {
                     let l = hit.trailing_zeros() as usize;
                     hit &= hit - 1;
