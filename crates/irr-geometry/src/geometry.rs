@@ -108,6 +108,20 @@ pub struct SurfacePoint {
 /// Against the build issue 11 was filed on (its `Bvh8` layout), by the same method: 10⁶
 /// triangles closest 1.83×, occlusion 1.98×; Cornell closest 1.48×, occlusion 1.05×.
 ///
+/// Then a leaner prepared ray and packet test, and a shortcut for nodes with one or two
+/// children hit (see `intersect.rs` and `WideBvh::closest`): callgrind per ray, closest /
+/// occlusion, Cornell 705 / 458 → 583 / 353 instructions (mispredicted branches, closest,
+/// 3.4 → 2.8), 10⁶ triangles 2874 / 2179 → 2518 / 2070. On one core, alternating with the
+/// previous build twenty times (the two builds side by side on the two cores disturbed each
+/// other by up to ±30% that day), geometric mean of the runs' ratios: Cornell closest 1.08×
+/// (best 9.7 → 10.6 Mrays/s), occlusion 1.12×; on the 10⁶-triangle scene, bound by memory
+/// latency, no gain: closest 0.98× over 24 rounds (0.93× to 1.01× in shorter series, best
+/// rates 1.15 → 1.17), occlusion 0.98×. Against the filing build's `Bvh8`, the same way:
+/// Cornell closest 1.52× (best 6.9 → 10.6), occlusion 1.18× (15.5 → 18.4); 10⁶ triangles
+/// closest 1.64× (0.63 → 1.03), occlusion 1.85× (0.94 → 1.79). (The 1.83× and 1.98× above
+/// came from side-by-side runs on another day; side by side on this day gave 1.60× and
+/// 1.92×. The one-core alternation, with nothing else running, is the cleaner method.)
+///
 /// Two ways of tracing a gather's rays together were measured and lost to tracing them one
 /// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree
 /// together (Cornell 16×64 gathers: 943 against 669 instructions per ray; 10⁶ triangles:

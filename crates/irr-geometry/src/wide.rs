@@ -373,7 +373,9 @@ impl<const G: usize> WideBvh<G> {
 
     /// Closest hit: (packet, lane, hit). Children are visited nearest first: the hit children
     /// of a node are pushed farthest first, and an entry farther than the best hit so far is
-    /// dropped when popped.
+    /// dropped when popped. A node with one child hit goes straight to it, and one with two
+    /// pushes the farther and goes to the nearer, in the order the general sort would give:
+    /// those visits skip the stack, or the sort loop and its mispredicted exit.
     #[inline(always)]
     pub(crate) fn closest<N: NodeTest<G>>(
         &self,
