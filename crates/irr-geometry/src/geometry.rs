@@ -108,19 +108,25 @@ pub struct SurfacePoint {
 /// Against the build issue 11 was filed on (its `Bvh8` layout), by the same method: 10⁶
 /// triangles closest 1.83×, occlusion 1.98×; Cornell closest 1.48×, occlusion 1.05×.
 ///
-/// Then a leaner prepared ray and packet test, and a shortcut for nodes with one or two
-/// children hit (see `intersect.rs` and `WideBvh::closest`): callgrind per ray, closest /
-/// occlusion, Cornell 705 / 458 → 583 / 353 instructions (mispredicted branches, closest,
-/// 3.4 → 2.8), 10⁶ triangles 2874 / 2179 → 2518 / 2070. On one core, alternating with the
-/// previous build twenty times (the two builds side by side on the two cores disturbed each
-/// other by up to ±30% that day), geometric mean of the runs' ratios: Cornell closest 1.08×
-/// (best 9.7 → 10.6 Mrays/s), occlusion 1.12×; on the 10⁶-triangle scene, bound by memory
-/// latency, no gain: closest 0.98× over 24 rounds (0.93× to 1.01× in shorter series, best
-/// rates 1.15 → 1.17), occlusion 0.98×. Against the filing build's `Bvh8`, the same way:
-/// Cornell closest 1.52× (best 6.9 → 10.6), occlusion 1.18× (15.5 → 18.4); 10⁶ triangles
-/// closest 1.64× (0.63 → 1.03), occlusion 1.85× (0.94 → 1.79). (The 1.83× and 1.98× above
-/// came from side-by-side runs on another day; side by side on this day gave 1.60× and
-/// 1.92×. The one-core alternation, with nothing else running, is the cleaner method.)
+/// Then a leaner prepared ray and packet test, the screen's shortcut on small trees, and a
+/// shortcut for nodes with one or two children hit (see `intersect.rs`, `wide.rs`'s
+/// `LARGE_BYTES` and `WideBvh::closest`): callgrind per ray, closest / occlusion, Cornell
+/// 705 / 458 → 580 / 348 instructions, 10⁶ triangles 2874 / 2179 → 2359 / 1931. Wall clock
+/// on one core, the builds run in turn, rotating their order, 16 to 20 rounds (side by side
+/// on the two cores, the builds disturbed each other by up to ±30% that day), geometric
+/// mean of each round's ratio to the filing build's `Bvh8`:
+///
+/// | case | filing build | before | after |
+/// |---|---|---|---|
+/// | Cornell, closest | 1 (best 6.8 Mrays/s) | 1.45× (9.7) | 1.57× (10.5) |
+/// | Cornell, occlusion | 1 (15.2) | 1.05× (16.3) | 1.22× (18.3) |
+/// | 10⁶ triangles, closest | 1 (0.73) | 1.78× (1.27) | 1.68× (1.21) |
+/// | 10⁶ triangles, occlusion | 1 (0.94) | 1.83× (1.79) | 1.84× (1.79) |
+///
+/// The 10⁶-triangle scene is bound by memory latency, and its closest-hit ratio to the
+/// previous build ran 0.94× to 0.98× over five such series (per-round spread ±10%): no gain
+/// from 18% fewer instructions, and perhaps a small loss. (The 1.83× and 1.98× above came
+/// from side-by-side runs on another day.)
 ///
 /// Two ways of tracing a gather's rays together were measured and lost to tracing them one
 /// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree
@@ -685,17 +691,12 @@ impl Geometry {
     fn trace<J: Job>(&self, job: J) -> J::Output {
         match &self.nodes {
             Nodes::Bvh2(n) => job.bvh2(self, n),
-            Nodes::Wide4(w) => self.arch.dispatch(WideOp {
-                w,
-                g: self,
-                job,
-                test: Lanes4,
-            }),
+            Nodes::Wide4(w) => self.lanes4(w, job),
             Nodes::Wide8(w) => {
                 #[cfg(target_arch = "x86_64")]
                 if let Some(v3) = self.v3 {
                     let g = self;
-                    return if w.prefetches() {
+                    return if w.large() {
                         let test = Lanes8::<true>(v3);
                         pulp::Simd::vectorize(v3, WideOp { w, g, job, test })
                     } else {
@@ -703,13 +704,31 @@ impl Geometry {
                         pulp::Simd::vectorize(v3, WideOp { w, g, job, test })
                     };
                 }
-                self.arch.dispatch(WideOp {
-                    w,
-                    g: self,
-                    job,
-                    test: Lanes4,
-                })
+                self.lanes4(w, job)
             }
+        }
+    }
+
+    /// Runs `job` on wide BVH `w` with the four-lane node test, compiled for the instruction
+    /// set pulp detected. Out of line: inlined, its two dispatches cost the 8-lane test's
+    /// callers about 8 instructions per ray (callgrind, Cornell box occlusion rays).
+    #[inline(never)]
+    fn lanes4<const G: usize, J: Job>(&self, w: &WideBvh<G>, job: J) -> J::Output {
+        let g = self;
+        if w.large() {
+            self.arch.dispatch(WideOp {
+                w,
+                g,
+                job,
+                test: Lanes4::<true>,
+            })
+        } else {
+            self.arch.dispatch(WideOp {
+                w,
+                g,
+                job,
+                test: Lanes4::<false>,
+            })
         }
     }
 
@@ -1367,8 +1386,8 @@ mod tests {
 
     /// The wide traversals give the same bits whichever instruction set pulp dispatches to:
     /// the one detected here (x86-64-v3 on an AVX2 machine) and the baseline build, which
-    /// runs on CPUs without it; and with prefetching or without (only the 8-lane test
-    /// prefetches). (Rust never fuses a multiply and an add, so both evaluate the same IEEE
+    /// runs on CPUs without it; and on a large tree's traversal or not (prefetching, which only
+    /// the 8-lane test does, and the packet test without the screen's shortcut). (Rust never fuses a multiply and an add, so both evaluate the same IEEE
     /// operations in the same order.)
     #[test]
     fn dispatched_and_baseline_traversals_agree_bit_for_bit() {
@@ -1413,12 +1432,12 @@ mod tests {
                     ray
                 })
                 .collect();
-            // The same traversal with prefetching, which this small tree would not get.
-            let mut prefetching = fast.clone();
-            match &mut prefetching.nodes {
-                Nodes::Wide4(w) => w.set_prefetch(true),
+            // The large tree's traversal, which this small tree would not get.
+            let mut large = fast.clone();
+            match &mut large.nodes {
+                Nodes::Wide4(w) => w.set_large(true),
                 Nodes::Wide8(w) => {
-                    w.set_prefetch(true);
+                    w.set_large(true);
                     // Pair leaves are on the path checked.
                     assert!(w.pair_count() > 0, "no pair leaves");
                 }
@@ -1432,11 +1451,11 @@ mod tests {
             for (ray, m) in rays.iter().zip(many) {
                 let hit = fast.intersect(ray);
                 assert_eq!(hit, baseline.intersect(ray), "{layout:?} {ray:?}");
-                assert_eq!(hit, prefetching.intersect(ray), "{layout:?} {ray:?}");
+                assert_eq!(hit, large.intersect(ray), "{layout:?} {ray:?}");
                 assert_eq!(hit, m, "{layout:?} {ray:?}");
                 let occluded = fast.occluded(ray);
                 assert_eq!(occluded, baseline.occluded(ray), "{layout:?} {ray:?}");
-                assert_eq!(occluded, prefetching.occluded(ray), "{layout:?} {ray:?}");
+                assert_eq!(occluded, large.occluded(ray), "{layout:?} {ray:?}");
             }
         }
     }

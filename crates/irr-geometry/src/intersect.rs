@@ -532,9 +532,7 @@ fn sheared(tri: &Tri4, ray: &PreparedRay) -> ([[Vec4; 3]; 3], [Vec4; 3], [Vec4; 
 
 /// The lanes of [`intersect_tri4`] with an edge function `e` within the filter bound of
 /// `edge_error` (computed per lane with the same operations; max is exact, so its order does
-/// not matter): those the scalar `f64` test decides. Out of line, and recomputing the sheared
-/// packet, so that the common path keeps nothing alive for it (it spilled nine vectors per
-/// packet test).
+/// not matter): those the scalar `f64` test decides.
 #[inline(always)]
 fn near_lanes(tri: &Tri4, ray: &PreparedRay, e: [Vec4; 3]) -> u32 {
     let ([px, py, pz], xt, yt) = sheared(tri, ray);
@@ -562,8 +560,18 @@ fn near_lanes(tri: &Tri4, ray: &PreparedRay, e: [Vec4; 3]) -> u32 {
 /// lane has edge functions of certain opposite signs, the packet is a miss and nothing more is
 /// computed (most packets a ray reaches, it passes by). The permutation is the ray's `perm`,
 /// applied by indexing the packet's coordinate arrays, so one body serves every ray.
+///
+/// With `shortcut` (a constant where the test is inlined: the traversals pass it per tree
+/// size, see `wide.rs`'s `LARGE_BYTES`), the filter bound is computed only when half the
+/// screen does not already prove every lane clear of its edges. Either way the answer is the
+/// same.
 #[inline(always)]
-pub(crate) fn intersect_tri4(tri: &Tri4, ray: &PreparedRay, t_best: f32) -> Tri4Hits {
+pub(crate) fn intersect_tri4(
+    tri: &Tri4,
+    ray: &PreparedRay,
+    t_best: f32,
+    shortcut: bool,
+) -> Tri4Hits {
     const MISS: Tri4Hits = Tri4Hits {
         t: Vec4::ZERO,
         b1: Vec4::ZERO,
@@ -583,18 +591,24 @@ pub(crate) fn intersect_tri4(tri: &Tri4, ray: &PreparedRay, t_best: f32) -> Tri4
         return MISS;
     }
     // Lanes with an edge function within the filter bound `δ` of zero (`near`), which the
-    // scalar `f64` test decides. Half the screen is at least every lane's `δ`, so when no edge
-    // function is within it, no lane is near and `δ` need not be computed (the common case in
-    // a small scene: the ray passes 10⁻⁵ of the scene's size away from every edge's line).
+    // scalar `f64` test decides. The shortcut: half the screen is at least every lane's `δ`,
+    // so when no edge function is within it, no lane is near and `δ` need not be computed
+    // (the common case in a small scene: the ray passes 10⁻⁵ of the scene's size away from
+    // every edge's line; not in a large one, whose triangles are small against the scene).
     // Halving is exact (the screen is at least 8·MIN, a normal number, or ∞).
-    let half = Vec4::splat(0.5 * ray.screen);
     let e = [e0, e1, e2];
-    let near =
+    let near = if !shortcut {
+        near_lanes(tri, ray, e)
+    } else {
+        let half = Vec4::splat(0.5 * ray.screen);
         if (e0.abs().cmple(half) | e1.abs().cmple(half) | e2.abs().cmple(half)).bitmask() == 0 {
             0
         } else {
+            // Through `black_box`, so that the sheared packet is recomputed here rather than
+            // kept alive (spilled) on the common path.
             near_lanes(std::hint::black_box(tri), ray, e)
-        };
+        }
+    };
     // The ray passes a triangle only if its three edge functions have the same sign.
     let zero = Vec4::ZERO;
     let neg = e0.cmplt(zero) | e1.cmplt(zero) | e2.cmplt(zero);
@@ -867,14 +881,17 @@ mod tests {
             let ray = Ray::new(origin, target - origin);
             let packet = Tri4::new(&tris.iter().map(|t| TriSoa::new(*t)).collect::<Vec<_>>());
             if let Some(mut r) = PreparedRay::new(&ray) {
-                let open = intersect_tri4(&packet, &r, r.t_max);
+                let open = intersect_tri4(&packet, &r, r.t_max, false);
                 r.set_screen(bound);
                 proptest::prop_assert!(r.screen.is_finite() && r.screen > 0.0);
-                let screened = intersect_tri4(&packet, &r, r.t_max);
-                proptest::prop_assert_eq!(open.mask, screened.mask);
-                for l in (0..4).filter(|l| open.mask & (1 << l) != 0) {
-                    for (x, y) in [(open.t, screened.t), (open.b1, screened.b1), (open.b2, screened.b2)] {
-                        proptest::prop_assert_eq!(x.to_array()[l].to_bits(), y.to_array()[l].to_bits());
+                // The screen, with and without the shortcut it allows.
+                for shortcut in [false, true] {
+                    let screened = intersect_tri4(&packet, &r, r.t_max, shortcut);
+                    proptest::prop_assert_eq!(open.mask, screened.mask);
+                    for l in (0..4).filter(|l| open.mask & (1 << l) != 0) {
+                        for (x, y) in [(open.t, screened.t), (open.b1, screened.b1), (open.b2, screened.b2)] {
+                            proptest::prop_assert_eq!(x.to_array()[l].to_bits(), y.to_array()[l].to_bits());
+                        }
                     }
                 }
             }

@@ -18,12 +18,14 @@
 //! pairs that scene has 55 924 nodes, and the tree takes 75.7 instead of 85.1 bytes per
 //! triangle. The Cornell box's tree has no such node, and is unchanged.
 //!
-//! On a tree larger than the caches (more than [`PREFETCH_BYTES`]), the 8-lane traversal
+//! On a tree larger than the caches (more than [`LARGE_BYTES`]), the 8-lane traversal
 //! prefetches each child as it pushes it: the nearest child is visited next, and the others
 //! are on their way by the time they are popped. A node is four cache lines, a packet three,
 //! a pair six. On smaller trees it only costs instructions (6 prefetches and the address, per
-//! push), so it is compiled out there ([`Lanes8`]'s `PREFETCH`). The measurements are in
-//! `BvhLayout`'s docs.
+//! push), so it is compiled out there ([`NodeTest::LARGE`]). The packet test's screen
+//! shortcut goes the other way (it pays on small trees, whose triangles are large against the
+//! scene), and switches at the same size. The measurements are in `BvhLayout`'s docs and at
+//! [`LARGE_BYTES`].
 //!
 //! The conversion runs in two steps so that the BVH2's nodes are freed before the packets are
 //! allocated: [`WideBvh::topology`] makes the nodes (counted first, so allocated at their exact
@@ -45,12 +47,18 @@ const PAIR: u32 = 1 << 30;
 /// The packet index of a leaf reference.
 const PACKET_MASK: u32 = PAIR - 1;
 
-/// Trees of more bytes (nodes and packets) than this prefetch what they push (see the module
-/// docs): 1 MiB. Measured on a machine with 48 KiB of L1 data cache and 2 MiB of L2 a core
-/// (`BvhLayout`'s docs), prefetching against none: every tree of about 1 MB and more gained
-/// on closest hits (1.11× to 1.29×), occlusion moved within the noise but on the 72-MB tree
-/// (1.18×), and a 0.2-MB tree only lost.
-const PREFETCH_BYTES: usize = 1 << 20;
+/// Trees of more bytes (nodes and packets) than this are *large*: the 8-lane traversal
+/// prefetches what it pushes (see the module docs), and the packet test computes every filter
+/// bound rather than first trying the screen's shortcut (`intersect_tri4`'s `shortcut`). 1 MiB,
+/// measured on a machine with 48 KiB of L1 data cache and 2 MiB of L2 a core (`BvhLayout`'s
+/// docs). Prefetching against none: every tree of about 1 MB and more gained on closest hits
+/// (1.11× to 1.29×), occlusion moved within the noise but on the 72-MB tree (1.18×), and a
+/// 0.2-MB tree only lost. The shortcut (callgrind per closest ray, with it against without,
+/// on the benchmark's heightfield): 3 266 triangles (0.2 MB) 952 → 904 instructions and 5.02
+/// → 5.17 mispredicted branches, 15 490 (1 MB) 1076 → 1048 and 6.88 → 7.22, 64 386 (4.9 MB)
+/// 1509 → 1534 and 9.76 → 10.30; at 10⁶ triangles it cost 6% of the time. The smaller a
+/// scene's triangles against its size, the more edge functions fall within half the screen.
+const LARGE_BYTES: usize = 1 << 20;
 
 /// The two BVH2 leaves under inner node `b`, if both its children are leaves: such a subtree
 /// becomes one pair leaf instead of a wide node of two children.
@@ -76,6 +84,9 @@ pub(crate) struct WideNode<const G: usize> {
 /// How a traversal tests a wide node's children: the entry distances of the `4·G` child boxes
 /// (group, lane) and the mask of those entered within `[0, t_best]` (bit `4·group + lane`).
 pub(crate) trait NodeTest<const G: usize>: Copy {
+    /// Whether the tree is large ([`LARGE_BYTES`]): the traversal prefetches (where the test
+    /// can) and the packet test skips the screen's shortcut.
+    const LARGE: bool;
     fn hits(self, node: &WideNode<G>, r: &PreparedRay, t_best: f32) -> ([[f32; 4]; G], u32);
     /// Asks for the cache lines of the `size` bytes (192 to 384) from `p` on, without waiting
     /// for them; by default, nothing.
@@ -83,11 +94,14 @@ pub(crate) trait NodeTest<const G: usize>: Copy {
     fn prefetch(self, _p: *const u8, _size: usize) {}
 }
 
-/// The node test as `G` four-lane slab tests (`PreparedRay::hits4`), for any instruction set.
+/// The node test as `G` four-lane slab tests (`PreparedRay::hits4`), for any instruction set,
+/// on a large tree (`LARGE`) or not.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Lanes4;
+pub(crate) struct Lanes4<const LARGE: bool>;
 
-impl<const G: usize> NodeTest<G> for Lanes4 {
+impl<const G: usize, const LARGE: bool> NodeTest<G> for Lanes4<LARGE> {
+    const LARGE: bool = LARGE;
+
     #[inline(always)]
     fn hits(self, node: &WideNode<G>, r: &PreparedRay, t_best: f32) -> ([[f32; 4]; G], u32) {
         let mut t = [[0.0; 4]; G];
@@ -102,16 +116,18 @@ impl<const G: usize> NodeTest<G> for Lanes4 {
 }
 
 /// The 8-wide node test as one 8-lane (AVX) slab test: the same operations on each lane, in the
-/// same order, as [`Lanes4`], so the same bits; half the instructions. With `PREFETCH`, the
-/// traversal also prefetches each child it pushes (`_mm_prefetch`, which pulp's token offers
-/// as a safe call: a prefetch never faults, whatever the address); without, that code is
-/// compiled out, since prefetching a tree that is in cache only costs instructions.
+/// same order, as [`Lanes4`], so the same bits; half the instructions. On a large tree
+/// (`LARGE`), the traversal also prefetches each child it pushes (`_mm_prefetch`, which pulp's
+/// token offers as a safe call: a prefetch never faults, whatever the address); otherwise that
+/// code is compiled out, since prefetching a tree that is in cache only costs instructions.
 #[cfg(target_arch = "x86_64")]
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Lanes8<const PREFETCH: bool>(pub(crate) pulp::x86::V3);
+pub(crate) struct Lanes8<const LARGE: bool>(pub(crate) pulp::x86::V3);
 
 #[cfg(target_arch = "x86_64")]
-impl<const PREFETCH: bool> NodeTest<2> for Lanes8<PREFETCH> {
+impl<const LARGE: bool> NodeTest<2> for Lanes8<LARGE> {
+    const LARGE: bool = LARGE;
+
     #[inline(always)]
     fn hits(self, node: &WideNode<2>, r: &PreparedRay, t_best: f32) -> ([[f32; 4]; 2], u32) {
         use pulp::bytemuck::cast;
@@ -141,7 +157,7 @@ impl<const PREFETCH: bool> NodeTest<2> for Lanes8<PREFETCH> {
     /// 2, 2, 2, 3; for a packet (192) lines 0, 1, 2, 1, 1, 2; for a pair (384) lines 0 to 5.
     #[inline(always)]
     fn prefetch(self, p: *const u8, size: usize) {
-        if !PREFETCH {
+        if !LARGE {
             return;
         }
         for offset in [0, 64, 128, size / 2, size - 128, size - 64] {
@@ -161,8 +177,8 @@ pub(crate) struct WideBvh<const G: usize> {
     ids: Vec<[u32; 4]>,
     /// Traversal stack entries the deepest path can need.
     stack_len: usize,
-    /// Whether the tree is large enough to prefetch (more than [`PREFETCH_BYTES`]).
-    prefetch: bool,
+    /// Whether the tree is large (more than [`LARGE_BYTES`]).
+    large: bool,
 }
 
 /// The children of a wide node made from BVH2 node `b` (inner), into `kids`: `b`'s two
@@ -228,7 +244,7 @@ impl<const G: usize> WideBvh<G> {
             packets: Vec::new(),
             ids: Vec::new(),
             stack_len: 0,
-            prefetch: false,
+            large: false,
         };
         let mut leaves = Vec::with_capacity(leaf_count);
         let mut leaf = |list: &[usize]| {
@@ -296,7 +312,7 @@ impl<const G: usize> WideBvh<G> {
         self.packets = Vec::with_capacity(leaves.len());
         self.ids = Vec::with_capacity(leaves.len());
         let bytes = self.nodes.len() * size_of::<WideNode<G>>() + leaves.len() * size_of::<Tri4>();
-        self.prefetch = bytes > PREFETCH_BYTES;
+        self.large = bytes > LARGE_BYTES;
         for (packet, &leaf) in leaves.iter().enumerate() {
             let first = (leaf >> 2) as usize;
             let count = (leaf & 3) as usize + 1;
@@ -390,7 +406,7 @@ impl<const G: usize> WideBvh<G> {
         loop {
             if current & LEAF != 0 {
                 let p = current & PACKET_MASK;
-                let hits = intersect_tri4(&self.packets[p as usize], r, t_best);
+                let hits = intersect_tri4(&self.packets[p as usize], r, t_best, !N::LARGE);
                 let (lane, h) = hits.closest();
                 if lane < 4 {
                     t_best = h.t;
@@ -457,15 +473,15 @@ impl<const G: usize> WideBvh<G> {
         }
     }
 
-    /// Whether the traversal should prefetch the children it pushes (see the module docs).
-    pub(crate) fn prefetches(&self) -> bool {
-        self.prefetch
+    /// Whether the tree is large ([`LARGE_BYTES`]): traced with [`NodeTest::LARGE`].
+    pub(crate) fn large(&self) -> bool {
+        self.large
     }
 
-    /// Forces prefetching on or off (for tests: it never changes an answer).
+    /// Forces the large tree's traversal on or off (for tests: it never changes an answer).
     #[cfg(test)]
-    pub(crate) fn set_prefetch(&mut self, on: bool) {
-        self.prefetch = on;
+    pub(crate) fn set_large(&mut self, on: bool) {
+        self.large = on;
     }
 
     /// The number of pair leaves (for tests).
@@ -504,7 +520,7 @@ impl<const G: usize> WideBvh<G> {
         loop {
             if current & LEAF != 0 {
                 let p = current & PACKET_MASK;
-                if intersect_tri4(&self.packets[p as usize], r, r.t_max).mask != 0 {
+                if intersect_tri4(&self.packets[p as usize], r, r.t_max, !N::LARGE).mask != 0 {
                     return true;
                 }
                 stack[sp].0 = LEAF | (p + 1);
