@@ -124,7 +124,7 @@ pub struct SurfacePoint {
 /// | 10⁶ triangles, occlusion | 1 (0.94) | 1.83× (1.79) | 1.84× (1.79) |
 ///
 /// The 10⁶-triangle scene is bound by memory latency, and its closest-hit ratio to the
-/// previous build ran 0.94× to 0.98× over five such series (per-round spread ±10%): no gain
+/// previous build ran 0.94× to 1.00× over four such series (per-round spread ±10%): no gain
 /// from 18% fewer instructions, and perhaps a small loss. (The 1.83× and 1.98× above came
 /// from side-by-side runs on another day.)
 ///
