@@ -108,25 +108,23 @@ pub struct SurfacePoint {
 /// Against the build issue 11 was filed on (its `Bvh8` layout), by the same method: 10⁶
 /// triangles closest 1.83×, occlusion 1.98×; Cornell closest 1.48×, occlusion 1.05×.
 ///
-/// Then a leaner prepared ray and packet test, the screen's shortcut on small trees, and a
+/// Then a leaner prepared ray and packet test, and on small trees the screen's shortcut and a
 /// shortcut for nodes with one or two children hit (see `intersect.rs`, `wide.rs`'s
 /// `LARGE_BYTES` and `WideBvh::closest`): callgrind per ray, closest / occlusion, Cornell
-/// 705 / 458 → 580 / 348 instructions, 10⁶ triangles 2874 / 2179 → 2359 / 1931. Wall clock
-/// on one core, the builds run in turn, rotating their order, 16 to 20 rounds (side by side
+/// 705 / 458 → 580 / 348 instructions, 10⁶ triangles 2874 / 2179 → 2654 / 1931. Wall clock
+/// on one core, the builds run in turn, rotating their order, 16 to 24 rounds (side by side
 /// on the two cores, the builds disturbed each other by up to ±30% that day), geometric
-/// mean of each round's ratio to the filing build's `Bvh8`:
+/// mean of each round's ratio to the filing build's `Bvh8` (two series on the 10⁶-triangle
+/// scene):
 ///
 /// | case | filing build | before | after |
 /// |---|---|---|---|
 /// | Cornell, closest | 1 (best 6.8 Mrays/s) | 1.45× (9.7) | 1.57× (10.5) |
 /// | Cornell, occlusion | 1 (15.2) | 1.05× (16.3) | 1.22× (18.3) |
-/// | 10⁶ triangles, closest | 1 (0.73) | 1.78× (1.27) | 1.68× (1.21) |
-/// | 10⁶ triangles, occlusion | 1 (0.94) | 1.83× (1.79) | 1.84× (1.79) |
+/// | 10⁶ triangles, closest | 1 (0.69) | 1.65–1.75× (1.21) | 1.72–1.88× (1.22) |
+/// | 10⁶ triangles, occlusion | 1 (0.96) | 1.85–1.90× (1.82) | 1.87–1.97× (1.79) |
 ///
-/// The 10⁶-triangle scene is bound by memory latency, and its closest-hit ratio to the
-/// previous build ran 0.94× to 1.00× over four such series (per-round spread ±10%): no gain
-/// from 18% fewer instructions, and perhaps a small loss. (The 1.83× and 1.98× above came
-/// from side-by-side runs on another day.)
+/// (The 1.83× and 1.98× above came from side-by-side runs on another day.)
 ///
 /// Two ways of tracing a gather's rays together were measured and lost to tracing them one
 /// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree
