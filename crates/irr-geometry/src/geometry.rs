@@ -114,13 +114,12 @@ pub struct SurfacePoint {
 /// 705 / 458 → 580 / 348 instructions, 10⁶ triangles 2874 / 2179 → 2654 / 1931. Wall clock
 /// on one core, the builds run in turn, rotating their order, 16 to 24 rounds (side by side
 /// on the two cores, the builds disturbed each other by up to ±30% that day), geometric
-/// mean of each round's ratio to the filing build's `Bvh8` (two series on the 10⁶-triangle
-/// scene):
+/// mean of each round's ratio to the filing build's `Bvh8` (the range of two series):
 ///
 /// | case | filing build | before | after |
 /// |---|---|---|---|
-/// | Cornell, closest | 1 (best 6.8 Mrays/s) | 1.45× (9.7) | 1.57× (10.5) |
-/// | Cornell, occlusion | 1 (15.2) | 1.05× (16.3) | 1.22× (18.3) |
+/// | Cornell, closest | 1 (best 6.8 Mrays/s) | 1.45–1.47× (9.7) | 1.57–1.58× (10.6) |
+/// | Cornell, occlusion | 1 (15.4) | 1.05–1.09× (16.3) | 1.21–1.22× (18.5) |
 /// | 10⁶ triangles, closest | 1 (0.69) | 1.65–1.75× (1.21) | 1.72–1.88× (1.22) |
 /// | 10⁶ triangles, occlusion | 1 (0.96) | 1.85–1.90× (1.82) | 1.87–1.97× (1.79) |
 ///
