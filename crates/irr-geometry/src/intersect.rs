@@ -130,8 +130,13 @@ pub(crate) enum Plane {
     MaxZ,
 }
 
-/// A ray prepared once for all its tests: origin (also splatted per axis), the clamped inverse
-/// direction for the box test, and the shear constants of the triangle test.
+/// A ray prepared once for all its tests: origin, the clamped inverse direction for the box
+/// test, and the shear constants of the triangle test.
+///
+/// Scalars only: the vector tests splat the origin and the inverse directions where they use
+/// them. On x86-64-v3, where they run, a splat from memory is one `vbroadcastss`, as cheap as
+/// the load of a splatted copy (keeping twelve such copies made the prepared ray 300 bytes,
+/// whose stores cost about 30 instructions a ray).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct PreparedRay {
     pub(crate) origin: Vec3A,
@@ -145,11 +150,6 @@ pub(crate) struct PreparedRay {
     /// rounding of at most u, which the factor's margin of γ₃ − u covers).
     pub(crate) inv_far: Vec3A,
     /// Per axis, the near plane of a box (the min plane where the direction is positive).
-    ///
-    /// The vector tests splat the origin and the inverse directions where they use them: on
-    /// x86-64-v3, where they run, a splat from memory is one `vbroadcastss`, as cheap as the
-    /// load of a splatted copy (keeping twelve such copies made the prepared ray 300 bytes,
-    /// whose stores cost 30 instructions a ray).
     pub(crate) near: [Plane; 3],
     /// Per axis, the far plane (the other one).
     pub(crate) far: [Plane; 3],
@@ -477,8 +477,9 @@ impl Tri4 {
     }
 }
 
-/// The hits of a ray on a [`Tri4`]: per lane the distance (∞ for a lane that missed) and
-/// barycentrics, and the mask of the lanes that hit.
+/// The hits of a ray on a [`Tri4`]: per lane the distance and barycentrics, and the mask of the
+/// lanes that hit. A lane that missed has distance ∞, unless no lane hit (then the distances
+/// mean nothing: a packet screened out returns zeros).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Tri4Hits {
     pub(crate) t: Vec4,
@@ -488,8 +489,8 @@ pub(crate) struct Tri4Hits {
 }
 
 impl Tri4Hits {
-    /// The closest of the hits, as (lane, hit); lane 4 (and distance ∞) if no lane hit. Of
-    /// equal distances, the lowest lane. Without a branch: which lanes hit, and how many, is a
+    /// The closest of the hits, as (lane, hit); lane 4 (and a meaningless hit) if no lane hit.
+    /// Of equal distances, the lowest lane. Without a branch: which lanes hit, and how many, is a
     /// coin toss (a loop over the hit lanes mispredicted 0.7 times per closest-hit ray in the
     /// Cornell box).
     #[inline(always)]
