@@ -473,7 +473,8 @@ impl Geometry {
     }
 
     /// The heap bytes this geometry holds, per structure (name, bytes): what a triangle costs
-    /// once built (the build's transient peak is larger; see `build.rs`).
+    /// once built (the build's transient peak is larger; see `build.rs`). Large node and packet
+    /// arrays count here too where they live in a mapping on huge pages instead (`pages.rs`).
     #[must_use]
     pub fn heap_bytes(&self) -> Vec<(&'static str, usize)> {
         let mut out = vec![
@@ -1381,11 +1382,40 @@ mod tests {
         }
     }
 
+    /// A tree large enough for the large-tree traversal (prefetching, no shortcuts) and for its
+    /// packets to go on huge pages (on Linux with transparent huge pages; 45 000 triangles,
+    /// more than 2 MiB of packets) traces like brute force.
+    #[test]
+    fn a_large_tree_on_huge_pages_traces_like_brute_force() {
+        let mesh = grid(150, |i, j| {
+            let (x, z) = (i as f32 / 75.0 - 1.0, j as f32 / 75.0 - 1.0);
+            Vec3::new(x, 0.2 * (7.0 * x).sin() * (5.0 * z).cos(), z)
+        });
+        let g = Geometry::build(std::slice::from_ref(&mesh)).unwrap_or_else(|e| panic!("{e}"));
+        let Nodes::Wide8(w) = &g.nodes else {
+            panic!("the default layout is Wide8")
+        };
+        assert!(w.large(), "not a large tree");
+        println!("packets on huge pages: {}", w.packets_on_huge_pages());
+        let mut next = xorshift(0x5eed_1e55_u32);
+        let mut hits = 0;
+        for _ in 0..300 {
+            let o = Vec3::new(next(), next(), next()) * 3.0;
+            let ray = Ray::new(o, Vec3::new(next(), next() * 0.2, next()) - o);
+            let (fast, brute) = (g.intersect(&ray), g.intersect_brute_force(&ray));
+            assert_eq!(fast, brute, "{ray:?}");
+            assert_eq!(g.occluded(&ray), brute.is_some(), "{ray:?}");
+            hits += usize::from(brute.is_some());
+        }
+        assert!(hits > 100, "{hits} hits");
+    }
+
     /// The wide traversals give the same bits whichever instruction set pulp dispatches to:
     /// the one detected here (x86-64-v3 on an AVX2 machine) and the baseline build, which
-    /// runs on CPUs without it; and on a large tree's traversal or not (prefetching, which only
-    /// the 8-lane test does, and the packet test without the screen's shortcut). (Rust never fuses a multiply and an add, so both evaluate the same IEEE
-    /// operations in the same order.)
+    /// runs on CPUs without it; and on a large tree's traversal or not (prefetching, which
+    /// only the 8-lane test does, and the packet test without the screen's shortcut). (Rust
+    /// never fuses a multiply and an add, so both evaluate the same IEEE operations in the
+    /// same order.)
     #[test]
     fn dispatched_and_baseline_traversals_agree_bit_for_bit() {
         let mut mesh = nested(200);

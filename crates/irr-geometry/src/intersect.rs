@@ -435,11 +435,17 @@ fn edge_error(x: Vec3A, y: Vec3A, z: Vec3A, xt: Vec3A, yt: Vec3A) -> f32 {
 /// coordinates (`v[axis][vertex]`), and the components of the unit normal. A packet of fewer
 /// than four triangles repeats its last one in the spare lanes (a repeated triangle gives the
 /// same hit, so it changes no answer). 192 bytes, three cache lines.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C, align(64))]
 pub(crate) struct Tri4 {
     v: [[[f32; 4]; 3]; 3],
     n: [[f32; 4]; 3],
+}
+
+impl crate::pages::Plain for Tri4 {
+    fn write_to(&self, out: &mut [u8]) {
+        out.copy_from_slice(bytemuck::bytes_of(self));
+    }
 }
 
 impl Tri4 {

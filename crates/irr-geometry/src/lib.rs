@@ -85,6 +85,7 @@ mod error;
 mod geometry;
 mod intersect;
 mod mesh;
+mod pages;
 mod ray;
 mod wide;
 

@@ -36,6 +36,7 @@
 use obvhs::{aabb::Aabb, bvh2::node::Bvh2Node};
 
 use crate::intersect::{PreparedRay, Tri4, TriHit, TriSoa, intersect_tri4};
+use crate::pages::{Pages, Plain};
 
 /// A child reference with this bit set is a leaf: the rest is the index of its [`Tri4`] (and
 /// [`PAIR`]).
@@ -76,11 +77,22 @@ const EMPTY: u32 = u32::MAX;
 /// groups of four lanes (lane = child), so that one plane of all `4·G` children is contiguous
 /// (one 8-lane load for the 8-lane test), and the child references (a node index,
 /// `LEAF | packet`, or `EMPTY`).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, bytemuck::AnyBitPattern)]
 #[repr(C, align(64))]
 pub(crate) struct WideNode<const G: usize> {
     planes: [[[f32; 4]; G]; 6],
     children: [[u32; 4]; G],
+}
+
+impl<const G: usize> Plain for WideNode<G> {
+    /// The planes and the children at their offsets (the padding after them is left as it is).
+    fn write_to(&self, out: &mut [u8]) {
+        let planes = bytemuck::bytes_of(&self.planes);
+        out[..planes.len()].copy_from_slice(planes);
+        let children = bytemuck::bytes_of(&self.children);
+        let at = std::mem::offset_of!(WideNode<G>, children);
+        out[at..at + children.len()].copy_from_slice(children);
+    }
 }
 
 /// How a traversal tests a wide node's children: the entry distances of the `4·G` child boxes
@@ -173,8 +185,9 @@ impl<const LARGE: bool> NodeTest<2> for Lanes8<LARGE> {
 /// A wide BVH with `4·G` children per node (`G` = 1: BVH4, `G` = 2: BVH8).
 #[derive(Debug, Clone)]
 pub(crate) struct WideBvh<const G: usize> {
-    nodes: Vec<WideNode<G>>,
-    packets: Vec<Tri4>,
+    /// On huge pages where the array is large, like the packets (see `pages.rs`).
+    nodes: Pages<WideNode<G>>,
+    packets: Pages<Tri4>,
     /// The triangle id of each packet lane.
     ids: Vec<[u32; 4]>,
     /// Traversal stack entries the deepest path can need.
@@ -204,6 +217,22 @@ fn open(nodes: &[Bvh2Node], b: usize, width: usize, kids: &mut Vec<usize>) {
         let c = nodes[kids[i]].first_index as usize;
         kids[i] = c;
         kids.push(c + 1);
+    }
+}
+
+/// Fills `node`'s slots with `children` (reference, box); the rest stay empty.
+fn set_children<const G: usize>(node: &mut WideNode<G>, children: &[(u32, Aabb)]) {
+    for axis in 0..3 {
+        node.planes[axis] = [[f32::INFINITY; 4]; G];
+        node.planes[3 + axis] = [[f32::NEG_INFINITY; 4]; G];
+    }
+    for (slot, (child, b)) in children.iter().enumerate() {
+        let (g, lane) = (slot / 4, slot % 4);
+        node.children[g][lane] = *child;
+        for axis in 0..3 {
+            node.planes[axis][g][lane] = b.min[axis];
+            node.planes[3 + axis][g][lane] = b.max[axis];
+        }
     }
 }
 
@@ -242,8 +271,8 @@ impl<const G: usize> WideBvh<G> {
             }
         }
         let mut out = WideBvh {
-            nodes: Vec::with_capacity(node_count),
-            packets: Vec::new(),
+            nodes: Pages::from_vec(Vec::new()),
+            packets: Pages::from_vec(Vec::new()),
             ids: Vec::new(),
             stack_len: 0,
             large: false,
@@ -260,14 +289,15 @@ impl<const G: usize> WideBvh<G> {
         // (BVH2 node whose children fill the wide node, wide node index, depth).
         let mut todo: Vec<(usize, usize, usize)> = Vec::new();
         let mut deepest = 1;
-        out.nodes.push(WideNode {
+        let mut wide = Vec::with_capacity(node_count);
+        wide.push(WideNode {
             planes: [[[0.0; 4]; G]; 6],
             children: [[EMPTY; 4]; G],
         });
         if root.is_leaf() {
             // A single leaf: a root node with one leaf child.
             let child = leaf(&[0]);
-            out.set_children(0, &[(child, *root.aabb())]);
+            set_children(&mut wide[0], &[(child, *root.aabb())]);
         } else {
             todo.push((0, 0, 1));
         }
@@ -283,8 +313,8 @@ impl<const G: usize> WideBvh<G> {
                 } else if let Some(pair) = pair_under(nodes, k) {
                     leaf(&pair)
                 } else {
-                    let index = out.nodes.len();
-                    out.nodes.push(WideNode {
+                    let index = wide.len();
+                    wide.push(WideNode {
                         planes: [[[0.0; 4]; G]; 6],
                         children: [[EMPTY; 4]; G],
                     });
@@ -293,11 +323,12 @@ impl<const G: usize> WideBvh<G> {
                 };
                 slots.push((child, *node.aabb()));
             }
-            out.set_children(w, &slots);
+            set_children(&mut wide[w], &slots);
         }
         // Each visited node pops one entry and pushes at most `4·G`; a pair pops one and
         // pushes one. One more slot for the write above the top at a leaf (see `closest`).
         out.stack_len = (width - 1) * deepest + 2;
+        out.nodes = Pages::from_vec(wide);
         (out, leaves)
     }
 
@@ -311,26 +342,31 @@ impl<const G: usize> WideBvh<G> {
         triangle: impl Fn(u32) -> TriSoa,
         slots: &mut [u32],
     ) {
-        self.packets = Vec::with_capacity(leaves.len());
+        // The nodes onto huge pages first: their heap copy is freed before the packets are
+        // allocated, so this adds nothing to the build's peak memory.
+        self.nodes =
+            std::mem::replace(&mut self.nodes, Pages::from_vec(Vec::new())).onto_huge_pages();
         self.ids = Vec::with_capacity(leaves.len());
         let bytes = self.nodes.len() * size_of::<WideNode<G>>() + leaves.len() * size_of::<Tri4>();
         self.large = bytes > LARGE_BYTES;
-        for (packet, &leaf) in leaves.iter().enumerate() {
+        let ids = &mut self.ids;
+        self.packets = Pages::from_fn(leaves.len(), |packet| {
+            let leaf = leaves[packet];
             let first = (leaf >> 2) as usize;
             let count = (leaf & 3) as usize + 1;
             let prims = &primitive_indices[first..first + count];
             let mut tris = [TriSoa::default(); 4];
-            let mut ids = [0; 4];
-            for lane in 0..4 {
-                ids[lane] = prims[lane.min(count - 1)];
+            let mut lane_ids = [0; 4];
+            for (lane, id) in lane_ids.iter_mut().enumerate() {
+                *id = prims[lane.min(count - 1)];
             }
             for (lane, &id) in prims.iter().enumerate() {
                 tris[lane] = triangle(id);
                 slots[id as usize] = (packet * 4 + lane) as u32;
             }
-            self.packets.push(Tri4::new(&tris[..count]));
-            self.ids.push(ids);
-        }
+            ids.push(lane_ids);
+            Tri4::new(&tris[..count])
+        });
     }
 
     /// Triangle `slot >> 2`'s lane `slot & 3`, as the scalar test reads it: its vertices
@@ -340,39 +376,17 @@ impl<const G: usize> WideBvh<G> {
         self.packets[(slot >> 2) as usize].lane((slot & 3) as usize)
     }
 
-    /// Heap bytes of the nodes, the packets and the packets' triangle ids.
+    /// Bytes of the nodes, the packets (on the heap or on huge pages) and the packets'
+    /// triangle ids.
     pub(crate) fn heap_bytes(&self) -> [(&'static str, usize); 3] {
         [
-            (
-                "wide nodes",
-                self.nodes.capacity() * size_of::<WideNode<G>>(),
-            ),
-            (
-                "triangle packets",
-                self.packets.capacity() * size_of::<Tri4>(),
-            ),
+            ("wide nodes", self.nodes.len() * size_of::<WideNode<G>>()),
+            ("triangle packets", self.packets.len() * size_of::<Tri4>()),
             (
                 "packet triangle ids",
                 self.ids.capacity() * size_of::<[u32; 4]>(),
             ),
         ]
-    }
-
-    /// Fills wide node `w`'s slots with `children` (reference, box); the rest stay empty.
-    fn set_children(&mut self, w: usize, children: &[(u32, Aabb)]) {
-        let node = &mut self.nodes[w];
-        for axis in 0..3 {
-            node.planes[axis] = [[f32::INFINITY; 4]; G];
-            node.planes[3 + axis] = [[f32::NEG_INFINITY; 4]; G];
-        }
-        for (slot, (child, b)) in children.iter().enumerate() {
-            let (g, lane) = (slot / 4, slot % 4);
-            node.children[g][lane] = *child;
-            for axis in 0..3 {
-                node.planes[axis][g][lane] = b.min[axis];
-                node.planes[3 + axis][g][lane] = b.max[axis];
-            }
-        }
     }
 
     pub(crate) fn stack_len(&self) -> usize {
@@ -406,6 +420,8 @@ impl<const G: usize> WideBvh<G> {
         stack: &mut [Entry],
         test: N,
     ) -> Option<(u32, usize, TriHit)> {
+        // Once per ray: the arrays' slices (`Pages` checks its storage on every deref).
+        let (nodes, packets): (&[WideNode<G>], &[Tri4]) = (&self.nodes, &self.packets);
         let mut t_best = r.t_max;
         let mut best = None;
         let mut sp = 0;
@@ -413,7 +429,7 @@ impl<const G: usize> WideBvh<G> {
         loop {
             if current & LEAF != 0 {
                 let p = current & PACKET_MASK;
-                let hits = intersect_tri4(&self.packets[p as usize], r, t_best, !N::LARGE);
+                let hits = intersect_tri4(&packets[p as usize], r, t_best, !N::LARGE);
                 let (lane, h) = hits.closest();
                 if lane < 4 {
                     t_best = h.t;
@@ -424,7 +440,7 @@ impl<const G: usize> WideBvh<G> {
                 stack[sp] = (LEAF | (p + 1), 0.0);
                 sp += ((current & PAIR) >> 30) as usize;
             } else {
-                let node = &self.nodes[current as usize];
+                let node = &nodes[current as usize];
                 let first = sp;
                 let (t_near, mut hit) = test.hits(node, r, t_best);
                 // (A small tree's traversal does not prefetch, so neither shortcut does.)
@@ -454,7 +470,7 @@ impl<const G: usize> WideBvh<G> {
                     hit &= hit - 1;
                     // Insertion sort, farthest at the bottom: the nearest is popped first.
                     let entry = (node.children[l / 4][l % 4], t_near[l / 4][l % 4]);
-                    self.prefetch_child(test, entry.0);
+                    self.prefetch_child(test, nodes, packets, entry.0);
                     let mut i = sp;
                     while i > first && stack[i - 1].1 < entry.1 {
                         stack[i] = stack[i - 1];
@@ -489,6 +505,12 @@ impl<const G: usize> WideBvh<G> {
         self.large = on;
     }
 
+    /// Whether the packets are on huge pages (for tests).
+    #[cfg(test)]
+    pub(crate) fn packets_on_huge_pages(&self) -> bool {
+        self.packets.huge_pages()
+    }
+
     /// The number of pair leaves (for tests).
     #[cfg(test)]
     pub(crate) fn pair_count(&self) -> usize {
@@ -500,12 +522,18 @@ impl<const G: usize> WideBvh<G> {
 
     /// Prefetches child reference `child` (a node, a packet or a pair) with `test`.
     #[inline(always)]
-    fn prefetch_child<N: NodeTest<G>>(&self, test: N, child: u32) {
+    fn prefetch_child<N: NodeTest<G>>(
+        &self,
+        test: N,
+        nodes: &[WideNode<G>],
+        packets: &[Tri4],
+        child: u32,
+    ) {
         // Selected without a branch: leaf or node is a coin toss. A node's reference is its
         // index, below 2³⁰ like a packet's (a tree has fewer nodes than packets), so `PAIR`
         // is clear for nodes and single packets, and the mask gives either index.
         let leaf = (child >> 31) as usize;
-        let base: [*const u8; 2] = [self.nodes.as_ptr().cast(), self.packets.as_ptr().cast()];
+        let base: [*const u8; 2] = [nodes.as_ptr().cast(), packets.as_ptr().cast()];
         let size = [size_of::<WideNode<G>>(), size_of::<Tri4>()][leaf];
         let index = (child & PACKET_MASK) as usize;
         let count = 1 + (child & PAIR != 0) as usize;
@@ -520,24 +548,26 @@ impl<const G: usize> WideBvh<G> {
         stack: &mut [Entry],
         test: N,
     ) -> bool {
+        // Once per ray: the arrays' slices (`Pages` checks its storage on every deref).
+        let (nodes, packets): (&[WideNode<G>], &[Tri4]) = (&self.nodes, &self.packets);
         let mut sp = 0;
         let mut current = 0u32;
         loop {
             if current & LEAF != 0 {
                 let p = current & PACKET_MASK;
-                if intersect_tri4(&self.packets[p as usize], r, r.t_max, !N::LARGE).mask != 0 {
+                if intersect_tri4(&packets[p as usize], r, r.t_max, !N::LARGE).mask != 0 {
                     return true;
                 }
                 stack[sp].0 = LEAF | (p + 1);
                 sp += ((current & PAIR) >> 30) as usize;
             } else {
-                let node = &self.nodes[current as usize];
+                let node = &nodes[current as usize];
                 let (_, mut hit) = test.hits(node, r, r.t_max);
                 while hit != 0 {
                     let l = hit.trailing_zeros() as usize;
                     hit &= hit - 1;
                     stack[sp].0 = node.children[l / 4][l % 4];
-                    self.prefetch_child(test, stack[sp].0);
+                    self.prefetch_child(test, nodes, packets, stack[sp].0);
                     sp += 1;
                 }
             }
@@ -547,5 +577,42 @@ impl<const G: usize> WideBvh<G> {
             sp -= 1;
             current = stack[sp].0;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Wide nodes written onto huge pages (through `Plain::write_to`, field by field) read back
+    /// as written: planes and children at their offsets, for both widths.
+    #[test]
+    fn nodes_on_huge_pages_read_back_as_written() {
+        fn check<const G: usize>() {
+            let node = |i: usize| {
+                let mut n = WideNode::<G> {
+                    planes: [[[0.0; 4]; G]; 6],
+                    children: [[EMPTY; 4]; G],
+                };
+                for (k, plane) in n.planes.iter_mut().flatten().flatten().enumerate() {
+                    *plane = (i * 100 + k) as f32 * 0.5;
+                }
+                for (k, child) in n.children.iter_mut().flatten().enumerate() {
+                    *child = (i * 10 + k) as u32 | if k % 2 == 0 { LEAF } else { 0 };
+                }
+                n
+            };
+            let len = (2 << 20) / size_of::<WideNode<G>>() + 5;
+            let on_pages = Pages::from_vec((0..len).map(node).collect()).onto_huge_pages();
+            println!("G = {G}: huge pages {}", on_pages.huge_pages());
+            for (i, got) in on_pages.iter().enumerate() {
+                let want = node(i);
+                assert_eq!(got.children, want.children, "node {i}");
+                let bits = |n: &WideNode<G>| n.planes.map(|g| g.map(|l| l.map(f32::to_bits)));
+                assert_eq!(bits(got), bits(&want), "node {i}");
+            }
+        }
+        check::<1>();
+        check::<2>();
     }
 }
