@@ -108,22 +108,25 @@ pub struct SurfacePoint {
 /// Against the build issue 11 was filed on (its `Bvh8` layout), by the same method: 10⁶
 /// triangles closest 1.83×, occlusion 1.98×; Cornell closest 1.48×, occlusion 1.05×.
 ///
-/// Then a leaner prepared ray and packet test, and on small trees the screen's shortcut and a
+/// Then a leaner prepared ray and packet test, on small trees the screen's shortcut and a
 /// shortcut for nodes with one or two children hit (see `intersect.rs`, `wide.rs`'s
-/// `LARGE_BYTES` and `WideBvh::closest`): callgrind per ray, closest / occlusion, Cornell
-/// 705 / 458 → 580 / 348 instructions, 10⁶ triangles 2874 / 2179 → 2654 / 1931. Wall clock
-/// on one core, the builds run in turn, rotating their order, 16 to 24 rounds (side by side
-/// on the two cores, the builds disturbed each other by up to ±30% that day), geometric
-/// mean of each round's ratio to the filing build's `Bvh8` (the range of two series):
+/// `LARGE_BYTES` and `WideBvh::closest`), and on Linux large arrays on huge pages (see
+/// `pages.rs`): callgrind per ray, closest / occlusion, Cornell 705 / 458 → 589 / 356
+/// instructions, 10⁶ triangles 2874 / 2179 → 2656 / 1939. Wall clock on one core, the builds
+/// run in turn, rotating their order, 16 to 24 rounds (side by side on the two cores, the
+/// builds disturbed each other by up to ±30% that day), geometric mean of each round's ratio
+/// to the filing build's `Bvh8` (a range: several series):
 ///
 /// | case | filing build | before | after |
 /// |---|---|---|---|
-/// | Cornell, closest | 1 (best 6.8 Mrays/s) | 1.45–1.47× (9.7) | 1.57–1.58× (10.6) |
-/// | Cornell, occlusion | 1 (15.4) | 1.05–1.09× (16.3) | 1.21–1.22× (18.5) |
-/// | 10⁶ triangles, closest | 1 (0.69) | 1.65–1.75× (1.21) | 1.72–1.88× (1.22) |
-/// | 10⁶ triangles, occlusion | 1 (0.96) | 1.85–1.90× (1.82) | 1.87–1.97× (1.79) |
+/// | Cornell, closest | 1 (best 6.8 Mrays/s) | 1.45–1.47× (9.7) | 1.60× (10.6) |
+/// | Cornell, occlusion | 1 (15.4) | 1.05–1.13× (16.4) | 1.27× (18.4) |
+/// | 10⁶ triangles, closest | 1 (0.71) | 1.65–1.75× (1.21) | 1.85–1.93× (1.32) |
+/// | 10⁶ triangles, occlusion | 1 (0.96) | 1.85–1.92× (1.82) | 2.12–2.13× (1.91) |
 ///
-/// (The 1.83× and 1.98× above came from side-by-side runs on another day.)
+/// Before huge pages, the same method gave 1.57–1.58× and 1.21–1.22× on the Cornell box, and
+/// 1.72–1.88× and 1.87–1.97× on 10⁶ triangles. (The 1.83× and 1.98× above came from
+/// side-by-side runs on another day.)
 ///
 /// Two ways of tracing a gather's rays together were measured and lost to tracing them one
 /// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree
