@@ -119,8 +119,8 @@ pub struct SurfacePoint {
 ///
 /// | case | filing build | before | after |
 /// |---|---|---|---|
-/// | Cornell, closest | 1 (best 6.8 Mrays/s) | 1.45–1.47× (9.7) | 1.60× (10.6) |
-/// | Cornell, occlusion | 1 (15.4) | 1.05–1.13× (16.4) | 1.27× (18.4) |
+/// | Cornell, closest | 1 (best 6.8 Mrays/s) | 1.45–1.47× (9.7) | 1.59–1.60× (10.6) |
+/// | Cornell, occlusion | 1 (15.4) | 1.05–1.13× (16.4) | 1.21–1.27× (18.4) |
 /// | 10⁶ triangles, closest | 1 (0.71) | 1.65–1.78× (1.27) | 1.85–1.93× (1.32) |
 /// | 10⁶ triangles, occlusion | 1 (0.96) | 1.83–1.92× (1.82) | 2.12–2.13× (1.91) |
 ///
