@@ -55,26 +55,35 @@ impl<T: Plain> Pages<T> {
 
     /// The elements `f(0), f(1), …, f(len − 1)`, on huge pages if the array is large.
     pub(crate) fn from_fn(len: usize, mut f: impl FnMut(usize) -> T) -> Pages<T> {
-        #[cfg(target_os = "linux")]
-        if let Some(mut map) = huge_mapping(len * size_of::<T>()) {
-            for (i, out) in map.chunks_exact_mut(size_of::<T>()).take(len).enumerate() {
-                f(i).write_to(out);
-            }
-            return Pages {
-                storage: Storage::Mapped { map, len },
-            };
-        }
-        Pages::from_vec((0..len).map(f).collect())
+        Pages::mapped(len, &mut f).unwrap_or_else(|| Pages::from_vec((0..len).map(f).collect()))
     }
 
-    /// The same elements, moved onto huge pages if the array is large (and still on the heap).
-    /// The heap array is freed once they are copied.
+    /// The same elements, moved onto huge pages if the array is large (the heap array is freed
+    /// once they are copied); otherwise `self`, uncopied.
     pub(crate) fn onto_huge_pages(self) -> Pages<T> {
         match self.storage {
-            Storage::Heap(v) => Pages::from_fn(v.len(), |i| v[i]),
+            Storage::Heap(v) => Pages::mapped(v.len(), |i| v[i]).unwrap_or(Pages::from_vec(v)),
             #[cfg(target_os = "linux")]
             mapped @ Storage::Mapped { .. } => Pages { storage: mapped },
         }
+    }
+
+    /// The elements `f(0), …, f(len − 1)` in a mapping advised for huge pages, or `None` (the
+    /// array is too small, the system is not Linux, or the mapping or the advice failed).
+    #[cfg_attr(not(target_os = "linux"), allow(unused_variables, unused_mut))]
+    fn mapped(len: usize, mut f: impl FnMut(usize) -> T) -> Option<Pages<T>> {
+        #[cfg(target_os = "linux")]
+        {
+            let mut map = huge_mapping(len * size_of::<T>())?;
+            for (i, out) in map.chunks_exact_mut(size_of::<T>()).take(len).enumerate() {
+                f(i).write_to(out);
+            }
+            Some(Pages {
+                storage: Storage::Mapped { map, len },
+            })
+        }
+        #[cfg(not(target_os = "linux"))]
+        None
     }
 
     /// Whether the elements are in a mapping advised for huge pages.

@@ -99,7 +99,8 @@ impl<const G: usize> Plain for WideNode<G> {
 /// (group, lane) and the mask of those entered within `[0, t_best]` (bit `4·group + lane`).
 pub(crate) trait NodeTest<const G: usize>: Copy {
     /// Whether the tree is large ([`LARGE_BYTES`]): the traversal prefetches (where the test
-    /// can) and the packet test skips the screen's shortcut.
+    /// can), and takes neither the packet test's screen shortcut nor the closest-hit
+    /// traversal's one- and two-child shortcut.
     const LARGE: bool;
     fn hits(self, node: &WideNode<G>, r: &PreparedRay, t_best: f32) -> ([[f32; 4]; G], u32);
     /// Asks for the cache lines of the `size` bytes (192 to 384) from `p` on, without waiting
@@ -470,7 +471,7 @@ impl<const G: usize> WideBvh<G> {
                     hit &= hit - 1;
                     // Insertion sort, farthest at the bottom: the nearest is popped first.
                     let entry = (node.children[l / 4][l % 4], t_near[l / 4][l % 4]);
-                    self.prefetch_child(test, nodes, packets, entry.0);
+                    Self::prefetch_child(test, nodes, packets, entry.0);
                     let mut i = sp;
                     while i > first && stack[i - 1].1 < entry.1 {
                         stack[i] = stack[i - 1];
@@ -523,7 +524,6 @@ impl<const G: usize> WideBvh<G> {
     /// Prefetches child reference `child` (a node, a packet or a pair) with `test`.
     #[inline(always)]
     fn prefetch_child<N: NodeTest<G>>(
-        &self,
         test: N,
         nodes: &[WideNode<G>],
         packets: &[Tri4],
@@ -567,7 +567,7 @@ impl<const G: usize> WideBvh<G> {
                     let l = hit.trailing_zeros() as usize;
                     hit &= hit - 1;
                     stack[sp].0 = node.children[l / 4][l % 4];
-                    self.prefetch_child(test, nodes, packets, stack[sp].0);
+                    Self::prefetch_child(test, nodes, packets, stack[sp].0);
                     sp += 1;
                 }
             }
