@@ -112,7 +112,7 @@ pub struct SurfacePoint {
 /// shortcut for nodes with one or two children hit (see `intersect.rs`, `wide.rs`'s
 /// `LARGE_BYTES` and `WideBvh::closest`), and on Linux large arrays on huge pages (see
 /// `pages.rs`): callgrind per ray, closest / occlusion, Cornell 705 / 458 → 589 / 356
-/// instructions, 10⁶ triangles 2874 / 2179 → 2656 / 1939. Wall clock on one core, the builds
+/// instructions, 10⁶ triangles 2874 / 2179 → 2656 / 1932. Wall clock on one core, the builds
 /// run in turn, rotating their order, 16 to 24 rounds (side by side on the two cores, the
 /// builds disturbed each other by up to ±30% that day), geometric mean of each round's ratio
 /// to the filing build's `Bvh8` (a range: several series):
