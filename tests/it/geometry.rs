@@ -143,13 +143,8 @@ fn transformed(meshes: &[TriangleMesh], scale: f32, translation: Vec3) -> Vec<Tr
 /// unit scene translated by 1e5 along every axis.
 const CONFIGS: [(f32, f32); 4] = [(1e-4, 0.0), (1.0, 0.0), (1e3, 0.0), (1.0, 1e5)];
 
-/// Every BVH layout: every property must hold for each.
-const LAYOUTS: [BvhLayout; 4] = [
-    BvhLayout::Bvh2,
-    BvhLayout::Wide4,
-    BvhLayout::Wide8,
-    BvhLayout::Wide16,
-];
+/// Both BVH layouts: every property must hold for each.
+const LAYOUTS: [BvhLayout; 3] = [BvhLayout::Bvh2, BvhLayout::Wide4, BvhLayout::Wide8];
 
 /// Every (layout, (scale, translation)) pair.
 fn cases() -> impl Iterator<Item = (BvhLayout, (f32, f32))> {
@@ -711,7 +706,7 @@ proptest! {
         for (scale, shift) in CONFIGS {
             let translation = Vec3::splat(shift);
             let scene = transformed(&unit, scale, translation);
-            for layout in [BvhLayout::Wide4, BvhLayout::Wide8, BvhLayout::Wide16] {
+            for layout in [BvhLayout::Wide4, BvhLayout::Wide8] {
                 let g = build(&scene, layout);
                 let mut rays = Vec::new();
                 for _ in 0..4 {

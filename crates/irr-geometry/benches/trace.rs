@@ -27,7 +27,7 @@
 //! side / k, spheres / k²: 64 386 triangles at 4, 3 266 at 16) for measurements at other sizes.
 //!
 //! Run with `cargo bench -p irr-geometry`. For a profile, set
-//! `IRR_PROFILE=<cornell|million>:<bvh2|wide4|wide8|wide16|auto>:<closest|occluded|gather<M>x<N>[many]>`
+//! `IRR_PROFILE=<cornell|million>:<bvh2|wide4|wide8>:<closest|occluded|gather<M>x<N>[many]>`
 //! and run the bench binary under `valgrind --tool=callgrind` (with
 //! `--collect-atstart=no --toggle-collect='*trace::trace*'` to count only the tracing): it
 //! then traces that case's rays once (or `IRR_PROFILE_REPEATS` times, printing the best rate),
@@ -216,9 +216,7 @@ fn profile(spec: &str) {
     let layout = match layout {
         "bvh2" => BvhLayout::Bvh2,
         "wide4" => BvhLayout::Wide4,
-        "wide8" => BvhLayout::Wide8,
-        "wide16" => BvhLayout::Wide16,
-        _ => BvhLayout::Auto,
+        _ => BvhLayout::Wide8,
     };
     let (meshes, camera, light) = setup(name);
     let s = scene(name, &meshes, layout, &camera, light);
@@ -571,13 +569,13 @@ fn setup(name: &str) -> (Vec<TriangleMesh>, Camera, u32) {
     }
 }
 
-fn all_layouts(name: &str) -> [Scene; 4] {
+fn all_layouts(name: &str) -> [Scene; 3] {
     let (m, camera, light) = setup(name);
     LAYOUTS.map(|layout| scene(name, &m, layout, &camera, light))
 }
 
-static CORNELL: LazyLock<[Scene; 4]> = LazyLock::new(|| all_layouts("cornell"));
-static MILLION: LazyLock<[Scene; 4]> = LazyLock::new(|| all_layouts("million"));
+static CORNELL: LazyLock<[Scene; 3]> = LazyLock::new(|| all_layouts("cornell"));
+static MILLION: LazyLock<[Scene; 3]> = LazyLock::new(|| all_layouts("million"));
 
 fn get(name: &str, layout: BvhLayout) -> &'static Scene {
     let scenes = if name == "cornell" {
@@ -713,14 +711,8 @@ fn threads_all() -> usize {
 
 const SCENES: [&str; 2] = ["cornell", "million"];
 /// The layouts, as the benchmarks' const argument numbers them: 0 BVH2 (the scalar oracle),
-/// 1 Wide4, 2 Wide8, 3 Wide16. The default (`Auto`) builds Wide8 for the Cornell box and
-/// Wide16 for the 10⁶-triangle scene.
-const LAYOUTS: [BvhLayout; 4] = [
-    BvhLayout::Bvh2,
-    BvhLayout::Wide4,
-    BvhLayout::Wide8,
-    BvhLayout::Wide16,
-];
+/// 1 Wide4, 2 Wide8 (the default).
+const LAYOUTS: [BvhLayout; 3] = [BvhLayout::Bvh2, BvhLayout::Wide4, BvhLayout::Wide8];
 
 fn run(bencher: Bencher, name: &str, layout: BvhLayout, occlusion: bool, threads: usize) {
     let s = get(name, layout);
@@ -730,22 +722,22 @@ fn run(bencher: Bencher, name: &str, layout: BvhLayout, occlusion: bool, threads
         .bench(|| trace(&s.geometry, divan::black_box(rays), occlusion, threads));
 }
 
-#[divan::bench(args = SCENES, consts = [0, 1, 2, 3], sample_count = 20)]
+#[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
 fn closest_1_thread<const LAYOUT: usize>(bencher: Bencher, name: &str) {
     run(bencher, name, LAYOUTS[LAYOUT], false, 1);
 }
 
-#[divan::bench(args = SCENES, consts = [0, 1, 2, 3], sample_count = 20)]
+#[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
 fn closest_all_threads<const LAYOUT: usize>(bencher: Bencher, name: &str) {
     run(bencher, name, LAYOUTS[LAYOUT], false, threads_all());
 }
 
-#[divan::bench(args = SCENES, consts = [0, 1, 2, 3], sample_count = 20)]
+#[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
 fn occluded_1_thread<const LAYOUT: usize>(bencher: Bencher, name: &str) {
     run(bencher, name, LAYOUTS[LAYOUT], true, 1);
 }
 
-#[divan::bench(args = SCENES, consts = [0, 1, 2, 3], sample_count = 20)]
+#[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
 fn occluded_all_threads<const LAYOUT: usize>(bencher: Bencher, name: &str) {
     run(bencher, name, LAYOUTS[LAYOUT], true, threads_all());
 }

@@ -64,7 +64,7 @@ pub struct SurfacePoint {
 /// |---|---|---|---|---|
 /// | `Bvh2` | 1500 | 921 | 5567 (61 misses) | 3770 (48) |
 /// | `Wide4` | 871 | 522 | 3033 (31) | 2253 (29) |
-/// | `Wide8` (then the default) | 728 | 445 | 2954 (38) | 2326 (36) |
+/// | `Wide8` (default) | 728 | 445 | 2954 (38) | 2326 (36) |
 /// | former `Bvh8` (CWBVH tree, float boxes) | 882 | 555 | 3938 (48) | 3387 (39) |
 /// | former `Cwbvh` (quantised boxes) | 1196 | 1088 | 5197 | 4721 |
 ///
@@ -128,6 +128,29 @@ pub struct SurfacePoint {
 /// 1.72–1.88× and 1.87–1.97× on 10⁶ triangles. (The 1.83× and 1.98× above came from
 /// side-by-side runs on another day.)
 ///
+/// Tried and not kept (December 2026), because renders got slower although the benchmark got
+/// faster:
+/// - **A 16-wide layout** (`G` = 4 in `wide.rs`: two 8-lane tests per node, 448-byte nodes,
+///   8 levels on the 10⁶-triangle scene against 10). Per closest ray there, callgrind counted
+///   more of everything: 2769 instructions against 2695, 45.4 L1 and 16.9 L2 misses against
+///   36.2 and 14.5 (48-KiB and 2-MiB models). Yet the benchmark's incoherent rays ran faster,
+///   since fewer misses waited on each other. With the sorted push below, against `Wide8`
+///   without it, two series of 24 rounds (one core, the builds in turn): closest 1.07× and
+///   1.02×, occlusion 1.02× and 1.02×. Against `Wide8` with it, on the heightfield at other
+///   sizes (12 rounds, closest): 0.92× at 3 266 triangles, 1.06× at 15 490, 1.04× at 64 386,
+///   1.10× at 258 754. But renders of the same 10⁶-triangle scene
+///   (`docs/make-huge-scene.py`, one thread, four rounds in turn, medians) took about 6%
+///   longer: the path tracer's 192² × 64 spp 1.41 s against 1.32 s, the irradiance cache's
+///   gathers 0.44 s against 0.41 s. A render's rays stay in the part of the tree they share,
+///   which is then in cache, and the wider nodes only cost instructions.
+/// - **A branchless sorted push** for closest hits: each hit child written straight to its
+///   slot, counted from the hit children farther than it (one 8-lane compare), in the order
+///   the insertion sort gives. Mispredicted branches per closest ray fell (10⁶ triangles 19.6
+///   → 15.9, Cornell 2.93 → 2.44) but not the benchmark's time (0.99–1.01×, four series on
+///   the two scenes), and
+///   the renders above took longer with it: 1.32 s against 1.21 s, 0.41 s against 0.38 s.
+///   The insertion sort's branches are predicted when neighbouring rays cross the same nodes.
+///
 /// Two ways of tracing a gather's rays together were measured and lost to tracing them one
 /// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree
 /// together (Cornell 16×64 gathers: 943 against 669 instructions per ray; 10⁶ triangles:
@@ -153,20 +176,10 @@ pub enum BvhLayout {
     /// up to four triangles tested at once; ordered traversal for closest hits.
     Wide4,
     /// 8-wide BVH (one 8-lane slab test per node where the CPU has AVX2, else two 4-lane ones;
-    /// 256-byte nodes) with the same four-triangle packets. The fewest instructions per ray on
-    /// both benchmark scenes, and the fastest on trees that fit in the caches.
-    Wide8,
-    /// 16-wide BVH (two 8-lane slab tests per node where the CPU has AVX2, else four 4-lane
-    /// ones; 448-byte nodes) with the same four-triangle packets. More instructions per ray
-    /// than [`BvhLayout::Wide8`], but a third fewer levels between the root and a leaf: on a
-    /// tree far larger than the caches, where each level waits on memory, the fastest.
-    Wide16,
-    /// The default: [`BvhLayout::Wide16`] where that tree takes more than 1 MiB (nodes and
-    /// packets; about 17 000 triangles), where it outgrows the caches, and is shallow enough
-    /// for its traversal stack to fit on the call stack (8 levels; the benchmark's
-    /// 10⁶-triangle heightfield makes 8); else [`BvhLayout::Wide8`].
+    /// 256-byte nodes) with the same four-triangle packets. The fewest node visits and instructions per ray on both
+    /// benchmark scenes, so the default.
     #[default]
-    Auto,
+    Wide8,
 }
 
 /// The BVH nodes, in the chosen layout; the wide layouts hold their leaves' packets, the BVH2
@@ -176,7 +189,6 @@ enum Nodes {
     Bvh2(Vec<Bvh2Node>),
     Wide4(WideBvh<1>),
     Wide8(WideBvh<2>),
-    Wide16(WideBvh<4>),
 }
 
 /// Traversal stack sizes kept on the call stack (the smallest that fits is used); a deeper BVH
@@ -241,9 +253,8 @@ pub struct Geometry {
     /// x86-64-v3 (AVX2) where the CPU has it, else the baseline. Both run the same operations
     /// (no fused multiply-adds: Rust never contracts), so the answers are the same bits.
     arch: pulp::Arch,
-    /// AVX2 where the CPU has it (and `arch` is not forced to the baseline): the 8- and 16-wide
-    /// layouts' nodes are then tested with one 8-lane slab test instead of two 4-lane ones per
-    /// eight children.
+    /// AVX2 where the CPU has it (and `arch` is not forced to the baseline): the 8-wide
+    /// layout's nodes are then tested with one 8-lane slab test instead of two 4-lane ones.
     #[cfg(target_arch = "x86_64")]
     v3: Option<pulp::x86::V3>,
 }
@@ -371,20 +382,10 @@ impl Geometry {
             TriSoa::new(mesh.indices[id as usize - starts[m]].map(|i| mesh.positions[i as usize]))
         };
         let mut slots = vec![0u32; kept];
-        // The 16-wide tree, where it is asked for or `Auto` chooses it: where it is large
-        // (it outgrows the caches), and its traversal stack still fits on the call stack (its
-        // bound grows by 15 entries a level, twice the 8-wide tree's 7; a stack on the heap
-        // would be allocated for every ray).
-        let sixteen_wide = match layout {
-            BvhLayout::Wide16 => Some(WideBvh::<4>::topology(&bvh_nodes)),
-            BvhLayout::Auto => Some(WideBvh::<4>::topology(&bvh_nodes))
-                .filter(|(w, _)| w.large() && w.stack_len() <= LARGE_STACK),
-            _ => None,
-        };
         // The deprecated CWBVH layouts build the default wide one. The BVH2 traversal pushes
         // at most one entry per level below the root; the wide BVH knows its own bound.
-        let (nodes, stack_len, bvh_triangles, bvh_ids) = match (layout, sixteen_wide) {
-            (BvhLayout::Bvh2, _) => {
+        let (nodes, stack_len, bvh_triangles, bvh_ids) = match layout {
+            BvhLayout::Bvh2 => {
                 let depth = bvh2_depth(&bvh_nodes);
                 let mut tris = Vec::with_capacity(kept);
                 for (k, &id) in primitive_indices.iter().enumerate() {
@@ -393,21 +394,17 @@ impl Geometry {
                 }
                 (Nodes::Bvh2(bvh_nodes), depth, tris, primitive_indices)
             }
-            (BvhLayout::Wide4, _) => {
-                let w =
-                    WideBvh::<1>::from_bvh2(bvh_nodes, &primitive_indices, triangle, &mut slots);
-                let depth = w.stack_len();
-                (Nodes::Wide4(w), depth, Vec::new(), Vec::new())
-            }
-            (_, Some((mut w, leaves))) => {
+            BvhLayout::Wide4 => {
+                let (mut w, leaves) = WideBvh::<1>::topology(&bvh_nodes);
                 drop(bvh_nodes);
                 w.fill_packets(&leaves, &primitive_indices, triangle, &mut slots);
                 let depth = w.stack_len();
-                (Nodes::Wide16(w), depth, Vec::new(), Vec::new())
+                (Nodes::Wide4(w), depth, Vec::new(), Vec::new())
             }
-            (_, None) => {
-                let w =
-                    WideBvh::<2>::from_bvh2(bvh_nodes, &primitive_indices, triangle, &mut slots);
+            _ => {
+                let (mut w, leaves) = WideBvh::<2>::topology(&bvh_nodes);
+                drop(bvh_nodes);
+                w.fill_packets(&leaves, &primitive_indices, triangle, &mut slots);
                 let depth = w.stack_len();
                 (Nodes::Wide8(w), depth, Vec::new(), Vec::new())
             }
@@ -538,7 +535,6 @@ impl Geometry {
             ]),
             Nodes::Wide4(w) => out.extend(w.heap_bytes()),
             Nodes::Wide8(w) => out.extend(w.heap_bytes()),
-            Nodes::Wide16(w) => out.extend(w.heap_bytes()),
         }
         out
     }
@@ -551,7 +547,6 @@ impl Geometry {
             Nodes::Bvh2(_) => self.bvh_triangles[slot as usize],
             Nodes::Wide4(w) => w.triangle(slot),
             Nodes::Wide8(w) => w.triangle(slot),
-            Nodes::Wide16(w) => w.triangle(slot),
         }
     }
 
@@ -700,7 +695,6 @@ impl Geometry {
             Nodes::Bvh2(n) => n.len(),
             Nodes::Wide4(w) => w.node_count(),
             Nodes::Wide8(w) => w.node_count(),
-            Nodes::Wide16(w) => w.node_count(),
         }
     }
 
@@ -711,7 +705,6 @@ impl Geometry {
             Nodes::Bvh2(_) => BvhLayout::Bvh2,
             Nodes::Wide4(_) => BvhLayout::Wide4,
             Nodes::Wide8(_) => BvhLayout::Wide8,
-            Nodes::Wide16(_) => BvhLayout::Wide16,
         }
     }
 
@@ -723,38 +716,21 @@ impl Geometry {
         match &self.nodes {
             Nodes::Bvh2(n) => job.bvh2(self, n),
             Nodes::Wide4(w) => self.lanes4(w, job),
-            Nodes::Wide8(w) => self.lanes8(w, job),
-            Nodes::Wide16(w) => self.lanes8(w, job),
+            Nodes::Wide8(w) => {
+                #[cfg(target_arch = "x86_64")]
+                if let Some(v3) = self.v3 {
+                    let g = self;
+                    return if w.large() {
+                        let test = Lanes8::<true>(v3);
+                        pulp::Simd::vectorize(v3, WideOp { w, g, job, test })
+                    } else {
+                        let test = Lanes8::<false>(v3);
+                        pulp::Simd::vectorize(v3, WideOp { w, g, job, test })
+                    };
+                }
+                self.lanes4(w, job)
+            }
         }
-    }
-
-    /// Runs `job` on wide BVH `w` with the 8-lane node test where the CPU has AVX2, else with
-    /// the four-lane one.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    fn lanes8<const G: usize, J: Job>(&self, w: &WideBvh<G>, job: J) -> J::Output
-    where
-        Lanes8<true>: NodeTest<G>,
-        Lanes8<false>: NodeTest<G>,
-    {
-        let Some(v3) = self.v3 else {
-            return self.lanes4(w, job);
-        };
-        let g = self;
-        if w.large() {
-            let test = Lanes8::<true>(v3);
-            pulp::Simd::vectorize(v3, WideOp { w, g, job, test })
-        } else {
-            let test = Lanes8::<false>(v3);
-            pulp::Simd::vectorize(v3, WideOp { w, g, job, test })
-        }
-    }
-
-    /// Runs `job` on wide BVH `w` with the four-lane node test (no 8-lane test off x86-64).
-    #[cfg(not(target_arch = "x86_64"))]
-    #[inline(always)]
-    fn lanes8<const G: usize, J: Job>(&self, w: &WideBvh<G>, job: J) -> J::Output {
-        self.lanes4(w, job)
     }
 
     /// Runs `job` on wide BVH `w` with the four-lane node test, compiled for the instruction
@@ -1212,12 +1188,7 @@ mod tests {
         let mut m = quad(0.0, 1);
         m.indices.truncate(1);
         m.material_ids.truncate(1);
-        for layout in [
-            BvhLayout::Bvh2,
-            BvhLayout::Wide4,
-            BvhLayout::Wide8,
-            BvhLayout::Wide16,
-        ] {
+        for layout in [BvhLayout::Bvh2, BvhLayout::Wide4, BvhLayout::Wide8] {
             let g = Geometry::build_with_layout(std::slice::from_ref(&m), layout)
                 .unwrap_or_else(|e| panic!("{e}"));
             assert_eq!(g.layout(), layout);
@@ -1365,12 +1336,7 @@ mod tests {
         );
 
         let mut next = xorshift(0x1234_5678_u32);
-        for layout in [
-            BvhLayout::Bvh2,
-            BvhLayout::Wide4,
-            BvhLayout::Wide8,
-            BvhLayout::Wide16,
-        ] {
+        for layout in [BvhLayout::Bvh2, BvhLayout::Wide4, BvhLayout::Wide8] {
             let g = Geometry::build_with_layout(std::slice::from_ref(&mesh), layout)
                 .unwrap_or_else(|e| panic!("{e}"));
             for _ in 0..300 {
@@ -1447,8 +1413,7 @@ mod tests {
 
     /// A tree large enough for the large-tree traversal (prefetching, no shortcuts) and for its
     /// packets to go on huge pages (on Linux with transparent huge pages; 45 000 triangles,
-    /// more than 2 MiB of packets) traces like brute force, 8- and 16-wide; the default layout
-    /// builds it 16-wide.
+    /// more than 2 MiB of packets) traces like brute force.
     #[test]
     fn a_large_tree_on_huge_pages_traces_like_brute_force() {
         let mesh = grid(150, |i, j| {
@@ -1456,29 +1421,22 @@ mod tests {
             Vec3::new(x, 0.2 * (7.0 * x).sin() * (5.0 * z).cos(), z)
         });
         let g = Geometry::build(std::slice::from_ref(&mesh)).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(g.layout(), BvhLayout::Wide16);
-        for layout in [BvhLayout::Wide8, BvhLayout::Wide16] {
-            let g = Geometry::build_with_layout(std::slice::from_ref(&mesh), layout)
-                .unwrap_or_else(|e| panic!("{e}"));
-            let (large, on_huge_pages) = match &g.nodes {
-                Nodes::Wide8(w) => (w.large(), w.packets_on_huge_pages()),
-                Nodes::Wide16(w) => (w.large(), w.packets_on_huge_pages()),
-                _ => panic!("{layout:?} built {:?}", g.layout()),
-            };
-            assert!(large, "{layout:?}: not a large tree");
-            println!("{layout:?}: packets on huge pages: {on_huge_pages}");
-            let mut next = xorshift(0x5eed_1e55_u32);
-            let mut hits = 0;
-            for _ in 0..300 {
-                let o = Vec3::new(next(), next(), next()) * 3.0;
-                let ray = Ray::new(o, Vec3::new(next(), next() * 0.2, next()) - o);
-                let (fast, brute) = (g.intersect(&ray), g.intersect_brute_force(&ray));
-                assert_eq!(fast, brute, "{layout:?} {ray:?}");
-                assert_eq!(g.occluded(&ray), brute.is_some(), "{layout:?} {ray:?}");
-                hits += usize::from(brute.is_some());
-            }
-            assert!(hits > 100, "{layout:?}: {hits} hits");
+        let Nodes::Wide8(w) = &g.nodes else {
+            panic!("the default layout is Wide8")
+        };
+        assert!(w.large(), "not a large tree");
+        println!("packets on huge pages: {}", w.packets_on_huge_pages());
+        let mut next = xorshift(0x5eed_1e55_u32);
+        let mut hits = 0;
+        for _ in 0..300 {
+            let o = Vec3::new(next(), next(), next()) * 3.0;
+            let ray = Ray::new(o, Vec3::new(next(), next() * 0.2, next()) - o);
+            let (fast, brute) = (g.intersect(&ray), g.intersect_brute_force(&ray));
+            assert_eq!(fast, brute, "{ray:?}");
+            assert_eq!(g.occluded(&ray), brute.is_some(), "{ray:?}");
+            hits += usize::from(brute.is_some());
         }
+        assert!(hits > 100, "{hits} hits");
     }
 
     /// The wide traversals give the same bits whichever instruction set pulp dispatches to:
@@ -1509,7 +1467,7 @@ mod tests {
             .extend(wavy.indices.iter().map(|t| t.map(|v| v + base)));
         mesh.material_ids.extend(wavy.material_ids);
         let mut next = xorshift(0x9E37_79B9_u32);
-        for layout in [BvhLayout::Wide4, BvhLayout::Wide8, BvhLayout::Wide16] {
+        for layout in [BvhLayout::Wide4, BvhLayout::Wide8] {
             let fast = Geometry::build_with_layout(std::slice::from_ref(&mesh), layout)
                 .unwrap_or_else(|e| panic!("{e}"));
             let baseline = Geometry {
@@ -1539,10 +1497,6 @@ mod tests {
                     // Pair leaves are on the path checked.
                     assert!(w.pair_count() > 0, "no pair leaves");
                 }
-                Nodes::Wide16(w) => {
-                    w.set_large(true);
-                    assert!(w.pair_count() > 0, "no pair leaves");
-                }
                 Nodes::Bvh2(_) => unreachable!("a wide layout was built"),
             }
             let mut many = vec![None; rays.len()];
@@ -1570,57 +1524,7 @@ mod tests {
                 .unwrap_or_else(|e| panic!("{e}"));
             assert_eq!(g.layout(), BvhLayout::Wide8);
         }
-    }
-
-    /// The default layout builds 8-wide where the 16-wide tree would fit in 1 MiB, 16-wide
-    /// above.
-    #[test]
-    fn the_default_layout_widens_with_the_tree() {
-        assert_eq!(BvhLayout::default(), BvhLayout::Auto);
-        let layout = |n: u32| {
-            let mesh = grid(n, |i, j| {
-                Vec3::new(i as f32, (i * j % 7) as f32 * 0.1, j as f32)
-            });
-            let g = Geometry::build(&[mesh]).unwrap_or_else(|e| panic!("{e}"));
-            (g.layout(), g.report().kept)
-        };
-        // 2·n² triangles, in packets of nearly four (192 bytes each) under 448-byte nodes of up
-        // to 16 children: 1 MiB is about 17 000 triangles.
-        assert_eq!(layout(2).0, BvhLayout::Wide8);
-        let (small, kept) = layout(90);
-        assert_eq!((small, kept), (BvhLayout::Wide8, 16_200));
-        let (large, kept) = layout(120);
-        assert_eq!((large, kept), (BvhLayout::Wide16, 28_800));
-    }
-
-    /// ... but not where the 16-wide tree would be too deep for its traversal stack to fit on
-    /// the call stack: 24 000 small triangles along a line at exponentially growing spacing
-    /// (`x = 2^(k/200)`), which the SAH splits a few at a time (16-wide, its stack bound is 392
-    /// entries).
-    #[test]
-    fn the_default_layout_stays_8_wide_on_a_deep_tree() {
-        let mut mesh = TriangleMesh::default();
-        for k in 0..24_000u32 {
-            let x = (k as f32 / 200.0).exp2();
-            let p = Vec3::new(x, 0.0, 0.0);
-            mesh.positions
-                .extend([p, p + Vec3::Y * 1e-3, p + Vec3::Z * 1e-3]);
-            mesh.indices.push([3 * k, 3 * k + 1, 3 * k + 2]);
-        }
-        mesh.material_ids = vec![0; 24_000];
-        let sixteen = Geometry::build_with_layout(std::slice::from_ref(&mesh), BvhLayout::Wide16)
-            .unwrap_or_else(|e| panic!("{e}"));
-        let auto = Geometry::build(std::slice::from_ref(&mesh)).unwrap_or_else(|e| panic!("{e}"));
-        println!(
-            "stack: 16-wide {}, default {}",
-            sixteen.stack_len, auto.stack_len
-        );
-        assert!(
-            sixteen.stack_len > LARGE_STACK,
-            "16-wide stack {}",
-            sixteen.stack_len
-        );
-        assert_eq!(auto.layout(), BvhLayout::Wide8);
+        assert_eq!(BvhLayout::default(), BvhLayout::Wide8);
     }
 
     /// Meshes for the build-path tests: a soup with shading normals (one triangle
@@ -1675,12 +1579,7 @@ mod tests {
                 })
                 .filter(|t| t.p.iter().all(|v| v.is_finite()) && t.area() > 0.0)
                 .collect();
-            for layout in [
-                BvhLayout::Bvh2,
-                BvhLayout::Wide4,
-                BvhLayout::Wide8,
-                BvhLayout::Wide16,
-            ] {
+            for layout in [BvhLayout::Bvh2, BvhLayout::Wide4, BvhLayout::Wide8] {
                 let a =
                     Geometry::build_with_layout(&meshes, layout).unwrap_or_else(|e| panic!("{e}"));
                 let b = Geometry::build_owned_with_layout(meshes.clone(), layout)

@@ -6,11 +6,10 @@
 //!   (typed [`GeometryError`]s naming the mesh and triangle), dropping and counting of zero-area
 //!   and non-finite triangles ([`BuildReport`]), and the BVH: obvhs PLOC + reinsertion for
 //!   small scenes, a lean top-down SAH build with leaves of four above, then by default an
-//!   8-wide tree with four-triangle SIMD leaves with exact float child boxes (16-wide once
-//!   that tree passes 1 MiB), its nodes tested 8 lanes at once where the CPU has AVX2
-//!   (detected at run time; any x86-64 CPU runs the 4-lane path); a subtree of two packets is
-//!   one pair leaf, and trees above 1 MiB prefetch the children they push ([`BvhLayout`]
-//!   lists the layouts and their measured cost). The
+//!   8-wide tree with four-triangle SIMD leaves with exact float child boxes, its nodes tested
+//!   8 lanes at once where the CPU has AVX2 (detected at run time; any x86-64 CPU runs the
+//!   4-lane path); a subtree of two packets is one pair leaf, and trees above 1 MiB prefetch
+//!   the children they push ([`BvhLayout`] lists the layouts and their measured cost). The
 //!   leaves hold each triangle's vertices,
 //!   once: about 80 bytes per triangle in all ([`Geometry::heap_bytes`]).
 //! - [`Geometry::intersect`] (closest hit: distance, triangle id, barycentrics) and

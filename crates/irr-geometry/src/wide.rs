@@ -1,6 +1,5 @@
 //! The wide BVH: nodes of `4·G` children (`G` groups of four, tested with one 4-lane slab test
-//! per group, or for `G` = 2 and 4 with one 8-lane AVX test per two groups where the CPU has
-//! AVX2: [`NodeTest`])
+//! per group, or for `G = 2` with one 8-lane AVX test where the CPU has AVX2: [`NodeTest`])
 //! whose leaves are packets of up to four triangles ([`Tri4`], tested at once), and
 //! its traversals: ordered (nearest child first) for the closest hit, any order with early exit
 //! for occlusion.
@@ -21,20 +20,12 @@
 //!
 //! On a tree larger than the caches (more than [`LARGE_BYTES`]), the 8-lane traversal
 //! prefetches each child as it pushes it: the nearest child is visited next, and the others
-//! are on their way by the time they are popped. A node is four cache lines (seven 16-wide),
-//! a packet three, a pair six. On smaller trees it only costs instructions (6 or 7 prefetches
-//! and the address, per push), so it is compiled out there ([`NodeTest::LARGE`]). The packet
-//! test's screen
+//! are on their way by the time they are popped. A node is four cache lines, a packet three,
+//! a pair six. On smaller trees it only costs instructions (6 prefetches and the address, per
+//! push), so it is compiled out there ([`NodeTest::LARGE`]). The packet test's screen
 //! shortcut goes the other way (it pays on small trees, whose triangles are large against the
 //! scene), and switches at the same size. The measurements are in `BvhLayout`'s docs and at
 //! [`LARGE_BYTES`].
-//!
-//! Such a tree's rays wait on memory at each level: a node's children are known only once it
-//! has arrived. So where the 16-wide tree is large, the default layout builds it, with nodes
-//! of 16 children (`G` = 4): a third fewer levels, more lines per node but fetched together. On the 10⁶-triangle benchmark scene, per closest ray
-//! (callgrind, its model of a 48-KiB L1 and a 2-MiB L2), 36 L1 and 14.5 L2 misses 8-wide, 45
-//! and 16.9 16-wide, and more instructions (2695 against 2769), yet the time falls (see
-//! `BvhLayout`'s docs). On the Cornell box it costs time, so small trees stay 8-wide.
 //!
 //! The conversion runs in two steps so that the BVH2's nodes are freed before the packets are
 //! allocated: [`WideBvh::topology`] makes the nodes (counted first, so allocated at their exact
@@ -42,7 +33,6 @@
 //! also where [`Geometry`](crate::Geometry) keeps each triangle's vertices (bit for bit as
 //! given), which it reads back through [`WideBvh::triangle`].
 
-use glam::Vec4;
 use obvhs::{aabb::Aabb, bvh2::node::Bvh2Node};
 
 use crate::intersect::{PreparedRay, Tri4, TriHit, TriSoa, intersect_tri4};
@@ -58,9 +48,8 @@ const PAIR: u32 = 1 << 30;
 /// The packet index of a leaf reference.
 const PACKET_MASK: u32 = PAIR - 1;
 
-/// Trees of more bytes (nodes and packets) than this are *large*: the default layout builds
-/// them 16-wide (see the module docs), the 8-lane traversal
-/// prefetches what it pushes, the packet test computes every filter
+/// Trees of more bytes (nodes and packets) than this are *large*: the 8-lane traversal
+/// prefetches what it pushes (see the module docs), the packet test computes every filter
 /// bound rather than first trying the screen's shortcut (`intersect_tri4`'s `shortcut`), and
 /// the closest-hit traversal takes no shortcut for one or two children hit (measured at
 /// [`WideBvh::closest`]). 1 MiB,
@@ -114,34 +103,10 @@ pub(crate) trait NodeTest<const G: usize>: Copy {
     /// traversal's one- and two-child shortcut.
     const LARGE: bool;
     fn hits(self, node: &WideNode<G>, r: &PreparedRay, t_best: f32) -> ([[f32; 4]; G], u32);
-    /// Asks for the cache lines of the `size` bytes (192 to 448) from `p` on, without waiting
+    /// Asks for the cache lines of the `size` bytes (192 to 384) from `p` on, without waiting
     /// for them; by default, nothing.
     #[inline(always)]
     fn prefetch(self, _p: *const u8, _size: usize) {}
-    /// [`rank`]: where hit lane `l` goes among the hit lanes `hit`.
-    #[inline(always)]
-    fn rank(self, t: &[[f32; 4]; G], hit: u32, l: usize) -> usize {
-        rank(t, hit, l)
-    }
-}
-
-/// Where hit lane `l` goes among the hit lanes `hit` when they are pushed nearest on top: the
-/// number of hit lanes whose entry distance `t` is larger, plus those with the same distance and
-/// a lower lane. That is the place an insertion sort of the lanes in order (the traversal's
-/// former one) gave it, so the nodes are visited in the same order; but without its inner
-/// loop, whose exit is a coin toss (10⁶-triangle scene, callgrind per closest ray, 8-wide:
-/// 19.6 → 16.0 mispredicted branches). Two compares per group of four (entry distances are
-/// never NaN in a hit lane: `hits` compares them ordered).
-#[inline(always)]
-fn rank<const G: usize>(t: &[[f32; 4]; G], hit: u32, l: usize) -> usize {
-    let tl = Vec4::splat(t[l / 4][l % 4]);
-    let (mut farther, mut level) = (0, 0);
-    for (g, group) in t.iter().enumerate() {
-        let group = Vec4::from_array(*group);
-        farther |= group.cmpgt(tl).bitmask() << (4 * g);
-        level |= group.cmpeq(tl).bitmask() << (4 * g);
-    }
-    ((farther & hit).count_ones() + (level & hit & ((1 << l) - 1)).count_ones()) as usize
 }
 
 /// The node test as `G` four-lane slab tests (`PreparedRay::hits4`), for any instruction set,
@@ -165,29 +130,25 @@ impl<const G: usize, const LARGE: bool> NodeTest<G> for Lanes4<LARGE> {
     }
 }
 
-/// The 8- and 16-wide node tests as one 8-lane (AVX) slab test per eight children: the same
-/// operations on each lane, in the same order, as [`Lanes4`], so the same bits; half the
-/// instructions. On a large tree (`LARGE`), the traversal also prefetches each child it pushes
-/// (`_mm_prefetch`, which pulp's token offers as a safe call: a prefetch never faults,
-/// whatever the address); otherwise that code is compiled out, since prefetching a tree that
-/// is in cache only costs instructions.
+/// The 8-wide node test as one 8-lane (AVX) slab test: the same operations on each lane, in the
+/// same order, as [`Lanes4`], so the same bits; half the instructions. On a large tree
+/// (`LARGE`), the traversal also prefetches each child it pushes (`_mm_prefetch`, which pulp's
+/// token offers as a safe call: a prefetch never faults, whatever the address); otherwise that
+/// code is compiled out, since prefetching a tree that is in cache only costs instructions.
 #[cfg(target_arch = "x86_64")]
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Lanes8<const LARGE: bool>(pub(crate) pulp::x86::V3);
 
 #[cfg(target_arch = "x86_64")]
-impl<const LARGE: bool> Lanes8<LARGE> {
-    /// The slab test of eight children, whose planes `plane(k)` gives (k as in
-    /// [`WideNode`]'s planes): their entry distances, and the mask of those entered.
+impl<const LARGE: bool> NodeTest<2> for Lanes8<LARGE> {
+    const LARGE: bool = LARGE;
+
     #[inline(always)]
-    fn slab8(
-        self,
-        plane: impl Fn(usize) -> std::arch::x86_64::__m256,
-        r: &PreparedRay,
-        t_best: f32,
-    ) -> (std::arch::x86_64::__m256, u32) {
-        use std::arch::x86_64::_CMP_LE_OQ;
+    fn hits(self, node: &WideNode<2>, r: &PreparedRay, t_best: f32) -> ([[f32; 4]; 2], u32) {
+        use pulp::bytemuck::cast;
+        use std::arch::x86_64::{__m256, _CMP_LE_OQ};
         let avx = self.0.avx;
+        let plane = |k: usize| -> __m256 { cast(node.planes[k]) };
         let mut t_near = avx._mm256_setzero_ps();
         let mut t_far = avx._mm256_set1_ps(t_best);
         for a in 0..3 {
@@ -204,100 +165,21 @@ impl<const LARGE: bool> Lanes8<LARGE> {
             );
         }
         let mask = avx._mm256_movemask_ps(avx._mm256_cmp_ps::<_CMP_LE_OQ>(t_near, t_far)) as u32;
-        (t_near, mask)
-    }
-
-    /// [`rank`] with one 8-lane compare for each eight lanes `t` (lane `l`'s distance `tl`):
-    /// on the 10⁶-triangle scene, 60 fewer instructions per closest ray than four-lane
-    /// compares (callgrind, 16-wide).
-    #[inline(always)]
-    fn rank8<const H: usize>(
-        self,
-        t: [std::arch::x86_64::__m256; H],
-        tl: f32,
-        hit: u32,
-        l: usize,
-    ) -> usize {
-        use std::arch::x86_64::{_CMP_EQ_OQ, _CMP_GT_OQ};
-        let avx = self.0.avx;
-        let tl = avx._mm256_set1_ps(tl);
-        let (mut farther, mut level) = (0, 0);
-        for (h, v) in t.into_iter().enumerate() {
-            let gt = avx._mm256_movemask_ps(avx._mm256_cmp_ps::<_CMP_GT_OQ>(v, tl)) as u32;
-            let eq = avx._mm256_movemask_ps(avx._mm256_cmp_ps::<_CMP_EQ_OQ>(v, tl)) as u32;
-            farther |= gt << (8 * h);
-            level |= eq << (8 * h);
-        }
-        ((farther & hit).count_ones() + (level & hit & ((1 << l) - 1)).count_ones()) as usize
-    }
-
-    /// Prefetches the lines at `offsets` from `p` (on a large tree; otherwise nothing).
-    #[inline(always)]
-    fn prefetch_at<const K: usize>(self, p: *const u8, offsets: [usize; K]) {
-        if !LARGE {
-            return;
-        }
-        for offset in offsets {
-            self.0
-                .sse
-                ._mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.wrapping_add(offset).cast());
-        }
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-impl<const LARGE: bool> NodeTest<2> for Lanes8<LARGE> {
-    const LARGE: bool = LARGE;
-
-    #[inline(always)]
-    fn hits(self, node: &WideNode<2>, r: &PreparedRay, t_best: f32) -> ([[f32; 4]; 2], u32) {
-        let (t_near, mask) = self.slab8(|k| bytemuck::cast(node.planes[k]), r, t_best);
-        (bytemuck::cast(t_near), mask)
-    }
-
-    #[inline(always)]
-    fn rank(self, t: &[[f32; 4]; 2], hit: u32, l: usize) -> usize {
-        self.rank8([bytemuck::cast(*t)], t[l / 4][l % 4], hit, l)
+        (cast(t_near), mask)
     }
 
     /// Six prefetches whatever the size, without a branch: for a node (256 bytes) lines 0, 1,
     /// 2, 2, 2, 3; for a packet (192) lines 0, 1, 2, 1, 1, 2; for a pair (384) lines 0 to 5.
     #[inline(always)]
     fn prefetch(self, p: *const u8, size: usize) {
-        self.prefetch_at(p, [0, 64, 128, size / 2, size - 128, size - 64]);
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-impl<const LARGE: bool> NodeTest<4> for Lanes8<LARGE> {
-    const LARGE: bool = LARGE;
-
-    /// Two 8-lane tests, groups 0–1 and 2–3.
-    #[inline(always)]
-    fn hits(self, node: &WideNode<4>, r: &PreparedRay, t_best: f32) -> ([[f32; 4]; 4], u32) {
-        use pulp::bytemuck::cast;
-        let half = |h: usize| {
-            let plane = |k: usize| cast([node.planes[k][2 * h], node.planes[k][2 * h + 1]]);
-            self.slab8(plane, r, t_best)
-        };
-        let ((t0, m0), (t1, m1)) = (half(0), half(1));
-        let ([g0, g1], [g2, g3]): ([[f32; 4]; 2], [[f32; 4]; 2]) = (cast(t0), cast(t1));
-        ([g0, g1, g2, g3], m0 | m1 << 8)
-    }
-
-    #[inline(always)]
-    fn rank(self, t: &[[f32; 4]; 4], hit: u32, l: usize) -> usize {
-        let halves = [bytemuck::cast([t[0], t[1]]), bytemuck::cast([t[2], t[3]])];
-        self.rank8(halves, t[l / 4][l % 4], hit, l)
-    }
-
-    /// Seven prefetches whatever the size, without a branch: for a node (448 bytes) lines 0
-    /// to 6; for a packet (192) lines 0, 1, 2, 2, 0, 1, 2; for a pair (384) lines 0 to 3, 3,
-    /// 4, 5.
-    #[inline(always)]
-    fn prefetch(self, p: *const u8, size: usize) {
-        let last = size - 64;
-        self.prefetch_at(p, [0, 64, 128, last.min(192), size - 192, size - 128, last]);
+        if !LARGE {
+            return;
+        }
+        for offset in [0, 64, 128, size / 2, size - 128, size - 64] {
+            self.0
+                .sse
+                ._mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.wrapping_add(offset).cast());
+        }
     }
 }
 
@@ -447,25 +329,8 @@ impl<const G: usize> WideBvh<G> {
         // Each visited node pops one entry and pushes at most `4·G`; a pair pops one and
         // pushes one. One more slot for the write above the top at a leaf (see `closest`).
         out.stack_len = (width - 1) * deepest + 2;
-        let bytes = wide.len() * size_of::<WideNode<G>>() + leaves.len() * size_of::<Tri4>();
-        out.large = bytes > LARGE_BYTES;
         out.nodes = Pages::from_vec(wide);
         (out, leaves)
-    }
-
-    /// The wide BVH of the BVH2 `nodes` (freed once the wide nodes are made, before the
-    /// packets are allocated) and its packets: [`WideBvh::topology`], then
-    /// [`WideBvh::fill_packets`].
-    pub(crate) fn from_bvh2(
-        nodes: Vec<Bvh2Node>,
-        primitive_indices: &[u32],
-        triangle: impl Fn(u32) -> TriSoa,
-        slots: &mut [u32],
-    ) -> WideBvh<G> {
-        let (mut w, leaves) = WideBvh::topology(&nodes);
-        drop(nodes);
-        w.fill_packets(&leaves, primitive_indices, triangle, slots);
-        w
     }
 
     /// Makes the packets of `leaves` (from [`WideBvh::topology`]), whose primitives
@@ -483,6 +348,8 @@ impl<const G: usize> WideBvh<G> {
         self.nodes =
             std::mem::replace(&mut self.nodes, Pages::from_vec(Vec::new())).onto_huge_pages();
         self.ids = Vec::with_capacity(leaves.len());
+        let bytes = self.nodes.len() * size_of::<WideNode<G>>() + leaves.len() * size_of::<Tri4>();
+        self.large = bytes > LARGE_BYTES;
         let ids = &mut self.ids;
         self.packets = Pages::from_fn(leaves.len(), |packet| {
             let leaf = leaves[packet];
@@ -541,9 +408,8 @@ impl<const G: usize> WideBvh<G> {
     /// of a node are pushed farthest first, and an entry farther than the best hit so far is
     /// dropped when popped. On a small tree, a node with one child hit goes straight to it,
     /// and one with two pushes the farther and goes to the nearer, in the order the general
-    /// push ([`rank`]) would give: those visits skip the stack, or (measured when the push was
-    /// an insertion sort) the sort loop and its mispredicted exit (Cornell box, callgrind per
-    /// ray: 611 → 583 instructions). Not on a large tree:
+    /// sort would give: those visits skip the stack, or the sort loop and its mispredicted
+    /// exit (Cornell box, callgrind per ray: 611 → 583 instructions). Not on a large tree:
     /// on the 10⁶-triangle scene the shortcut took 11% of the instructions off (2654 → 2359)
     /// but its branches on the number of children hit mispredicted more (17.8 → 18.7 per ray),
     /// and it lost 3–4% of the time (two series of 32 rounds on one core: 0.960× and 0.969×).
@@ -587,7 +453,7 @@ impl<const G: usize> WideBvh<G> {
                 }
                 if !N::LARGE && hit.count_ones() == 2 {
                     // Two: push the farther, visit the nearer (of equal distances the second,
-                    // as `rank` orders them).
+                    // as the insertion below orders them).
                     let (a, b) = (
                         hit.trailing_zeros() as usize,
                         31 - hit.leading_zeros() as usize,
@@ -600,16 +466,20 @@ impl<const G: usize> WideBvh<G> {
                     current = near.0;
                     continue;
                 }
-                // Sorted as pushed, farthest at the bottom: the nearest is popped first.
-                let all = hit;
                 while hit != 0 {
                     let l = hit.trailing_zeros() as usize;
                     hit &= hit - 1;
+                    // Insertion sort, farthest at the bottom: the nearest is popped first.
                     let entry = (node.children[l / 4][l % 4], t_near[l / 4][l % 4]);
                     Self::prefetch_child(test, nodes, packets, entry.0);
-                    stack[first + test.rank(&t_near, all, l)] = entry;
+                    let mut i = sp;
+                    while i > first && stack[i - 1].1 < entry.1 {
+                        stack[i] = stack[i - 1];
+                        i -= 1;
+                    }
+                    stack[i] = entry;
+                    sp += 1;
                 }
-                sp += all.count_ones() as usize;
             }
             loop {
                 if sp == 0 {
@@ -744,60 +614,5 @@ mod tests {
         }
         check::<1>();
         check::<2>();
-        check::<4>();
-    }
-
-    proptest::proptest! {
-        /// `rank` places the hit lanes where the traversal's former insertion sort did (the
-        /// lanes inserted in order, each below every entry nearer than it): a permutation of
-        /// the stack slots, farthest at the bottom, ties in lane order. Distances are drawn
-        /// from eight values so that ties are common.
-        #[test]
-        fn rank_places_lanes_as_an_insertion_sort_does(
-            t in proptest::array::uniform16(0u8..8),
-            hit in proptest::prelude::any::<u16>(),
-        ) {
-            let t: [[f32; 4]; 4] = std::array::from_fn(|g| {
-                std::array::from_fn(|l| f32::from(t[4 * g + l]) * 0.25)
-            });
-            let hit = u32::from(hit);
-            let mut sorted: Vec<(usize, f32)> = Vec::new();
-            for l in (0..16).filter(|l| hit >> l & 1 == 1) {
-                let entry = (l, t[l / 4][l % 4]);
-                let i = sorted.iter().rposition(|e| e.1 >= entry.1).map_or(0, |i| i + 1);
-                sorted.insert(i, entry);
-            }
-            let mut placed = vec![None; sorted.len()];
-            for &(l, _) in &sorted {
-                let at = rank(&t, hit, l);
-                proptest::prop_assert!(placed[at].is_none(), "slot {at} taken twice");
-                placed[at] = Some(l);
-            }
-            let order: Vec<usize> = sorted.iter().map(|e| e.0).collect();
-            proptest::prop_assert_eq!(placed.into_iter().flatten().collect::<Vec<_>>(), order);
-            // The 8-lane tests' ranks, where the CPU has AVX2.
-            #[cfg(target_arch = "x86_64")]
-            if let Some(v3) = pulp::x86::V3::try_new() {
-                for l in (0..16).filter(|l| hit >> l & 1 == 1) {
-                    let avx = NodeTest::<4>::rank(Lanes8::<false>(v3), &t, hit, l);
-                    proptest::prop_assert_eq!(avx, rank(&t, hit, l));
-                    if l < 8 {
-                        let (t8, hit8) = ([t[0], t[1]], hit & 0xff);
-                        let avx = NodeTest::<2>::rank(Lanes8::<false>(v3), &t8, hit8, l);
-                        proptest::prop_assert_eq!(avx, rank(&t8, hit8, l));
-                    }
-                }
-            }
-            // The same on the eight-lane half.
-            let (t8, hit8) = ([t[0], t[1]], hit & 0xff);
-            for l in (0..8).filter(|l| hit8 >> l & 1 == 1) {
-                let want = (0..8)
-                    .filter(|&j| hit8 >> j & 1 == 1)
-                    .filter(|&j| t8[j / 4][j % 4] > t8[l / 4][l % 4]
-                        || (t8[j / 4][j % 4] == t8[l / 4][l % 4] && j < l))
-                    .count();
-                proptest::prop_assert_eq!(rank(&t8, hit8, l), want);
-            }
-        }
     }
 }
