@@ -147,9 +147,9 @@ pub struct SurfacePoint {
 ///   slot, counted from the hit children farther than it (one 8-lane compare), in the order
 ///   the insertion sort gives. Mispredicted branches per closest ray fell (10⁶ triangles 19.6
 ///   → 15.9, Cornell 2.93 → 2.44) but not the benchmark's time (0.99–1.01×, four series on
-///   the two scenes), and
-///   the renders above took longer with it: 1.32 s against 1.21 s, 0.41 s against 0.38 s.
-///   The insertion sort's branches are predicted when neighbouring rays cross the same nodes.
+///   the two scenes), and the renders above took longer with it: 1.32 s against 1.21 s, 0.41
+///   s against 0.38 s. The insertion sort's branches are predicted when neighbouring rays
+///   cross the same nodes.
 ///
 /// Two ways of tracing a gather's rays together were measured and lost to tracing them one
 /// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree
