@@ -770,6 +770,8 @@ fn run(bencher: Bencher, name: &str, layout: BvhLayout, occlusion: bool, threads
     time(bencher, &s.geometry, rays, occlusion, threads);
 }
 
+/// Times tracing `rays` on `g` (closest hits, or occlusion) on `threads` threads, counted in
+/// rays.
 fn time(bencher: Bencher, g: &Geometry, rays: &[Ray], occlusion: bool, threads: usize) {
     bencher
         .counter(ItemsCount::new(rays.len()))
