@@ -117,6 +117,13 @@ impl<T: Plain> Deref for Pages<T> {
     }
 }
 
+/// An empty array (on the heap), for a place to be filled later.
+impl<T: Plain> Default for Pages<T> {
+    fn default() -> Pages<T> {
+        Pages::from_vec(Vec::new())
+    }
+}
+
 impl<T: Plain> Clone for Pages<T> {
     fn clone(&self) -> Pages<T> {
         Pages::from_fn(self.len(), |i| self[i])

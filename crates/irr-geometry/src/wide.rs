@@ -272,8 +272,8 @@ impl<const G: usize> WideBvh<G> {
             }
         }
         let mut out = WideBvh {
-            nodes: Pages::from_vec(Vec::new()),
-            packets: Pages::from_vec(Vec::new()),
+            nodes: Pages::default(),
+            packets: Pages::default(),
             ids: Vec::new(),
             stack_len: 0,
             large: false,
@@ -345,8 +345,7 @@ impl<const G: usize> WideBvh<G> {
     ) {
         // The nodes onto huge pages first: their heap copy is freed before the packets are
         // allocated, so this adds nothing to the build's peak memory.
-        self.nodes =
-            std::mem::replace(&mut self.nodes, Pages::from_vec(Vec::new())).onto_huge_pages();
+        self.nodes = std::mem::take(&mut self.nodes).onto_huge_pages();
         self.ids = Vec::with_capacity(leaves.len());
         let bytes = self.nodes.len() * size_of::<WideNode<G>>() + leaves.len() * size_of::<Tri4>();
         self.large = bytes > LARGE_BYTES;
