@@ -21,6 +21,11 @@
 //! closest-hit rays in render order (12 rounds, one core, the builds in turn), where the
 //! renders took 1.09× as long; the 16-wide layout on top of it did not (1.035×).
 //!
+//! `closest_many` and `occluded_many` trace the random-order rays in batches of 4096 (a
+//! 32 × 128 gather's), one `Geometry::intersect_many` or `Geometry::occluded_many` call each:
+//! on a tree larger than the caches those keep several rays in flight, so that their waits
+//! for memory overlap.
+//!
 //! The scenes are built once per process, outside the timings.
 //!
 //! Also: `gather_one_by_one` and `gather_intersect_many`, an irradiance-cache record's
@@ -38,6 +43,7 @@
 //!
 //! Run with `cargo bench -p irr-geometry`. For a profile, set
 //! `IRR_PROFILE=<cornell|million>:<bvh2|wide4|wide8>:<closest|occluded|closest-in-order|occluded-in-order|gather<M>x<N>[many]>`
+//! (the first four also with `-many`: in batches, as `closest_many`)
 //! and run the bench binary under `valgrind --tool=callgrind` (with
 //! `--collect-atstart=no --toggle-collect='*trace::trace*'` to count only the tracing): it
 //! then traces that case's rays once (or `IRR_PROFILE_REPEATS` times, printing the best rate),
@@ -230,6 +236,10 @@ fn profile(spec: &str) {
     };
     let (meshes, camera, light) = setup(name);
     let s = scene(name, &meshes, layout, &camera, light);
+    // `<query>-many`: the rays in batches of `BATCH`, each with one `intersect_many` (or
+    // `occluded_many`) call.
+    let batched = query.ends_with("-many");
+    let query = query.trim_end_matches("-many");
     let occlusion = query.starts_with("occluded");
     let in_order = query.ends_with("in-order");
     // `gather<M>x<N>` traces gathers one ray at a time, `gather<M>x<N>many` with
@@ -260,6 +270,7 @@ fn profile(spec: &str) {
         let start = Instant::now();
         hits = match &gather {
             Some((g, many)) => trace_gathers(&s.geometry, g, 1 << 12, *many),
+            None if batched => trace_many(&s.geometry, rays, occlusion, BATCH),
             None => trace(&s.geometry, rays, occlusion, 1),
         };
         best = best.min(start.elapsed().as_secs_f64());
@@ -708,21 +719,39 @@ fn gather_rays(g: &Geometry, camera: &Camera, m: usize, n: usize) -> Vec<Ray> {
 /// call; returns the number of hits.
 #[inline(never)]
 fn trace_gathers(g: &Geometry, rays: &[Ray], per_record: usize, many: bool) -> usize {
-    let mut hits = vec![None; per_record];
+    if many {
+        return trace_many(g, rays, false, per_record);
+    }
     let mut count = 0;
     for record in rays.chunks(per_record) {
-        let out = &mut hits[..record.len()];
-        if many {
-            g.intersect_many(record, out);
-        } else {
-            for (ray, h) in record.iter().zip(out.iter_mut()) {
-                *h = g.intersect(ray);
-            }
-        }
-        count += out.iter().filter(|h| h.is_some()).count();
+        count += record.iter().filter(|r| g.intersect(r).is_some()).count();
     }
     count
 }
+
+/// Traces `rays` in batches of `batch`, each with one `intersect_many` (or, for `occlusion`,
+/// `occluded_many`) call; returns the number of hits.
+#[inline(never)]
+fn trace_many(g: &Geometry, rays: &[Ray], occlusion: bool, batch: usize) -> usize {
+    let mut hits = vec![None; batch];
+    let mut occluded = vec![false; batch];
+    let mut count = 0;
+    for chunk in rays.chunks(batch) {
+        if occlusion {
+            let out = &mut occluded[..chunk.len()];
+            g.occluded_many(chunk, out);
+            count += out.iter().filter(|&&o| o).count();
+        } else {
+            let out = &mut hits[..chunk.len()];
+            g.intersect_many(chunk, out);
+            count += out.iter().filter(|h| h.is_some()).count();
+        }
+    }
+    count
+}
+
+/// Rays per call in the batched cases (`*-many`): a 32 × 128 gather's.
+const BATCH: usize = 1 << 12;
 
 /// The gather sizes the gather benchmarks trace: M × N rays per record.
 const GATHERS: [(usize, usize); 2] = [(16, 64), (32, 128)];
@@ -810,4 +839,23 @@ fn closest_in_render_order<const LAYOUT: usize>(bencher: Bencher, name: &str) {
 fn occluded_in_render_order<const LAYOUT: usize>(bencher: Bencher, name: &str) {
     let s = get(name, LAYOUTS[LAYOUT]);
     time(bencher, &s.geometry, &s.shadow_in_order, true, 1);
+}
+
+/// The second bounce's closest-hit rays (random order, as `closest_1_thread`) in batches, with
+/// `intersect_many`, one thread.
+#[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
+fn closest_many<const LAYOUT: usize>(bencher: Bencher, name: &str) {
+    let s = get(name, LAYOUTS[LAYOUT]);
+    bencher
+        .counter(ItemsCount::new(s.closest.len()))
+        .bench(|| trace_many(&s.geometry, divan::black_box(&s.closest), false, BATCH));
+}
+
+/// The shadow rays in batches, with `occluded_many`, one thread.
+#[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
+fn occluded_many<const LAYOUT: usize>(bencher: Bencher, name: &str) {
+    let s = get(name, LAYOUTS[LAYOUT]);
+    bencher
+        .counter(ItemsCount::new(s.shadow.len()))
+        .bench(|| trace_many(&s.geometry, divan::black_box(&s.shadow), true, BATCH));
 }

@@ -320,7 +320,7 @@ pub(crate) fn box_entry(min: Vec3A, max: Vec3A, ray: &PreparedRay, t_best: f32) 
 }
 
 /// A triangle hit: distance and the barycentrics of vertices 1 and 2.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct TriHit {
     pub(crate) t: f32,
     pub(crate) b1: f32,

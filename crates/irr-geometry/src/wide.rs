@@ -52,7 +52,7 @@ const PACKET_MASK: u32 = PAIR - 1;
 /// prefetches what it pushes (see the module docs), the packet test computes every filter
 /// bound rather than first trying the screen's shortcut (`intersect_tri4`'s `shortcut`), and
 /// the closest-hit traversal takes no shortcut for one or two children hit (measured at
-/// [`WideBvh::closest`]). 1 MiB,
+/// [`WideBvh::step`]). 1 MiB,
 /// measured on a machine with 48 KiB of L1 data cache and 2 MiB of L2 a core (`BvhLayout`'s
 /// docs). Prefetching against none: every tree of about 1 MB and more gained on closest hits
 /// (1.11× to 1.29×), occlusion moved within the noise but on the 72-MB tree (1.18×), and a
@@ -240,6 +240,30 @@ fn set_children<const G: usize>(node: &mut WideNode<G>, children: &[(u32, Aabb)]
 /// A traversal stack entry: a child reference and the ray's entry distance into its box.
 pub(crate) type Entry = (u32, f32);
 
+/// Where one ray's traversal is ([`WideBvh::step`]): the node or leaf to visit next, the
+/// height of its stack, the distance within which hits count, and the closest hit so far (or
+/// the first, for any hit).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Walk {
+    current: u32,
+    sp: usize,
+    t_best: f32,
+    pub(crate) best: Option<(u32, usize, TriHit)>,
+}
+
+impl Walk {
+    /// At the root, nothing hit yet.
+    #[inline(always)]
+    pub(crate) fn new(r: &PreparedRay) -> Walk {
+        Walk {
+            current: 0,
+            sp: 0,
+            t_best: r.t_max,
+            best: None,
+        }
+    }
+}
+
 impl<const G: usize> WideBvh<G> {
     /// Converts the BVH2 `nodes` (leaves of at most four primitives) into wide nodes, without
     /// packets yet: leaf children are numbered in the order this visits them, and the returned
@@ -403,95 +427,125 @@ impl<const G: usize> WideBvh<G> {
         self.ids[packet as usize][lane]
     }
 
-    /// Closest hit: (packet, lane, hit). Children are visited nearest first: the hit children
-    /// of a node are pushed farthest first, and an entry farther than the best hit so far is
-    /// dropped when popped. On a small tree, a node with one child hit goes straight to it,
-    /// and one with two pushes the farther and goes to the nearer, in the order the general
-    /// sort would give: those visits skip the stack, or the sort loop and its mispredicted
-    /// exit (Cornell box, callgrind per ray: 611 → 583 instructions). Not on a large tree:
-    /// on the 10⁶-triangle scene the shortcut took 11% of the instructions off (2654 → 2359)
-    /// but its branches on the number of children hit mispredicted more (17.8 → 18.7 per ray),
-    /// and it lost 3–4% of the time (two series of 32 rounds on one core: 0.960× and 0.969×).
-    /// Either way the nodes are visited in the same order.
+    /// One step of a traversal from the root (`walk` from [`Walk::new`]; run until it returns
+    /// `true`), for the closest hit or, with `ANY`, for any hit: visits `walk.current` (a
+    /// node, or a leaf's packet) and picks the next, from the stack unless a shortcut chose it.
+    /// Returns whether the traversal is over, with the answer in `walk.best` as (packet, lane,
+    /// hit): the stack ran out, or (`ANY`) a packet was hit, which `walk.best` then holds with
+    /// lane 0 and no meaningful hit. `geometry.rs` runs one ray's steps in a loop, or
+    /// interleaves several rays' steps (its streams).
+    ///
+    /// Closest hit: children are visited nearest first: the hit children of a node are pushed
+    /// farthest first, and an entry farther than the best hit so far is dropped when popped.
+    /// On a small tree, a node with one child hit goes straight to it, and one with two pushes
+    /// the farther and goes to the nearer, in the order the general sort would give: those
+    /// visits skip the stack, or the sort loop and its mispredicted exit (Cornell box,
+    /// callgrind per ray: 611 → 583 instructions). Not on a large tree: on the 10⁶-triangle
+    /// scene the shortcut took 11% of the instructions off (2654 → 2359) but its branches on
+    /// the number of children hit mispredicted more (17.8 → 18.7 per ray), and it lost 3–4% of
+    /// the time (two series of 32 rounds on one core: 0.960× and 0.969×). Either way the nodes
+    /// are visited in the same order.
+    ///
+    /// Any hit: children in any order, stopping at the first hit.
     #[inline(always)]
-    pub(crate) fn closest<N: NodeTest<G>>(
-        &self,
+    pub(crate) fn step<const ANY: bool, N: NodeTest<G>>(
+        nodes: &[WideNode<G>],
+        packets: &[Tri4],
         r: &PreparedRay,
         stack: &mut [Entry],
+        walk: &mut Walk,
         test: N,
-    ) -> Option<(u32, usize, TriHit)> {
-        // Once per ray: the arrays' slices (`Pages` checks its storage on every deref).
-        let (nodes, packets): (&[WideNode<G>], &[Tri4]) = (&self.nodes, &self.packets);
-        let mut t_best = r.t_max;
-        let mut best = None;
-        let mut sp = 0;
-        let mut current = 0u32;
-        loop {
-            if current & LEAF != 0 {
-                let p = current & PACKET_MASK;
-                let hits = intersect_tri4(&packets[p as usize], r, t_best, !N::LARGE);
+    ) -> bool {
+        let Walk {
+            current,
+            sp,
+            t_best,
+            best,
+        } = walk;
+        if *current & LEAF != 0 {
+            let p = *current & PACKET_MASK;
+            let hits = intersect_tri4(&packets[p as usize], r, *t_best, !N::LARGE);
+            if ANY {
+                if hits.mask != 0 {
+                    *best = Some((p, 0, TriHit::default()));
+                    return true;
+                }
+            } else {
                 let (lane, h) = hits.closest();
                 if lane < 4 {
-                    t_best = h.t;
-                    best = Some((p, lane, h));
+                    *t_best = h.t;
+                    *best = Some((p, lane, h));
                 }
-                // A pair's second packet is popped next (without a branch: the slot above the
-                // top is written either way, and counted only for a pair).
-                stack[sp] = (LEAF | (p + 1), 0.0);
-                sp += ((current & PAIR) >> 30) as usize;
-            } else {
-                let node = &nodes[current as usize];
-                let first = sp;
-                let (t_near, mut hit) = test.hits(node, r, t_best);
-                // (A small tree's traversal does not prefetch, so neither shortcut does.)
-                if !N::LARGE && hit.is_power_of_two() {
-                    // One child hit: visit it next, without the stack.
-                    let l = hit.trailing_zeros() as usize;
-                    current = node.children[l / 4][l % 4];
-                    continue;
-                }
-                if !N::LARGE && hit.count_ones() == 2 {
-                    // Two: push the farther, visit the nearer (of equal distances the second,
-                    // as the insertion below orders them).
-                    let (a, b) = (
-                        hit.trailing_zeros() as usize,
-                        31 - hit.leading_zeros() as usize,
-                    );
-                    let ea = (node.children[a / 4][a % 4], t_near[a / 4][a % 4]);
-                    let eb = (node.children[b / 4][b % 4], t_near[b / 4][b % 4]);
-                    let (near, far) = if ea.1 < eb.1 { (ea, eb) } else { (eb, ea) };
-                    stack[sp] = far;
-                    sp += 1;
-                    current = near.0;
-                    continue;
-                }
-                while hit != 0 {
-                    let l = hit.trailing_zeros() as usize;
-                    hit &= hit - 1;
+            }
+            // A pair's second packet is popped next (without a branch: the slot above the
+            // top is written either way, and counted only for a pair).
+            stack[*sp] = (LEAF | (p + 1), 0.0);
+            *sp += ((*current & PAIR) >> 30) as usize;
+        } else {
+            let node = &nodes[*current as usize];
+            let first = *sp;
+            let (t_near, mut hit) = test.hits(node, r, *t_best);
+            // (A small tree's traversal does not prefetch, so neither shortcut does.)
+            if !ANY && !N::LARGE && hit.is_power_of_two() {
+                // One child hit: visit it next, without the stack.
+                let l = hit.trailing_zeros() as usize;
+                *current = node.children[l / 4][l % 4];
+                return false;
+            }
+            if !ANY && !N::LARGE && hit.count_ones() == 2 {
+                // Two: push the farther, visit the nearer (of equal distances the second,
+                // as the insertion below orders them).
+                let (a, b) = (
+                    hit.trailing_zeros() as usize,
+                    31 - hit.leading_zeros() as usize,
+                );
+                let ea = (node.children[a / 4][a % 4], t_near[a / 4][a % 4]);
+                let eb = (node.children[b / 4][b % 4], t_near[b / 4][b % 4]);
+                let (near, far) = if ea.1 < eb.1 { (ea, eb) } else { (eb, ea) };
+                stack[*sp] = far;
+                *sp += 1;
+                *current = near.0;
+                return false;
+            }
+            while hit != 0 {
+                let l = hit.trailing_zeros() as usize;
+                hit &= hit - 1;
+                let child = node.children[l / 4][l % 4];
+                Self::prefetch_child(test, nodes, packets, child);
+                if ANY {
+                    // Any order: no distance, no sort.
+                    stack[*sp].0 = child;
+                } else {
                     // Insertion sort, farthest at the bottom: the nearest is popped first.
-                    let entry = (node.children[l / 4][l % 4], t_near[l / 4][l % 4]);
-                    Self::prefetch_child(test, nodes, packets, entry.0);
-                    let mut i = sp;
+                    let entry = (child, t_near[l / 4][l % 4]);
+                    let mut i = *sp;
                     while i > first && stack[i - 1].1 < entry.1 {
                         stack[i] = stack[i - 1];
                         i -= 1;
                     }
                     stack[i] = entry;
-                    sp += 1;
                 }
-            }
-            loop {
-                if sp == 0 {
-                    return best;
-                }
-                sp -= 1;
-                let (c, t) = stack[sp];
-                if t <= t_best {
-                    current = c;
-                    break;
-                }
+                *sp += 1;
             }
         }
+        loop {
+            if *sp == 0 {
+                return true;
+            }
+            *sp -= 1;
+            let (c, t) = stack[*sp];
+            // (Any hit has no order, and no entry beyond `t_max`: its node test saw to that.)
+            if ANY || t <= *t_best {
+                *current = c;
+                return false;
+            }
+        }
+    }
+
+    /// The nodes and the packets, as slices (for [`WideBvh::step`]).
+    #[inline(always)]
+    pub(crate) fn arrays(&self) -> (&[WideNode<G>], &[Tri4]) {
+        (&self.nodes, &self.packets)
     }
 
     /// Whether the tree is large ([`LARGE_BYTES`]): traced with [`NodeTest::LARGE`].
@@ -537,45 +591,6 @@ impl<const G: usize> WideBvh<G> {
         let index = (child & PACKET_MASK) as usize;
         let count = 1 + (child & PAIR != 0) as usize;
         test.prefetch(base[leaf].wrapping_add(index * size), size * count);
-    }
-
-    /// Any hit (for occlusion): children in any order, stopping at the first hit.
-    #[inline(always)]
-    pub(crate) fn any<N: NodeTest<G>>(
-        &self,
-        r: &PreparedRay,
-        stack: &mut [Entry],
-        test: N,
-    ) -> bool {
-        // Once per ray: the arrays' slices (`Pages` checks its storage on every deref).
-        let (nodes, packets): (&[WideNode<G>], &[Tri4]) = (&self.nodes, &self.packets);
-        let mut sp = 0;
-        let mut current = 0u32;
-        loop {
-            if current & LEAF != 0 {
-                let p = current & PACKET_MASK;
-                if intersect_tri4(&packets[p as usize], r, r.t_max, !N::LARGE).mask != 0 {
-                    return true;
-                }
-                stack[sp].0 = LEAF | (p + 1);
-                sp += ((current & PAIR) >> 30) as usize;
-            } else {
-                let node = &nodes[current as usize];
-                let (_, mut hit) = test.hits(node, r, r.t_max);
-                while hit != 0 {
-                    let l = hit.trailing_zeros() as usize;
-                    hit &= hit - 1;
-                    stack[sp].0 = node.children[l / 4][l % 4];
-                    Self::prefetch_child(test, nodes, packets, stack[sp].0);
-                    sp += 1;
-                }
-            }
-            if sp == 0 {
-                return false;
-            }
-            sp -= 1;
-            current = stack[sp].0;
-        }
     }
 }
 
