@@ -21,10 +21,10 @@
 //! closest-hit rays in render order (12 rounds, one core, the builds in turn), where the
 //! renders took 1.09× as long; the 16-wide layout on top of it did not (1.035×).
 //!
-//! `closest_many` and `occluded_many` trace the random-order rays in batches of 4096 (a
-//! 32 × 128 gather's), one `Geometry::intersect_many` or `Geometry::occluded_many` call each:
-//! on a tree larger than the caches those keep several rays in flight, so that their waits
-//! for memory overlap.
+//! `closest_stream` and `occluded_stream` trace the random-order rays in batches of 4096 (a
+//! 32 × 128 gather's), one `Geometry::intersect_stream` or `Geometry::occluded_stream` call
+//! each: on a tree larger than the caches those keep several rays in flight, so that their
+//! waits for memory overlap.
 //!
 //! The scenes are built once per process, outside the timings.
 //!
@@ -42,8 +42,8 @@
 //! side / k, spheres / k²: 64 386 triangles at 4, 3 266 at 16) for measurements at other sizes.
 //!
 //! Run with `cargo bench -p irr-geometry`. For a profile, set
-//! `IRR_PROFILE=<cornell|million>:<bvh2|wide4|wide8>:<closest|occluded|closest-in-order|occluded-in-order|gather<M>x<N>[many]>`
-//! (the first four also with `-many`: in batches, as `closest_many`)
+//! `IRR_PROFILE=<cornell|million>:<bvh2|wide4|wide8>:<closest|occluded|closest-in-order|occluded-in-order|gather<M>x<N>[many|stream]>`
+//! (the first four also with `-stream`: in batches, as `closest_stream`)
 //! and run the bench binary under `valgrind --tool=callgrind` (with
 //! `--collect-atstart=no --toggle-collect='*trace::trace*'` to count only the tracing): it
 //! then traces that case's rays once (or `IRR_PROFILE_REPEATS` times, printing the best rate),
@@ -236,25 +236,29 @@ fn profile(spec: &str) {
     };
     let (meshes, camera, light) = setup(name);
     let s = scene(name, &meshes, layout, &camera, light);
-    // `<query>-many`: the rays in batches of `BATCH`, each with one `intersect_many` (or
-    // `occluded_many`) call.
-    let batched = query.ends_with("-many");
-    let query = query.trim_end_matches("-many");
+    // `<query>-stream`: the rays in batches of `BATCH`, each with one `intersect_stream` (or
+    // `occluded_stream`) call.
+    let streamed = query.ends_with("-stream");
+    let query = query.trim_end_matches("-stream");
     let occlusion = query.starts_with("occluded");
     let in_order = query.ends_with("in-order");
     // `gather<M>x<N>` traces gathers one ray at a time, `gather<M>x<N>many` with
-    // `intersect_many`.
+    // `intersect_many`, `gather<M>x<N>stream` with `intersect_stream`.
     let gather = query.strip_prefix("gather").map(|g| {
-        let many = g.ends_with("many");
+        let how = match g {
+            _ if g.ends_with("many") => Batch::Many,
+            _ if g.ends_with("stream") => Batch::Stream,
+            _ => Batch::One,
+        };
         let (m, n) = g
-            .trim_end_matches("many")
+            .trim_end_matches(char::is_alphabetic)
             .split_once('x')
             .unwrap_or(("16", "64"));
         let (m, n) = (m.parse().unwrap_or(16), n.parse().unwrap_or(64));
-        (gather_rays(&s.geometry, &camera, m, n), many)
+        (gather_rays(&s.geometry, &camera, m, n), how, m * n)
     });
     let rays = match &gather {
-        Some((g, _)) => g,
+        Some((g, _, _)) => g,
         None if in_order && occlusion => &s.shadow_in_order,
         None if in_order => &s.closest_in_order,
         None if occlusion => &s.shadow,
@@ -269,8 +273,8 @@ fn profile(spec: &str) {
     for _ in 0..repeats {
         let start = Instant::now();
         hits = match &gather {
-            Some((g, many)) => trace_gathers(&s.geometry, g, 1 << 12, *many),
-            None if batched => trace_many(&s.geometry, rays, occlusion, BATCH),
+            Some((g, how, per_record)) => trace_batches(&s.geometry, g, false, *per_record, *how),
+            None if streamed => trace_batches(&s.geometry, rays, occlusion, BATCH, Batch::Stream),
             None => trace(&s.geometry, rays, occlusion, 1),
         };
         best = best.min(start.elapsed().as_secs_f64());
@@ -715,42 +719,51 @@ fn gather_rays(g: &Geometry, camera: &Camera, m: usize, n: usize) -> Vec<Ray> {
     rays
 }
 
-/// Traces gathers of `per_record` rays one ray at a time, or each with one `intersect_many`
-/// call; returns the number of hits.
-#[inline(never)]
-fn trace_gathers(g: &Geometry, rays: &[Ray], per_record: usize, many: bool) -> usize {
-    if many {
-        return trace_many(g, rays, false, per_record);
-    }
-    let mut count = 0;
-    for record in rays.chunks(per_record) {
-        count += record.iter().filter(|r| g.intersect(r).is_some()).count();
-    }
-    count
+/// How the batched cases hand their rays to irr-geometry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Batch {
+    /// `intersect` (or `occluded`), a ray at a time.
+    One,
+    /// One `intersect_many` call per batch (closest hits; occlusion goes a ray at a time).
+    Many,
+    /// One `intersect_stream` (or `occluded_stream`) call per batch.
+    Stream,
 }
 
-/// Traces `rays` in batches of `batch`, each with one `intersect_many` (or, for `occlusion`,
-/// `occluded_many`) call; returns the number of hits.
+/// Traces `rays` in batches of `len` (a gather's rays per record, or [`BATCH`]) as `how`
+/// says; returns the number of hits.
 #[inline(never)]
-fn trace_many(g: &Geometry, rays: &[Ray], occlusion: bool, batch: usize) -> usize {
-    let mut hits = vec![None; batch];
-    let mut occluded = vec![false; batch];
+fn trace_batches(g: &Geometry, rays: &[Ray], occlusion: bool, len: usize, how: Batch) -> usize {
+    let mut hits = vec![None; len];
+    let mut occluded = vec![false; len];
     let mut count = 0;
-    for chunk in rays.chunks(batch) {
-        if occlusion {
-            let out = &mut occluded[..chunk.len()];
-            g.occluded_many(chunk, out);
-            count += out.iter().filter(|&&o| o).count();
-        } else {
-            let out = &mut hits[..chunk.len()];
-            g.intersect_many(chunk, out);
-            count += out.iter().filter(|h| h.is_some()).count();
+    for chunk in rays.chunks(len) {
+        let (hits, occluded) = (&mut hits[..chunk.len()], &mut occluded[..chunk.len()]);
+        match (how, occlusion) {
+            (Batch::Stream, true) => g.occluded_stream(chunk, occluded),
+            (_, true) => {
+                for (ray, o) in chunk.iter().zip(occluded.iter_mut()) {
+                    *o = g.occluded(ray);
+                }
+            }
+            (Batch::Stream, false) => g.intersect_stream(chunk, hits),
+            (Batch::Many, false) => g.intersect_many(chunk, hits),
+            (Batch::One, false) => {
+                for (ray, h) in chunk.iter().zip(hits.iter_mut()) {
+                    *h = g.intersect(ray);
+                }
+            }
         }
+        count += if occlusion {
+            occluded.iter().filter(|&&o| o).count()
+        } else {
+            hits.iter().filter(|h| h.is_some()).count()
+        };
     }
     count
 }
 
-/// Rays per call in the batched cases (`*-many`): a 32 × 128 gather's.
+/// Rays per call in the streamed cases (`closest_stream`, `*-stream`): a 32 × 128 gather's.
 const BATCH: usize = 1 << 12;
 
 /// The gather sizes the gather benchmarks trace: M × N rays per record.
@@ -762,26 +775,26 @@ static CORNELL_GATHERS: LazyLock<[Vec<Ray>; 2]> = LazyLock::new(|| {
     GATHERS.map(|(m, n)| gather_rays(&s.geometry, &camera, m, n))
 });
 
-fn run_gather(bencher: Bencher, size: usize, many: bool) {
+fn run_gather(bencher: Bencher, size: usize, how: Batch) {
     let s = get("cornell", BvhLayout::default());
     let rays = &CORNELL_GATHERS[size];
     let (m, n) = GATHERS[size];
     bencher
         .counter(ItemsCount::new(rays.len()))
-        .bench(|| trace_gathers(&s.geometry, divan::black_box(rays), m * n, many));
+        .bench(|| trace_batches(&s.geometry, divan::black_box(rays), false, m * n, how));
 }
 
 /// Cornell-box gathers (16 × 64 and 32 × 128 rays per record) on the default layout, one ray
 /// at a time with `intersect`.
 #[divan::bench(args = [0, 1], sample_count = 20)]
 fn gather_one_by_one(bencher: Bencher, size: usize) {
-    run_gather(bencher, size, false);
+    run_gather(bencher, size, Batch::One);
 }
 
 /// The same gathers with one `intersect_many` call per record.
 #[divan::bench(args = [0, 1], sample_count = 20)]
 fn gather_intersect_many(bencher: Bencher, size: usize) {
-    run_gather(bencher, size, true);
+    run_gather(bencher, size, Batch::Many);
 }
 
 fn threads_all() -> usize {
@@ -842,20 +855,32 @@ fn occluded_in_render_order<const LAYOUT: usize>(bencher: Bencher, name: &str) {
 }
 
 /// The second bounce's closest-hit rays (random order, as `closest_1_thread`) in batches, with
-/// `intersect_many`, one thread.
+/// `intersect_stream`, one thread.
 #[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
-fn closest_many<const LAYOUT: usize>(bencher: Bencher, name: &str) {
+fn closest_stream<const LAYOUT: usize>(bencher: Bencher, name: &str) {
     let s = get(name, LAYOUTS[LAYOUT]);
-    bencher
-        .counter(ItemsCount::new(s.closest.len()))
-        .bench(|| trace_many(&s.geometry, divan::black_box(&s.closest), false, BATCH));
+    bencher.counter(ItemsCount::new(s.closest.len())).bench(|| {
+        trace_batches(
+            &s.geometry,
+            divan::black_box(&s.closest),
+            false,
+            BATCH,
+            Batch::Stream,
+        )
+    });
 }
 
-/// The shadow rays in batches, with `occluded_many`, one thread.
+/// The shadow rays in batches, with `occluded_stream`, one thread.
 #[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
-fn occluded_many<const LAYOUT: usize>(bencher: Bencher, name: &str) {
+fn occluded_stream<const LAYOUT: usize>(bencher: Bencher, name: &str) {
     let s = get(name, LAYOUTS[LAYOUT]);
-    bencher
-        .counter(ItemsCount::new(s.shadow.len()))
-        .bench(|| trace_many(&s.geometry, divan::black_box(&s.shadow), true, BATCH));
+    bencher.counter(ItemsCount::new(s.shadow.len())).bench(|| {
+        trace_batches(
+            &s.geometry,
+            divan::black_box(&s.shadow),
+            true,
+            BATCH,
+            Batch::Stream,
+        )
+    });
 }

@@ -14,10 +14,10 @@
 //!   once: about 80 bytes per triangle in all ([`Geometry::heap_bytes`]).
 //! - [`Geometry::intersect`] (closest hit: distance, triangle id, barycentrics) and
 //!   [`Geometry::occluded`] (any hit), with a watertight triangle test (Woop et al. 2013) that
-//!   reports a hit only when its distance is provably inside `(0, t_max)`; and both for a
-//!   batch of independent rays ([`Geometry::intersect_many`], [`Geometry::occluded_many`]),
-//!   which on a tree larger than the caches keeps several rays in flight so that their waits
-//!   for memory overlap.
+//!   reports a hit only when its distance is provably inside `(0, t_max)`; and for batches:
+//!   a coherent one in one dispatch ([`Geometry::intersect_many`]), and incoherent ones
+//!   ([`Geometry::intersect_stream`], [`Geometry::occluded_stream`]), which on a tree larger
+//!   than the caches keep several rays in flight so that their waits for memory overlap.
 //! - [`Geometry::surface`]: the hit point computed from the barycentrics, the geometric normal
 //!   (from the winding, never flipped) and the shading normal.
 //! - [`Ray::spawn`], [`Ray::spawn_to`] and [`offset_ray_origin`]: origins offset by a few ulps of
