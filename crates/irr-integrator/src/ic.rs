@@ -64,6 +64,10 @@ use std::f32::consts::FRAC_1_PI;
 use std::sync::atomic::{AtomicU64, Ordering};
 use thiserror::Error;
 
+/// A gather cell's traced ray: what it hit (`None`: it left the scene), its direction and the
+/// cell's sample key.
+type Traced = (Option<SurfacePoint>, Vec3, SampleKey);
+
 /// cos 80°: hits less than 10° above the horizon do not size a record (Mitsuba 0.6 uses 0.173;
 /// Radiance skips them too). See `GatherSamples::harmonic_mean_distance_above`.
 pub const HORIZON_CUT_COS: f32 = 0.173_648_18;
@@ -640,9 +644,11 @@ impl<V: IcValue> Core<V> {
             .covers_filtered(p, n, |id, r| self.visible(scene, l, id, r, (p, n), rays))
     }
 
-    /// The gather at `x` for `level`: per cell, `value(hit, direction, key)` for the ray's hit
-    /// (`None`: it escaped), and the hit distance. Returns the samples (with each sample's
-    /// cos θ) and the gather's frame.
+    /// The gather at `x` for `level`: per cell, what its ray brings back and the hit distance.
+    /// `values(traced, rays)` gives the cells' values at once (so that it can trace what they
+    /// need in batches) for the cells with a ray, in cell order, each as (hit, direction, key),
+    /// the hit `None` where the ray escaped; it returns one value per entry. Returns the
+    /// samples (with each sample's cos θ) and the gather's frame.
     fn gather(
         &self,
         scene: &Scene,
@@ -650,7 +656,7 @@ impl<V: IcValue> Core<V> {
         x: &ShadingPoint,
         key: SampleKey,
         rays: &mut RayCounter,
-        mut value: impl FnMut(Option<&SurfacePoint>, Vec3, SampleKey, &mut RayCounter) -> V::Gathered,
+        values: impl FnOnce(&[Traced], &mut RayCounter) -> Vec<V::Gathered>,
     ) -> Option<(GatherSamples<V::Gathered>, Frame)> {
         let frame = Frame::from_normal(x.ns);
         let cells = strata.len();
@@ -658,32 +664,54 @@ impl<V: IcValue> Core<V> {
         let mut distance = Vec::with_capacity(cells);
         let mut cos_theta = Vec::with_capacity(cells);
         let seed = key.bits(0);
+        // The cells' rays first, then the values of all cells at once (`values` can then trace
+        // what they need in batches), in cell order. Below the geometric surface (a shading
+        // normal tilted away) a cell has no ray.
+        let mut directions = Vec::with_capacity(cells);
+        let mut batch = Vec::with_capacity(cells);
         for cell in strata.cells() {
-            let index = cell.index(&strata);
-            let cell_key = SampleKey::new(seed, u64::from(index), 0);
+            let cell_key = SampleKey::new(seed, u64::from(cell.index(&strata)), 0);
             let local = strata.sample(cell, cell_key.uniform_2d(0));
             let w = frame.to_world(local);
             cos_theta.push(local.z.clamp(0.0, 1.0));
-            if w.dot(x.ng) <= 0.0 {
-                // Below the geometric surface (a shading normal tilted away): nothing arrives.
+            let above = w.dot(x.ng) > 0.0;
+            if above {
+                batch.push(Ray::spawn(x.position, x.ng, w));
+            }
+            directions.push((w, cell_key, above));
+        }
+        rays.closest += batch.len() as u64;
+        // A gather's rays share their origin and neighbouring cells' rays cross the same nodes:
+        // one at a time in cell order (`intersect_many`) rather than as a stream, which gained
+        // little on such rays (`Geometry::intersect_stream`'s docs).
+        let mut hits = vec![None; batch.len()];
+        scene.geometry().intersect_many(&batch, &mut hits);
+        let above = directions.iter().filter(|d| d.2);
+        let traced: Vec<Traced> = batch
+            .iter()
+            .zip(hits)
+            .zip(above)
+            .map(|((ray, hit), &(w, key, _))| {
+                let surface = hit.map(|h| scene.geometry().surface(ray, &h));
+                (surface, w, key)
+            })
+            .collect();
+        let mut traced_values = values(&traced, rays).into_iter();
+        let mut traced = traced.iter();
+        for &(_, _, above) in &directions {
+            let value = above
+                .then(|| traced.next().zip(traced_values.next()))
+                .flatten();
+            let Some(((surface, _, _), value)) = value else {
+                // Nothing arrives from below the surface.
                 radiance.push(V::Gathered::default());
                 distance.push(f32::INFINITY);
                 continue;
-            }
-            let ray = Ray::spawn(x.position, x.ng, w);
-            rays.closest += 1;
-            match scene.geometry().intersect(&ray) {
-                Some(hit) => {
-                    let surface = scene.geometry().surface(&ray, &hit);
-                    let r = (surface.position - x.position).length();
-                    radiance.push(value(Some(&surface), w, cell_key, rays));
-                    distance.push(r.max(f32::MIN_POSITIVE));
-                }
-                None => {
-                    radiance.push(value(None, w, cell_key, rays));
-                    distance.push(f32::INFINITY);
-                }
-            }
+            };
+            radiance.push(value);
+            distance.push(surface.as_ref().map_or(f32::INFINITY, |s| {
+                (s.position - x.position).length().max(f32::MIN_POSITIVE)
+            }));
         }
         let samples = GatherSamples::new(strata, radiance, distance)
             .and_then(|g| g.with_cos_theta(cos_theta))
@@ -803,7 +831,7 @@ impl<V: IcValue> Core<V> {
         let strata = HemisphereStrata::new(PROBE_M, PROBE_N).ok()?;
         let frame = Frame::from_normal(x.ns);
         let seed = key.bits(0xfe);
-        let (mut count, mut inv_sum) = (0u32, 0.0f64);
+        let mut batch = Vec::with_capacity(strata.len());
         for cell in strata.cells() {
             let u = SampleKey::new(seed, u64::from(cell.index(&strata)), 0).uniform_2d(0);
             let local = strata.sample(cell, u);
@@ -811,14 +839,18 @@ impl<V: IcValue> Core<V> {
                 continue;
             }
             let w = frame.to_world(local);
-            if w.dot(x.ng) <= 0.0 {
-                continue;
+            if w.dot(x.ng) > 0.0 {
+                batch.push(Ray::spawn(x.position, x.ng, w));
             }
-            count += 1;
-            spent.closest += 1;
-            let r = Ray::spawn(x.position, x.ng, w);
-            if let Some(hit) = scene.geometry().intersect(&r) {
-                let d = (scene.geometry().surface(&r, &hit).position - x.position).length();
+        }
+        let count = batch.len() as u32;
+        spent.closest += u64::from(count);
+        let mut hits = vec![None; batch.len()];
+        scene.geometry().intersect_many(&batch, &mut hits);
+        let mut inv_sum = 0.0f64;
+        for (r, hit) in batch.iter().zip(hits) {
+            if let Some(hit) = hit {
+                let d = (scene.geometry().surface(r, &hit).position - x.position).length();
                 inv_sum += 1.0 / f64::from(d.max(f32::MIN_POSITIVE));
             }
         }
@@ -1066,6 +1098,52 @@ impl IrradianceCacheIntegrator {
         }
     }
 
+    /// What the gather rays of `level` bring back ([`IrradianceCacheIntegrator::gather_radiance`]
+    /// for each); where the geometry streams (`Geometry::streams`), path-traced continuations
+    /// (`BounceMode::PathTraced`, and on the deepest level) all at once, with
+    /// `PathTracer::reflected_many`.
+    fn gather_radiances(
+        &self,
+        scene: &Scene,
+        level: usize,
+        traced: &[Traced],
+        rays: &mut RayCounter,
+    ) -> Vec<Vec3> {
+        let deepest = level + 1 >= self.core.levels.len();
+        let path_traced = self.core.settings.bounce_mode == BounceMode::PathTraced || deepest;
+        if !(path_traced && scene.geometry().streams()) {
+            return traced
+                .iter()
+                .map(|(hit, w, k)| self.gather_radiance(scene, level, hit.as_ref(), *w, *k, rays))
+                .collect();
+        }
+        // The same dimensions `gather_radiance` gives each continuation.
+        let starts: Vec<(SurfacePoint, Vec3)> = traced
+            .iter()
+            .filter_map(|(hit, w, _)| hit.map(|s| (s, -*w)))
+            .collect();
+        let mut dims: Vec<Dimensions> = traced
+            .iter()
+            .filter(|(hit, _, _)| hit.is_some())
+            .map(|(_, _, k)| Dimensions::starting_at(*k, 1))
+            .collect();
+        let mut reflected = vec![Radiance::default(); starts.len()];
+        self.path
+            .reflected_many(scene, &starts, &mut dims, &mut reflected, rays);
+        let mut reflected = reflected.into_iter();
+        traced
+            .iter()
+            .map(|(hit, _, _)| match hit {
+                // (`reflected` has one entry per hit, so `next` always has one here.)
+                Some(_) => reflected
+                    .next()
+                    .map_or(Vec3::ZERO, |r| r.direct + r.indirect),
+                // The ray left the scene: the background's light belongs to `indirect`.
+                None => scene.background(),
+            })
+            .collect()
+    }
+
     /// What a gather ray of `level` brings back from `hit` travelling against `w`: what the
     /// hit point reflects (its emission excluded), or the background if the ray hit nothing.
     fn gather_radiance(
@@ -1120,7 +1198,7 @@ impl IrradianceCacheIntegrator {
                 x,
                 key,
                 rays,
-                |hit, w, k, rays| self.gather_radiance(scene, level, hit, w, k, rays),
+                |traced, rays| self.gather_radiances(scene, level, traced, rays),
             )
             .map(|(g, _)| g)
     }
@@ -1164,7 +1242,7 @@ impl CacheBuilder for IrradianceCacheIntegrator {
             &probe.x,
             probe.key,
             &mut spent,
-            |hit, w, k, r| self.gather_radiance(scene, li, hit, w, k, r),
+            |traced, r| self.gather_radiances(scene, li, traced, r),
         )?;
         *rays += spent;
         Some(self.core.candidate(probe, &samples, &frame, spent))
@@ -1227,11 +1305,13 @@ impl CachedAmbientOcclusion {
         rays: &mut RayCounter,
     ) -> Option<(GatherSamples<f32>, Frame)> {
         let max = self.max_distance;
-        self.core
-            .gather(scene, strata, x, key, rays, |hit, _, _, _| match hit {
+        self.core.gather(scene, strata, x, key, rays, |traced, _| {
+            let value = |hit: &Option<SurfacePoint>| match hit {
                 Some(s) if (s.position - x.position).length() < max => 0.0,
                 _ => FRAC_1_PI,
-            })
+            };
+            traced.iter().map(|(hit, _, _)| value(hit)).collect()
+        })
     }
 }
 

@@ -68,6 +68,31 @@ pub trait Integrator: Sync {
             indirect: Vec3::ZERO,
         }
     }
+
+    /// [`Integrator::li`] for many rays (a pixel's samples): `out[i]` and `dims[i]` come out
+    /// exactly as `li` leaves them for `rays[i]` and `dims[i]`, and `rays` counts the same
+    /// rays. An integrator overrides it to trace the rays' paths together (the path tracer
+    /// traces each bounce of all its paths as one batch); the default calls `li` for each ray
+    /// in turn.
+    ///
+    /// # Panics
+    /// If the three slices differ in length.
+    fn li_many(
+        &self,
+        scene: &Scene,
+        camera_rays: &[Ray],
+        dims: &mut [Dimensions],
+        out: &mut [Vec3],
+        rays: &mut RayCounter,
+    ) {
+        assert!(
+            camera_rays.len() == dims.len() && dims.len() == out.len(),
+            "one dimension stream and one answer per ray"
+        );
+        for ((ray, d), o) in camera_rays.iter().zip(dims).zip(out) {
+            *o = self.li(scene, ray, d, rays);
+        }
+    }
 }
 
 /// What a ray meets first: the surface data a denoiser or a compositor reads beside the

@@ -10,10 +10,10 @@ use crate::path::{ShadingPoint, sample_light};
 use crate::tests::{assert_close, estimate, icosphere, polygon, polygon_irradiance, scene};
 use crate::{
     IcSettings, Integrator, IrradianceCacheIntegrator, LightSample, LightSampler, Material,
-    PathSettings, PathTracer, PunctualLight, RayCounter, Scene,
+    PathSettings, PathTracer, PunctualLight, Radiance, RayCounter, Scene,
 };
 use glam::{DVec3, Vec3};
-use irr_geometry::{Geometry, Ray, TriangleMesh};
+use irr_geometry::{Geometry, Ray, SurfacePoint, TriangleMesh};
 use irr_sampling::SampleKey;
 use irr_sampling::rng::Dimensions;
 use std::f64::consts::PI;
@@ -642,4 +642,146 @@ fn scene_refuses_bad_lights_and_backgrounds() {
         );
     }
     assert_eq!(make().background(), Vec3::ZERO);
+}
+
+/// The bits of a radiance split, for exact comparisons.
+fn bits(r: &Radiance) -> [[u32; 3]; 3] {
+    [r.emitted, r.direct, r.indirect].map(|v| v.to_array().map(f32::to_bits))
+}
+
+/// Checks that `li_many` answers `rays` as `li` does alone (the same bits, each ray's
+/// dimensions left where `li` leaves them, the same rays counted), and that `reflected_many`
+/// answers the camera rays' first surfaces as `reflected` does: the batched paths themselves,
+/// which `li_many` takes only where the geometry streams. `fresh(i)` makes ray `i`'s dimensions.
+fn check_batched_paths(
+    pt: &PathTracer,
+    s: &Scene,
+    rays: &[Ray],
+    fresh: impl Fn(usize) -> Dimensions,
+) -> Result<(), String> {
+    let mut dims: Vec<Dimensions> = (0..rays.len()).map(&fresh).collect();
+    let mut out = vec![Vec3::NAN; rays.len()];
+    let mut counted = RayCounter::default();
+    pt.li_many(s, rays, &mut dims, &mut out, &mut counted);
+    let mut alone = RayCounter::default();
+    for (i, ray) in rays.iter().enumerate() {
+        let mut d = fresh(i);
+        let want = pt.li(s, ray, &mut d, &mut alone);
+        let same =
+            |a: Vec3, b: Vec3| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits);
+        if !same(out[i], want) || dims[i].next_1d().to_bits() != d.next_1d().to_bits() {
+            return Err(format!("li_many, ray {i}: {} against {want}", out[i]));
+        }
+    }
+    if counted != alone {
+        return Err(format!("li_many counted {counted:?}, li {alone:?}"));
+    }
+    let starts: Vec<(SurfacePoint, Vec3)> = rays
+        .iter()
+        .filter_map(|r| {
+            let hit = s.geometry().intersect(r)?;
+            Some((s.geometry().surface(r, &hit), -r.direction.normalize()))
+        })
+        .collect();
+    let mut dims: Vec<Dimensions> = (0..starts.len()).map(&fresh).collect();
+    let mut out = vec![Radiance::default(); starts.len()];
+    let mut counted = RayCounter::default();
+    pt.reflected_many(s, &starts, &mut dims, &mut out, &mut counted);
+    let mut alone = RayCounter::default();
+    for (i, (surface, wo)) in starts.iter().enumerate() {
+        let mut d = fresh(i);
+        let want = pt.reflected(s, surface, *wo, &mut d, &mut alone);
+        if bits(&out[i]) != bits(&want) || dims[i].next_1d().to_bits() != d.next_1d().to_bits() {
+            return Err(format!(
+                "reflected_many, start {i}: {:?} against {want:?}",
+                out[i]
+            ));
+        }
+    }
+    if counted != alone {
+        return Err(format!(
+            "reflected_many counted {counted:?}, reflected {alone:?}"
+        ));
+    }
+    Ok(())
+}
+
+/// `li_many` where the geometry streams (a scene larger than the caches: inside an icosphere of
+/// 20 480 triangles, lit by a point light), for 200 camera rays: exactly `li`'s answers.
+#[test]
+fn li_many_on_a_large_scene_answers_as_li() {
+    let shell = icosphere(Vec3::ZERO, 2.0, 5, 0);
+    let ball = icosphere(Vec3::new(0.3, -0.5, 0.2), 0.5, 2, 1);
+    let s = scene(
+        &[shell, ball],
+        vec![
+            Material::diffuse(Vec3::new(0.7, 0.6, 0.5)),
+            Material::diffuse(Vec3::splat(0.3)),
+        ],
+    )
+    .with_lights(vec![PunctualLight::point(
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::splat(2.0),
+    )])
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert!(s.geometry().streams(), "the scene is too small to stream");
+    let pt = PathTracer::default();
+    let rays: Vec<Ray> = (0..200)
+        .map(|i| {
+            let u = SampleKey::new(31, i, 0).uniform_2d(0);
+            let d = Vec3::new(2.0 * u.x - 1.0, -1.0, 2.0 * u.y - 1.0);
+            Ray::new(Vec3::new(0.0, 0.5, 0.0), d.normalize())
+        })
+        .collect();
+    let fresh = |i: usize| Dimensions::starting_at(SampleKey::new(32, i as u64, 0), 1);
+    check_batched_paths(&pt, &s, &rays, fresh).unwrap_or_else(|e| panic!("{e}"));
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
+
+    /// The path tracer's batched paths (`reflected_many`: traced together, a bounce at a time)
+    /// and `li_many` answer every ray exactly as `reflected` and `li` do alone: the same bits,
+    /// each ray's dimensions left where those leave them (the next draw is the same), and the
+    /// same rays counted (`check_batched_paths`). In a half-open box
+    /// with an area light, a point light, a black block and a background, so that paths end in
+    /// every way (escaping, at the depth limit, on a black surface, by roulette), for camera
+    /// rays that hit and miss, at two depth limits, for batches of any length.
+    #[test]
+    fn li_many_answers_as_li(seed in 0u64..1 << 20, len in 0usize..48, shallow: bool) {
+        let floor = square(Vec3::ZERO, Vec3::Y, 1.0, 0);
+        let back = square(Vec3::new(0.0, 1.0, -1.0), Vec3::Z, 1.0, 0);
+        let side = square(Vec3::new(-1.0, 1.0, 0.0), Vec3::X, 1.0, 0);
+        let light = polygon(Vec3::new(0.0, 1.9, 0.0), 0.3, 8, -1.0, 1);
+        let ball = icosphere(Vec3::new(0.3, 0.3, 0.2), 0.3, 1, 0);
+        let block = square(Vec3::new(-0.4, 0.2, 0.3), Vec3::new(0.3, 1.0, 0.2).normalize(), 0.2, 2);
+        let s = scene(
+            &[floor, back, side, light, ball, block],
+            vec![
+                Material::diffuse(Vec3::new(0.8, 0.6, 0.4)),
+                Material::emitter(Vec3::splat(4.0)),
+                Material::diffuse(Vec3::ZERO),
+            ],
+        )
+        .with_lights(vec![PunctualLight::point(Vec3::new(0.5, 1.2, 0.5), Vec3::splat(0.8))])
+        .and_then(|s| s.with_background(Vec3::new(0.1, 0.2, 0.3)))
+        .unwrap_or_else(|e| panic!("{e}"));
+        let pt = PathTracer::new(PathSettings {
+            max_depth: if shallow { 2 } else { 64 },
+            ..PathSettings::default()
+        });
+        let k = SampleKey::new(seed, 0, 0);
+        let rays: Vec<Ray> = (0..len as u32)
+            .map(|i| {
+                let u = k.uniform_2d(i);
+                let target = Vec3::new(2.0 * u.x - 1.0, 0.0, 2.0 * u.y - 1.0);
+                // Every fifth ray looks up and away, into the background.
+                let from = if i % 5 == 4 { Vec3::new(0.0, 0.5, 0.5) } else { Vec3::new(0.2, 1.5, 2.0) };
+                let to = if i % 5 == 4 { Vec3::new(0.0, 3.0, 3.0) } else { target };
+                ray_to(from, to)
+            })
+            .collect();
+        let fresh = |i: usize| Dimensions::starting_at(SampleKey::new(seed, 1 + i as u64, 7), 1);
+        check_batched_paths(&pt, &s, &rays, fresh).map_err(proptest::test_runner::TestCaseError::fail)?;
+    }
 }

@@ -35,7 +35,7 @@ use crate::integrator::{Integrator, RayCounter};
 use crate::light::LightSample;
 use crate::scene::Scene;
 use glam::Vec3;
-use irr_geometry::{Ray, SurfacePoint};
+use irr_geometry::{Hit, Ray, SurfacePoint};
 use irr_sampling::rng::Dimensions;
 use irr_sampling::{Frame, cosine_hemisphere_pdf, sample_cosine_hemisphere};
 use std::f32::consts::FRAC_1_PI;
@@ -179,6 +179,19 @@ pub fn sample_light(
     dims: &mut Dimensions,
     rays: &mut RayCounter,
 ) -> Option<LightArrival> {
+    let (arrival, shadow) = light_sample(scene, x, dims)?;
+    rays.shadow += 1;
+    (!scene.geometry().occluded(&shadow)).then_some(arrival)
+}
+
+/// [`sample_light`] up to its shadow ray, untraced and uncounted: the arrival, which counts
+/// only if the ray is unoccluded, and the ray. (A batch of paths traces its shadow rays
+/// together: [`PathTracer::reflected_many`].)
+pub(crate) fn light_sample(
+    scene: &Scene,
+    x: &ShadingPoint,
+    dims: &mut Dimensions,
+) -> Option<(LightArrival, Ray)> {
     let u_light = dims.next_1d();
     let u_point = dims.next_2d();
     match scene.lights().sample(scene.geometry(), u_light, u_point)? {
@@ -207,13 +220,13 @@ pub fn sample_light(
             }
             let pdf = pdf_area * dist2 / cos_light;
             let shadow = Ray::spawn_to(x.position, x.ng, position, normal);
-            rays.shadow += 1;
-            (pdf.is_finite() && !scene.geometry().occluded(&shadow)).then_some(LightArrival {
+            let arrival = LightArrival {
                 le,
                 cos_surface,
                 pdf,
                 delta: false,
-            })
+            };
+            pdf.is_finite().then_some((arrival, shadow))
         }
         LightSample::Punctual { light, probability } => {
             let incidence = light.incidence(x.position)?;
@@ -233,13 +246,13 @@ pub fn sample_light(
                 Some(p) => Ray::spawn_to(x.position, x.ng, p, Vec3::ZERO),
                 None => Ray::spawn(x.position, x.ng, wi),
             };
-            rays.shadow += 1;
-            (!scene.geometry().occluded(&shadow)).then_some(LightArrival {
+            let arrival = LightArrival {
                 le: incidence.irradiance,
                 cos_surface,
                 pdf: probability,
                 delta: true,
-            })
+            };
+            Some((arrival, shadow))
         }
     }
 }
@@ -312,63 +325,165 @@ impl PathTracer {
         dims: &mut Dimensions,
         rays: &mut RayCounter,
     ) -> Radiance {
-        let mut out = Radiance::default();
-        let mut x = ShadingPoint::new(surface, wo);
-        // β: the path throughput from the camera to the current vertex.
-        let mut beta = Vec3::ONE;
-        for depth in 0..self.settings.max_depth {
-            // Bounce number depth+1 reflects at x: light arriving here has reflected depth+1
-            // times by the time it reaches the camera. Bounce 1 is "direct", later ones "indirect".
-            let albedo = scene.albedo(x.triangle, x.b1, x.b2);
-            if albedo == Vec3::ZERO {
+        let geometry = scene.geometry();
+        let mut path = Path::new(surface, wo, *dims);
+        while let Some(b) = self.begin(scene, &mut path, rays) {
+            let occluded = b.shadow.is_some_and(|r| geometry.occluded(&r));
+            let hit = b.ray.and_then(|r| geometry.intersect(&r));
+            if !self.end(scene, &mut path, &b, occluded, hit) {
                 break;
             }
-            let f = albedo * FRAC_1_PI;
-            let mut contribution = Vec3::ZERO;
+        }
+        *dims = path.dims;
+        path.out
+    }
 
-            // Next-event estimation: pick a light by power (and a point on a triangle by area),
-            // and add its light if it is visible, weighted against BSDF sampling by the power
-            // heuristic; a punctual light has no BSDF-sampling strategy, so its weight is 1.
-            if let Some(nee) = sample_light(scene, &x, dims, rays) {
-                let w = if nee.delta {
-                    1.0
-                } else {
-                    power_heuristic(nee.pdf, cosine_hemisphere_pdf(nee.cos_surface))
-                };
-                contribution += f * nee.le * (nee.cos_surface * w / nee.pdf);
-            }
-
-            // BSDF sampling: a cosine-distributed direction. For the Lambertian BSDF,
-            // f·cos θ / pdf = ρ, so the throughput is multiplied by the albedo.
-            let wi = Frame::from_normal(x.ns).to_world(sample_cosine_hemisphere(dims.next_2d()));
-            let cos_surface = wi.dot(x.ns);
-            let pdf_bsdf = cosine_hemisphere_pdf(cos_surface);
-            // A shading normal can send the direction under the geometric surface: end the path
-            // there rather than let light leak through.
-            let sampled_ok = pdf_bsdf > 0.0 && wi.dot(x.ng) > 0.0;
-            let mut next = None;
-            let mut escaped = Vec3::ZERO;
-            if sampled_ok {
-                let ray = Ray::spawn(x.position, x.ng, wi);
-                rays.closest += 1;
-                let hit = scene.geometry().intersect(&ray);
-                if hit.is_none() {
-                    // The ray leaves the scene: the background, found by BSDF sampling alone
-                    // (no light sample picks it), so with weight 1. For the Lambertian BSDF,
-                    // f·cos θ / pdf = ρ.
-                    escaped = albedo * scene.background();
+    /// [`PathTracer::reflected`] for many points at once: `out[i]` and `dims[i]` (drawn from
+    /// as `reflected` draws) come out exactly as `reflected` leaves them for `starts[i]` (a
+    /// surface and the direction `wo` the light leaves towards) and `dims[i]`, and `rays`
+    /// counts the same rays. The paths advance a bounce at a time, each bounce's shadow rays
+    /// and then its BSDF rays traced in one batch (`Geometry::occluded_stream`,
+    /// `Geometry::intersect_stream`), which on a large scene keeps several rays in flight.
+    ///
+    /// # Panics
+    /// If the three slices differ in length.
+    pub fn reflected_many(
+        &self,
+        scene: &Scene,
+        starts: &[(SurfacePoint, Vec3)],
+        dims: &mut [Dimensions],
+        out: &mut [Radiance],
+        rays: &mut RayCounter,
+    ) {
+        assert!(
+            starts.len() == dims.len() && dims.len() == out.len(),
+            "one dimension stream and one answer per start"
+        );
+        let geometry = scene.geometry();
+        let mut paths: Vec<Path> = starts
+            .iter()
+            .zip(dims.iter())
+            .map(|((surface, wo), d)| Path::new(surface, *wo, *d))
+            .collect();
+        // The paths still going, in order, and this bounce's work for each.
+        let mut live: Vec<usize> = (0..paths.len()).collect();
+        let mut bounces: Vec<(usize, Bounce)> = Vec::with_capacity(live.len());
+        let (mut shadows, mut bsdf) = (Vec::new(), Vec::new());
+        let (mut occluded, mut hits) = (Vec::new(), Vec::new());
+        while !live.is_empty() {
+            bounces.clear();
+            shadows.clear();
+            bsdf.clear();
+            for &i in &live {
+                if let Some(b) = self.begin(scene, &mut paths[i], rays) {
+                    shadows.extend(b.shadow);
+                    bsdf.extend(b.ray);
+                    bounces.push((i, b));
                 }
-                if let Some(hit) = hit {
-                    let surface = scene.geometry().surface(&ray, &hit);
+            }
+            occluded.clear();
+            occluded.resize(shadows.len(), false);
+            geometry.occluded_stream(&shadows, &mut occluded);
+            hits.clear();
+            hits.resize(bsdf.len(), None);
+            geometry.intersect_stream(&bsdf, &mut hits);
+            let (mut occluded, mut hits) = (occluded.iter(), hits.iter());
+            live.clear();
+            for (i, b) in &bounces {
+                let blocked = b.shadow.is_some() && occluded.next().copied().unwrap_or(true);
+                let hit = b.ray.and_then(|_| hits.next().copied().flatten());
+                if self.end(scene, &mut paths[*i], b, blocked, hit) {
+                    live.push(*i);
+                }
+            }
+        }
+        for ((path, d), o) in paths.into_iter().zip(dims).zip(out) {
+            *d = path.dims;
+            *o = path.out;
+        }
+    }
+
+    /// The first half of a bounce of `path` at its vertex: the light sample (its shadow ray
+    /// untraced) and the BSDF sample (its ray untraced), with the rays counted. `None` when
+    /// the path ends here (no bounce left, or a black surface).
+    #[inline(always)]
+    fn begin(&self, scene: &Scene, path: &mut Path, rays: &mut RayCounter) -> Option<Bounce> {
+        if path.depth >= self.settings.max_depth {
+            return None;
+        }
+        // Bounce number depth+1 reflects at x: light arriving here has reflected depth+1
+        // times by the time it reaches the camera. Bounce 1 is "direct", later ones "indirect".
+        let x = &path.x;
+        let albedo = scene.albedo(x.triangle, x.b1, x.b2);
+        if albedo == Vec3::ZERO {
+            return None;
+        }
+        // Next-event estimation: pick a light by power (and a point on a triangle by area);
+        // its light counts if the shadow ray is unoccluded (`end`).
+        let (nee, shadow) = light_sample(scene, x, &mut path.dims).unzip();
+        rays.shadow += u64::from(shadow.is_some());
+        // BSDF sampling: a cosine-distributed direction.
+        let wi = Frame::from_normal(x.ns).to_world(sample_cosine_hemisphere(path.dims.next_2d()));
+        let pdf_bsdf = cosine_hemisphere_pdf(wi.dot(x.ns));
+        // A shading normal can send the direction under the geometric surface: end the path
+        // there rather than let light leak through.
+        let ray = (pdf_bsdf > 0.0 && wi.dot(x.ng) > 0.0).then(|| Ray::spawn(x.position, x.ng, wi));
+        rays.closest += u64::from(ray.is_some());
+        Some(Bounce {
+            albedo,
+            nee,
+            shadow,
+            wi,
+            pdf_bsdf,
+            ray,
+        })
+    }
+
+    /// The second half of bounce `b` of `path`, given whether its shadow ray was `occluded`
+    /// and what its BSDF ray hit: adds the light that reached the vertex, moves the path on.
+    /// Returns whether it goes on.
+    #[inline(always)]
+    fn end(
+        &self,
+        scene: &Scene,
+        path: &mut Path,
+        b: &Bounce,
+        occluded: bool,
+        hit: Option<Hit>,
+    ) -> bool {
+        let albedo = b.albedo;
+        let f = albedo * FRAC_1_PI;
+        let mut contribution = Vec3::ZERO;
+        // The light sample, weighted against BSDF sampling by the power heuristic; a punctual
+        // light has no BSDF-sampling strategy, so its weight is 1.
+        if let Some(nee) = b.nee.filter(|_| !occluded) {
+            let w = if nee.delta {
+                1.0
+            } else {
+                power_heuristic(nee.pdf, cosine_hemisphere_pdf(nee.cos_surface))
+            };
+            contribution += f * nee.le * (nee.cos_surface * w / nee.pdf);
+        }
+        // For the Lambertian BSDF, f·cos θ / pdf = ρ, so the throughput is multiplied by the
+        // albedo.
+        let mut next = None;
+        let mut escaped = Vec3::ZERO;
+        if let Some(ray) = &b.ray {
+            match hit {
+                // The ray leaves the scene: the background, found by BSDF sampling alone (no
+                // light sample picks it), so with weight 1.
+                None => escaped = albedo * scene.background(),
+                Some(hit) => {
+                    let surface = scene.geometry().surface(ray, &hit);
                     // Emission found by the BSDF sample, weighted against NEE.
-                    let le = scene.emitted_at(&surface, -wi);
+                    let le = scene.emitted_at(&surface, -b.wi);
                     if le != Vec3::ZERO {
-                        let dist2 = (surface.position - x.position).length_squared();
-                        let cos_light = surface.geometric_normal.dot(wi).abs();
+                        let dist2 = (surface.position - path.x.position).length_squared();
+                        let cos_light = surface.geometric_normal.dot(b.wi).abs();
                         let pdf_light =
                             scene.lights().pdf_area(surface.triangle) * dist2 / cos_light;
                         let w = if pdf_light.is_finite() {
-                            power_heuristic(pdf_bsdf, pdf_light)
+                            power_heuristic(b.pdf_bsdf, pdf_light)
                         } else {
                             0.0
                         };
@@ -377,33 +492,67 @@ impl PathTracer {
                     next = Some(surface);
                 }
             }
-
-            // Add what reached this vertex, through the throughput, to the right part: the
-            // emitters' light reflected here for the first time is `direct` at the first
-            // vertex; the background's light is `indirect` at every vertex (module docs).
-            if depth == 0 {
-                out.direct += beta * contribution;
-            } else {
-                out.indirect += beta * contribution;
-            }
-            out.indirect += beta * escaped;
-
-            let Some(surface) = next else { break };
-            beta *= albedo;
-            x = ShadingPoint::new(&surface, -wi);
-
-            // Russian roulette: past rr_start bounces, continue with probability q = min(1,
-            // max β) and divide the survivors by q, so the expectation is unchanged.
-            if depth + 1 >= self.settings.rr_start {
-                let q = beta.max_element().min(1.0);
-                if dims.next_1d() >= q {
-                    break;
-                }
-                beta /= q;
-            }
         }
-        out
+        // Add what reached this vertex, through the throughput, to the right part: the
+        // emitters' light reflected here for the first time is `direct` at the first vertex;
+        // the background's light is `indirect` at every vertex (module docs).
+        let beta = path.beta;
+        if path.depth == 0 {
+            path.out.direct += beta * contribution;
+        } else {
+            path.out.indirect += beta * contribution;
+        }
+        path.out.indirect += beta * escaped;
+
+        let Some(surface) = next else { return false };
+        path.beta *= albedo;
+        path.x = ShadingPoint::new(&surface, -b.wi);
+        path.depth += 1;
+        // Russian roulette: past rr_start bounces, continue with probability q = min(1, max β)
+        // and divide the survivors by q, so the expectation is unchanged.
+        if path.depth >= self.settings.rr_start {
+            let q = path.beta.max_element().min(1.0);
+            if path.dims.next_1d() >= q {
+                return false;
+            }
+            path.beta /= q;
+        }
+        true
     }
+}
+
+/// A path between bounces ([`PathTracer::reflected`]): its vertex, its throughput β from the
+/// camera to the vertex, its random dimensions, what it has gathered, and the bounces made.
+struct Path {
+    x: ShadingPoint,
+    beta: Vec3,
+    dims: Dimensions,
+    out: Radiance,
+    depth: u32,
+}
+
+impl Path {
+    fn new(surface: &SurfacePoint, wo: Vec3, dims: Dimensions) -> Path {
+        Path {
+            x: ShadingPoint::new(surface, wo),
+            beta: Vec3::ONE,
+            dims,
+            out: Radiance::default(),
+            depth: 0,
+        }
+    }
+}
+
+/// The rays of one bounce ([`PathTracer::begin`]) and what `end` needs of it: the vertex's
+/// albedo, the light sample and its shadow ray, and the BSDF sample and its ray (none when
+/// the direction is below the surface).
+struct Bounce {
+    albedo: Vec3,
+    nee: Option<LightArrival>,
+    shadow: Option<Ray>,
+    wi: Vec3,
+    pdf_bsdf: f32,
+    ray: Option<Ray>,
 }
 
 impl Integrator for PathTracer {
@@ -423,5 +572,48 @@ impl Integrator for PathTracer {
         rays: &mut RayCounter,
     ) -> Radiance {
         PathTracer::li_split(self, scene, ray, dims, rays)
+    }
+
+    /// Where the geometry streams (`Geometry::streams`: a large scene), the camera rays' first
+    /// surfaces one at a time (neighbouring camera rays cross the same nodes), then the paths
+    /// from them together ([`PathTracer::reflected_many`]); elsewhere `li` for each ray.
+    fn li_many(
+        &self,
+        scene: &Scene,
+        camera_rays: &[Ray],
+        dims: &mut [Dimensions],
+        out: &mut [Vec3],
+        rays: &mut RayCounter,
+    ) {
+        assert!(
+            camera_rays.len() == dims.len() && dims.len() == out.len(),
+            "one dimension stream and one answer per ray"
+        );
+        if !scene.geometry().streams() {
+            for ((ray, d), o) in camera_rays.iter().zip(dims).zip(out) {
+                *o = self.li(scene, ray, d, rays);
+            }
+            return;
+        }
+        // (index, emission seen) of the rays that hit a surface, and where their paths start.
+        let mut hit = Vec::with_capacity(camera_rays.len());
+        let mut starts = Vec::with_capacity(camera_rays.len());
+        for (i, ray) in camera_rays.iter().enumerate() {
+            match first_surface(scene, ray, rays) {
+                Ok((surface, wo, emitted)) => {
+                    hit.push((i, emitted));
+                    starts.push((surface, wo));
+                }
+                Err(background) => out[i] = background.total(),
+            }
+        }
+        let mut path_dims: Vec<Dimensions> = hit.iter().map(|&(i, _)| dims[i]).collect();
+        let mut reflected = vec![Radiance::default(); starts.len()];
+        self.reflected_many(scene, &starts, &mut path_dims, &mut reflected, rays);
+        for ((&(i, emitted), d), r) in hit.iter().zip(path_dims).zip(reflected) {
+            dims[i] = d;
+            // As `li_split` assembles it.
+            out[i] = Radiance { emitted, ..r }.total();
+        }
     }
 }

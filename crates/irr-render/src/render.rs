@@ -15,7 +15,9 @@
 //! pixel's samples are stratified in every pair of dimensions (light choice and point, the BSDF
 //! direction, …) and direct light converges faster than with independent numbers. Each pixel's samples are
 //! summed in index order by one thread, in f64, so the image is the same bit for bit whatever
-//! the number of threads or the order in which tiles finish. The AOVs ([`render_with_aovs`])
+//! the number of threads or the order in which tiles finish. (A tile hands the integrator its
+//! pixels' samples of one index together, `Integrator::li_many`, whose answers are `li`'s bit
+//! for bit.) The AOVs ([`render_with_aovs`])
 //! are summed the same way, sample by sample beside the colour.
 
 use crate::aov::{Aov, AovImages, normalise_aovs};
@@ -342,30 +344,50 @@ impl Sum3 {
     }
 }
 
-/// A pixel's value: the mean of its samples, summed in index order in f64. Returns the value
-/// and the number of non-finite samples (counted as black).
-fn pixel(
+/// The values of `tile`'s pixels, row by row: each the mean of its samples, summed in index
+/// order in f64. The samples go to the integrator a sample index at a time, the tile's
+/// samples of that index in one `Integrator::li_many` call (the path tracer traces their paths
+/// together, a bounce at a time, which lets a large scene's rays overlap their waits for
+/// memory); each sample's value is `li`'s, bit for bit. Returns the values and the number of
+/// non-finite samples (counted as black).
+fn tile_pixels(
     scene: &Scene,
     camera: &Camera,
     integrator: &dyn Integrator,
     settings: &RenderSettings,
-    (x, y): (u32, u32),
+    tile: &Tile,
     rays: &mut RayCounter,
-) -> (Vec3, u64) {
-    let mut sum = Sum3::default();
+) -> (Vec<Vec3>, u64) {
+    let pixels: Vec<(u32, u32)> = (tile.y0..tile.y1)
+        .flat_map(|y| (tile.x0..tile.x1).map(move |x| (x, y)))
+        .collect();
+    let mut sums = vec![Sum3::default(); pixels.len()];
     let mut bad = 0;
+    let (mut camera_rays, mut dims) = (Vec::new(), Vec::new());
+    let mut out = vec![Vec3::ZERO; pixels.len()];
     for i in 0..settings.spp {
-        let l = sample(scene, camera, integrator, settings, (x, y, i), rays);
-        if l.is_finite() {
-            sum.add(l);
-        } else {
-            bad += 1;
+        camera_rays.clear();
+        dims.clear();
+        for &(x, y) in &pixels {
+            let key = SampleKey::pixel(settings.seed, x, y, u64::from(i));
+            camera_rays.push(camera_ray(camera, settings, (x, y, i)).0);
+            // Dimensions 1 and up: the integrator's.
+            dims.push(Dimensions::starting_at(key, 1));
+        }
+        integrator.li_many(scene, &camera_rays, &mut dims, &mut out, rays);
+        for (sum, &l) in sums.iter_mut().zip(&out) {
+            if l.is_finite() {
+                sum.add(l);
+            } else {
+                bad += 1;
+            }
         }
     }
-    (sum.mean(f64::from(settings.spp)), bad)
+    let n = f64::from(settings.spp);
+    (sums.iter().map(|s| s.mean(n)).collect(), bad)
 }
 
-/// [`pixel`] with AOVs: the colour (the same bits as `pixel` gives) and one value per entry of
+/// A pixel's value with AOVs: the colour (the same bits as [`tile_pixels`] gives) and one value per entry of
 /// `aovs`, pushed onto `out` in that order (see the module docs of `aov` for what each is).
 #[expect(
     clippy::too_many_arguments,
@@ -516,14 +538,17 @@ pub fn render_with_aovs(
                 let mut rays = RayCounter::default();
                 let mut bad = 0;
                 let count = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
-                let mut values = Vec::with_capacity(count);
                 let mut extra = Vec::with_capacity(count * aovs.len());
-                for y in tile.y0..tile.y1 {
-                    for x in tile.x0..tile.x1 {
-                        let (v, b) = if aovs.is_empty() {
-                            pixel(scene, camera, integrator, settings, (x, y), &mut rays)
-                        } else {
-                            pixel_with_aovs(
+                let values = if aovs.is_empty() {
+                    let (values, b) =
+                        tile_pixels(scene, camera, integrator, settings, tile, &mut rays);
+                    bad += b;
+                    values
+                } else {
+                    let mut values = Vec::with_capacity(count);
+                    for y in tile.y0..tile.y1 {
+                        for x in tile.x0..tile.x1 {
+                            let (v, b) = pixel_with_aovs(
                                 scene,
                                 camera,
                                 integrator,
@@ -532,12 +557,13 @@ pub fn render_with_aovs(
                                 (x, y),
                                 &mut rays,
                                 &mut extra,
-                            )
-                        };
-                        values.push(v);
-                        bad += b;
+                            );
+                            values.push(v);
+                            bad += b;
+                        }
                     }
-                }
+                    values
+                };
                 bar.inc(1);
                 (values, extra, rays, bad)
             })
