@@ -683,7 +683,8 @@ impl<V: IcValue> Core<V> {
         rays.closest += batch.len() as u64;
         // A gather's rays share their origin and neighbouring cells' rays cross the same nodes:
         // one at a time in cell order (`intersect_many`) rather than as a stream, which gained
-        // little on such rays (`Geometry::intersect_stream`'s docs).
+        // nothing here (cache construction, one core, 10⁶-triangle scenes of
+        // `docs/make-huge-scene.py`: closed room 1.01×, open heightfield 0.92×).
         let mut hits = vec![None; batch.len()];
         scene.geometry().intersect_many(&batch, &mut hits);
         let above = directions.iter().filter(|d| d.2);
