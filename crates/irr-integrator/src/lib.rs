@@ -9,13 +9,15 @@
 //!   point's albedo and emission through [`Scene::albedo`] and [`Scene::emitted`].
 //! - [`Texture`]: linear RGB images with glTF's wrap modes and nearest or bilinear filtering.
 //! - The [`Integrator`] interface (pbrt-v4's `RayIntegrator::Li`): radiance along one ray, with
-//!   random numbers from an `irr_sampling::rng::Dimensions` cursor, whole (`li`) or split by
-//!   bounce count (`li_split`); and [`first_hit`], what a camera ray meets first (albedo,
-//!   shading normal, distance) for a renderer's auxiliary images.
+//!   random numbers from an `irr_sampling::rng::Dimensions` cursor, whole (`li`), split by
+//!   bounce count (`li_split`), or for a batch of camera rays (`li_many`, each answer `li`'s);
+//!   and [`first_hit`], what a camera ray meets first (albedo, shading normal, distance) for a
+//!   renderer's auxiliary images.
 //! - [`PathTracer`]: the unbiased reference (NEE + BSDF sampling with MIS, Russian roulette). Its
 //!   estimate splits into emitted, direct and indirect parts ([`Radiance`]); the module `path`
 //!   documents exactly which light paths each carries, so the irradiance cache can replace the
-//!   indirect part without counting anything twice.
+//!   indirect part without counting anything twice. On a large scene it traces a batch's paths
+//!   a bounce at a time as streams of rays (`PathTracer::reflected_many`).
 //! - [`AmbientOcclusion`].
 //! - The irradiance cache ([`ic`]): [`IrradianceCacheIntegrator`] (emission + NEE + the cached
 //!   indirect part, split like the path tracer's), [`CachedAmbientOcclusion`], their
@@ -23,8 +25,8 @@
 //!   construction through (probe, select, complete, commit).
 //!
 //! # What it must not know
-//! Images, tiles, threads, progress, file formats: those are irr-render's. Integrators see one ray
-//! at a time.
+//! Images, tiles, threads, progress, file formats: those are irr-render's. Integrators see camera
+//! rays one at a time, or as a batch whose answers are each ray's alone.
 //!
 //! # Example
 //! ```

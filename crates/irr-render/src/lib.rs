@@ -11,10 +11,12 @@
 //! - [`Camera`]: glTF's pinhole camera (looks down local −Z, `yfov` vertical, aspect ratio from
 //!   the image), or a default one framing the scene; its OpenEXR header matrices.
 //! - [`render`] and [`RenderSettings`]: the film (box filter, row 0 at the top), tiles on a
-//!   rayon pool, the progress bar and the summary ([`RenderStats`]); [`render_with_aovs`] adds
-//!   auxiliary images ([`Aov`]: albedo, normal, depth, and the colour's emitted, direct and
-//!   indirect parts); [`pixel_samples`] replays one pixel; [`RenderSettings::image_size`]
-//!   derives a missing width or height from the camera's aspect ratio.
+//!   rayon pool (each tile hands the integrator its pixels' samples of one index as one batch,
+//!   `Integrator::li_many`), the progress bar and the summary ([`RenderStats`]);
+//!   [`render_with_aovs`] adds auxiliary images ([`Aov`]: albedo, normal, depth, and the
+//!   colour's emitted, direct and indirect parts); [`pixel_samples`] replays one pixel;
+//!   [`RenderSettings::image_size`] derives a missing width or height from the camera's aspect
+//!   ratio.
 //! - [`build_cache`]: the deterministic parallel passes that build an irradiance cache through an
 //!   integrator's [`CacheBuilder`] (the pixel order and the threads are irr-render's; the
 //!   records and their commit are the integrator's).
