@@ -689,11 +689,13 @@ proptest! {
     /// Every SIMD path returns the scalar oracle's hit (`intersect_brute_force`: the scalar
     /// watertight test on every triangle), at every scale and translation of the robustness
     /// tests: the wide layouts' traversals (four-triangle packets, 4-wide box tests, compiled
-    /// for the instruction set detected at run time), and `intersect_many`, which must equal
-    /// `intersect` exactly. Rays come as gathers: from a random point of a random triangle, 64
-    /// directions of one side's hemisphere (a quarter of them grazing) sharing their spawned
-    /// origin plus one ray that can hit nothing, four such gathers and 64 random rays from one
-    /// random point per scene, all in one `intersect_many` call.
+    /// for the instruction set detected at run time), and `intersect_many`, `intersect_stream`
+    /// and `occluded_stream`, which must equal `intersect` and `occluded` exactly (these scenes
+    /// are too small to stream; `streams_answer_as_single_rays` in irr-geometry forces it).
+    /// Rays come as gathers: from a random point of a random triangle, 64 directions of one
+    /// side's hemisphere (a quarter of them grazing) sharing their spawned origin plus one ray
+    /// that can hit nothing, four such gathers and 64 random rays from one random point per
+    /// scene, all in one call of each batched query.
     #[test]
     fn simd_paths_match_the_scalar_oracle(
         seed: u64,
@@ -737,14 +739,20 @@ proptest! {
                 rays.extend((0..64).map(|_| Ray::new(o, rng.unit_vector())));
                 let mut many = vec![None; rays.len()];
                 g.intersect_many(&rays, &mut many);
-                for (ray, &m) in rays.iter().zip(&many) {
+                let mut streamed = vec![None; rays.len()];
+                g.intersect_stream(&rays, &mut streamed);
+                let mut occluded = vec![false; rays.len()];
+                g.occluded_stream(&rays, &mut occluded);
+                for (((ray, &m), &s), &o) in rays.iter().zip(&many).zip(&streamed).zip(&occluded) {
                     let oracle = g.intersect_brute_force(ray);
                     let context = format!("{layout:?}, scale {scale}, translation {shift}");
                     let one = g.intersect(ray);
                     matches_oracle(&g, ray, one, oracle)
                         .map_err(|e| TestCaseError::fail(format!("{context}, intersect: {e}")))?;
                     prop_assert_eq!(m, one, "{}, intersect_many: {:?}", context, ray);
+                    prop_assert_eq!(s, one, "{}, intersect_stream: {:?}", context, ray);
                     prop_assert_eq!(g.occluded(ray), oracle.is_some(), "{}: {:?}", context, ray);
+                    prop_assert_eq!(o, oracle.is_some(), "{}, occluded_stream: {:?}", context, ray);
                 }
             }
         }
