@@ -1685,7 +1685,9 @@ mod tests {
                     traced.occluded_stream(&rays, &mut occluded);
                     for ((ray, m), o) in rays.iter().zip(many).zip(occluded) {
                         let one = g.intersect(ray);
-                        proptest::prop_assert_eq!(m, one, "{:?} intersect_stream {:?}", layout, ray);
+                        proptest::prop_assert_eq!(
+                            m, one, "{:?} intersect_stream {:?}", layout, ray
+                        );
                         proptest::prop_assert_eq!(traced.intersect(ray), one);
                         proptest::prop_assert_eq!(o, g.occluded(ray), "{:?} {:?}", layout, ray);
                         proptest::prop_assert_eq!(traced.occluded(ray), o);

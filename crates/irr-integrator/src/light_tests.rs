@@ -776,12 +776,17 @@ proptest::proptest! {
                 let u = k.uniform_2d(i);
                 let target = Vec3::new(2.0 * u.x - 1.0, 0.0, 2.0 * u.y - 1.0);
                 // Every fifth ray looks up and away, into the background.
-                let from = if i % 5 == 4 { Vec3::new(0.0, 0.5, 0.5) } else { Vec3::new(0.2, 1.5, 2.0) };
+                let from = if i % 5 == 4 {
+                    Vec3::new(0.0, 0.5, 0.5)
+                } else {
+                    Vec3::new(0.2, 1.5, 2.0)
+                };
                 let to = if i % 5 == 4 { Vec3::new(0.0, 3.0, 3.0) } else { target };
                 ray_to(from, to)
             })
             .collect();
         let fresh = |i: usize| Dimensions::starting_at(SampleKey::new(seed, 1 + i as u64, 7), 1);
-        check_batched_paths(&pt, &s, &rays, fresh).map_err(proptest::test_runner::TestCaseError::fail)?;
+        check_batched_paths(&pt, &s, &rays, fresh)
+            .map_err(proptest::test_runner::TestCaseError::fail)?;
     }
 }

@@ -387,8 +387,9 @@ fn tile_pixels(
     (sums.iter().map(|s| s.mean(n)).collect(), bad)
 }
 
-/// A pixel's value with AOVs: the colour (the same bits as [`tile_pixels`] gives) and one value per entry of
-/// `aovs`, pushed onto `out` in that order (see the module docs of `aov` for what each is).
+/// A pixel's value with AOVs: the colour (the same bits as [`tile_pixels`] gives) and one value
+/// per entry of `aovs`, pushed onto `out` in that order (see the module docs of `aov` for what
+/// each is).
 #[expect(
     clippy::too_many_arguments,
     reason = "the render's context (scene, camera, integrator, settings) plus this pixel's outputs"
