@@ -854,33 +854,26 @@ fn occluded_in_render_order<const LAYOUT: usize>(bencher: Bencher, name: &str) {
     time(bencher, &s.geometry, &s.shadow_in_order, true, 1);
 }
 
+/// Times the random-order rays of `name` (shadow rays for `occlusion`) in batches of [`BATCH`],
+/// with `intersect_stream` or `occluded_stream`, one thread.
+fn stream(bencher: Bencher, name: &str, layout: BvhLayout, occlusion: bool) {
+    let s = get(name, layout);
+    let rays = if occlusion { &s.shadow } else { &s.closest };
+    bencher.counter(ItemsCount::new(rays.len())).bench(|| {
+        let rays = divan::black_box(rays);
+        trace_batches(&s.geometry, rays, occlusion, BATCH, Batch::Stream)
+    });
+}
+
 /// The second bounce's closest-hit rays (random order, as `closest_1_thread`) in batches, with
 /// `intersect_stream`, one thread.
 #[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
 fn closest_stream<const LAYOUT: usize>(bencher: Bencher, name: &str) {
-    let s = get(name, LAYOUTS[LAYOUT]);
-    bencher.counter(ItemsCount::new(s.closest.len())).bench(|| {
-        trace_batches(
-            &s.geometry,
-            divan::black_box(&s.closest),
-            false,
-            BATCH,
-            Batch::Stream,
-        )
-    });
+    stream(bencher, name, LAYOUTS[LAYOUT], false);
 }
 
 /// The shadow rays in batches, with `occluded_stream`, one thread.
 #[divan::bench(args = SCENES, consts = [0, 1, 2], sample_count = 20)]
 fn occluded_stream<const LAYOUT: usize>(bencher: Bencher, name: &str) {
-    let s = get(name, LAYOUTS[LAYOUT]);
-    bencher.counter(ItemsCount::new(s.shadow.len())).bench(|| {
-        trace_batches(
-            &s.geometry,
-            divan::black_box(&s.shadow),
-            true,
-            BATCH,
-            Batch::Stream,
-        )
-    });
+    stream(bencher, name, LAYOUTS[LAYOUT], true);
 }

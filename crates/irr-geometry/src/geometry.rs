@@ -7,10 +7,10 @@ use glam::{UVec2, Vec3};
 use obvhs::bvh2::node::Bvh2Node;
 
 use crate::build;
-use crate::intersect::{PreparedRay, Tri4, TriHit, TriSoa, box_entry, intersect_triangle};
+use crate::intersect::{PreparedRay, TriHit, TriSoa, box_entry, intersect_triangle};
 #[cfg(target_arch = "x86_64")]
 use crate::wide::Lanes8;
-use crate::wide::{Entry, Lanes4, NodeTest, Walk, WideBvh, WideNode};
+use crate::wide::{Entry, Lanes4, NodeTest, Query, Walk, WideBvh};
 use crate::{BuildReport, GeometryError, Ray, Triangle, TriangleMesh};
 
 /// A closest hit: the distance along the ray, the triangle, and the barycentrics of its
@@ -1058,9 +1058,7 @@ impl<A: Answer> Job for Many<'_, A> {
 
 /// What a query answers for one ray, and how a wide traversal finds it: the closest hit
 /// (`Option<Hit>`) or whether anything is hit (`bool`).
-trait Answer: Copy {
-    /// Whether the query stops at the first hit ([`WideBvh::step`]'s `ANY`).
-    const ANY: bool;
+trait Answer: Query + Copy {
     /// The answer for a ray that hits nothing (or cannot hit anything).
     const MISS: Self;
     /// The answer from a finished traversal's `walk.best`.
@@ -1075,15 +1073,18 @@ trait Answer: Copy {
     ) -> Self {
         let (nodes, packets) = w.arrays();
         let mut walk = Walk::new(r);
-        while !step::<G, N, Self>(nodes, packets, r, stack, &mut walk, test) {}
+        while !WideBvh::step::<Self, N>(nodes, packets, r, stack, &mut walk, test) {}
         Self::from_best(w, walk.best)
     }
     /// One ray's answer on the BVH2 layout.
     fn bvh2(g: &Geometry, ray: &Ray) -> Self;
 }
 
-impl Answer for Option<Hit> {
+impl Query for Option<Hit> {
     const ANY: bool = false;
+}
+
+impl Answer for Option<Hit> {
     const MISS: Self = None;
 
     #[inline(always)]
@@ -1101,8 +1102,11 @@ impl Answer for Option<Hit> {
     }
 }
 
-impl Answer for bool {
+impl Query for bool {
     const ANY: bool = true;
+}
+
+impl Answer for bool {
     const MISS: Self = false;
 
     #[inline(always)]
@@ -1112,23 +1116,6 @@ impl Answer for bool {
 
     fn bvh2(g: &Geometry, ray: &Ray) -> Self {
         g.occluded(ray)
-    }
-}
-
-/// [`WideBvh::step`] for answer `A`.
-#[inline(always)]
-fn step<const G: usize, N: NodeTest<G>, A: Answer>(
-    nodes: &[WideNode<G>],
-    packets: &[Tri4],
-    r: &PreparedRay,
-    stack: &mut [Entry],
-    walk: &mut Walk,
-    test: N,
-) -> bool {
-    if A::ANY {
-        WideBvh::step::<true, N>(nodes, packets, r, stack, walk, test)
-    } else {
-        WideBvh::step::<false, N>(nodes, packets, r, stack, walk, test)
     }
 }
 
@@ -1181,7 +1168,7 @@ fn wide_stream<const G: usize, N: NodeTest<G>, const K: usize, A: Answer>(
     while active > 0 {
         for (lane, stack) in lanes.iter_mut().zip(stacks.chunks_exact_mut(len)) {
             let Some((i, r, walk)) = lane else { continue };
-            if step::<G, N, A>(nodes, packets, r, stack, walk, test) {
+            if WideBvh::step::<A, N>(nodes, packets, r, stack, walk, test) {
                 out[*i] = A::from_best(w, walk.best);
                 *lane = refill(g, rays, out, &mut next);
                 active -= usize::from(lane.is_none());

@@ -240,6 +240,12 @@ fn set_children<const G: usize>(node: &mut WideNode<G>, children: &[(u32, Aabb)]
 /// A traversal stack entry: a child reference and the ray's entry distance into its box.
 pub(crate) type Entry = (u32, f32);
 
+/// What a traversal ([`WideBvh::step`]) looks for: the closest hit, or with `ANY` any hit (it
+/// stops at the first).
+pub(crate) trait Query {
+    const ANY: bool;
+}
+
 /// Where one ray's traversal is ([`WideBvh::step`]): the node or leaf to visit next, the
 /// height of its stack, the distance within which hits count, and the closest hit so far (or
 /// the first, for any hit).
@@ -428,10 +434,10 @@ impl<const G: usize> WideBvh<G> {
     }
 
     /// One step of a traversal from the root (`walk` from [`Walk::new`]; run until it returns
-    /// `true`), for the closest hit or, with `ANY`, for any hit: visits `walk.current` (a
+    /// `true`), for the closest hit or, with `Q::ANY`, for any hit: visits `walk.current` (a
     /// node, or a leaf's packet) and picks the next, from the stack unless a shortcut chose it.
     /// Returns whether the traversal is over, with the answer in `walk.best` as (packet, lane,
-    /// hit): the stack ran out, or (`ANY`) a packet was hit, which `walk.best` then holds with
+    /// hit): the stack ran out, or (`Q::ANY`) a packet was hit, which `walk.best` then holds with
     /// lane 0 and no meaningful hit. `geometry.rs` runs one ray's steps in a loop, or
     /// interleaves several rays' steps (its streams).
     ///
@@ -448,7 +454,7 @@ impl<const G: usize> WideBvh<G> {
     ///
     /// Any hit: children in any order, stopping at the first hit.
     #[inline(always)]
-    pub(crate) fn step<const ANY: bool, N: NodeTest<G>>(
+    pub(crate) fn step<Q: Query, N: NodeTest<G>>(
         nodes: &[WideNode<G>],
         packets: &[Tri4],
         r: &PreparedRay,
@@ -465,7 +471,7 @@ impl<const G: usize> WideBvh<G> {
         if *current & LEAF != 0 {
             let p = *current & PACKET_MASK;
             let hits = intersect_tri4(&packets[p as usize], r, *t_best, !N::LARGE);
-            if ANY {
+            if Q::ANY {
                 if hits.mask != 0 {
                     *best = Some((p, 0, TriHit::default()));
                     return true;
@@ -486,13 +492,13 @@ impl<const G: usize> WideBvh<G> {
             let first = *sp;
             let (t_near, mut hit) = test.hits(node, r, *t_best);
             // (A small tree's traversal does not prefetch, so neither shortcut does.)
-            if !ANY && !N::LARGE && hit.is_power_of_two() {
+            if !Q::ANY && !N::LARGE && hit.is_power_of_two() {
                 // One child hit: visit it next, without the stack.
                 let l = hit.trailing_zeros() as usize;
                 *current = node.children[l / 4][l % 4];
                 return false;
             }
-            if !ANY && !N::LARGE && hit.count_ones() == 2 {
+            if !Q::ANY && !N::LARGE && hit.count_ones() == 2 {
                 // Two: push the farther, visit the nearer (of equal distances the second,
                 // as the insertion below orders them).
                 let (a, b) = (
@@ -512,7 +518,7 @@ impl<const G: usize> WideBvh<G> {
                 hit &= hit - 1;
                 let child = node.children[l / 4][l % 4];
                 Self::prefetch_child(test, nodes, packets, child);
-                if ANY {
+                if Q::ANY {
                     // Any order: no distance, no sort.
                     stack[*sp].0 = child;
                 } else {
@@ -535,7 +541,7 @@ impl<const G: usize> WideBvh<G> {
             *sp -= 1;
             let (c, t) = stack[*sp];
             // (Any hit has no order, and no entry beyond `t_max`: its node test saw to that.)
-            if ANY || t <= *t_best {
+            if Q::ANY || t <= *t_best {
                 *current = c;
                 return false;
             }

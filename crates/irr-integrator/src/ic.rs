@@ -1119,15 +1119,10 @@ impl IrradianceCacheIntegrator {
                 .collect();
         }
         // The same dimensions `gather_radiance` gives each continuation.
-        let starts: Vec<(SurfacePoint, Vec3)> = traced
+        let (starts, mut dims): (Vec<(SurfacePoint, Vec3)>, Vec<Dimensions>) = traced
             .iter()
-            .filter_map(|(hit, w, _)| hit.map(|s| (s, -*w)))
-            .collect();
-        let mut dims: Vec<Dimensions> = traced
-            .iter()
-            .filter(|(hit, _, _)| hit.is_some())
-            .map(|(_, _, k)| Dimensions::starting_at(*k, 1))
-            .collect();
+            .filter_map(|(hit, w, k)| hit.map(|s| ((s, -*w), Dimensions::starting_at(*k, 1))))
+            .unzip();
         let mut reflected = vec![Radiance::default(); starts.len()];
         self.path
             .reflected_many(scene, &starts, &mut dims, &mut reflected, rays);

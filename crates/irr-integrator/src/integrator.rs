@@ -85,13 +85,28 @@ pub trait Integrator: Sync {
         out: &mut [Vec3],
         rays: &mut RayCounter,
     ) {
-        assert!(
-            camera_rays.len() == dims.len() && dims.len() == out.len(),
-            "one dimension stream and one answer per ray"
-        );
-        for ((ray, d), o) in camera_rays.iter().zip(dims).zip(out) {
-            *o = self.li(scene, ray, d, rays);
-        }
+        li_each(self, scene, camera_rays, dims, out, rays);
+    }
+}
+
+/// [`Integrator::li`] of `integrator` for each ray in turn, as `li_many`'s default does.
+///
+/// # Panics
+/// If the three slices differ in length.
+pub(crate) fn li_each<I: Integrator + ?Sized>(
+    integrator: &I,
+    scene: &Scene,
+    camera_rays: &[Ray],
+    dims: &mut [Dimensions],
+    out: &mut [Vec3],
+    rays: &mut RayCounter,
+) {
+    assert!(
+        camera_rays.len() == dims.len() && dims.len() == out.len(),
+        "one dimension stream and one answer per ray"
+    );
+    for ((ray, d), o) in camera_rays.iter().zip(dims).zip(out) {
+        *o = integrator.li(scene, ray, d, rays);
     }
 }
 

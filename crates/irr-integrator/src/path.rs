@@ -31,7 +31,7 @@
 //! background when they hit nothing. An integrator that takes `emitted` and `direct` from here
 //! and replaces `indirect` by a cache lookup counts every path once.
 
-use crate::integrator::{Integrator, RayCounter};
+use crate::integrator::{Integrator, RayCounter, li_each};
 use crate::light::LightSample;
 use crate::scene::Scene;
 use glam::Vec3;
@@ -585,16 +585,13 @@ impl Integrator for PathTracer {
         out: &mut [Vec3],
         rays: &mut RayCounter,
     ) {
+        if !scene.geometry().streams() {
+            return li_each(self, scene, camera_rays, dims, out, rays);
+        }
         assert!(
             camera_rays.len() == dims.len() && dims.len() == out.len(),
             "one dimension stream and one answer per ray"
         );
-        if !scene.geometry().streams() {
-            for ((ray, d), o) in camera_rays.iter().zip(dims).zip(out) {
-                *o = self.li(scene, ray, d, rays);
-            }
-            return;
-        }
         // (index, emission seen) of the rays that hit a surface, and where their paths start.
         let mut hit = Vec::with_capacity(camera_rays.len());
         let mut starts = Vec::with_capacity(camera_rays.len());
