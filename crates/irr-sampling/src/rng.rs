@@ -48,7 +48,9 @@ pub fn bits_to_unit_f32(bits: u32) -> f32 {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct SampleKey {
     hashed: u64,
-    /// For a pixel's key: the hash of (seed, pixel) that seeds its sequence, and the sample index.
+    /// For a pixel's key: the hash of (seed, pixel) that seeds its sequence, and the sample index
+    /// with its bits reversed (as the sequence's shuffle reads it: reversed once here rather
+    /// than at every draw).
     sequence: Option<(u64, u32)>,
 }
 
@@ -76,7 +78,10 @@ impl SampleKey {
     pub fn pixel(seed: u64, x: u32, y: u32, index: u64) -> Self {
         let stream = (u64::from(y) << 32) | u64::from(x);
         Self {
-            sequence: Some((hash_keys(&[seed, stream, SEQUENCE_TAG]), index as u32)),
+            sequence: Some((
+                hash_keys(&[seed, stream, SEQUENCE_TAG]),
+                (index as u32).reverse_bits(),
+            )),
             ..Self::new(seed, stream, index)
         }
     }
@@ -101,8 +106,8 @@ impl SampleKey {
     #[inline]
     pub fn uniform(self, dimension: u32) -> f32 {
         match self.sequence {
-            Some((seed, index)) if dimension > 0 => {
-                crate::sobol::sobol_1d(index, mix64(seed ^ u64::from(dimension)))
+            Some((seed, reversed_index)) if dimension > 0 => {
+                crate::sobol::sobol_1d_reversed(reversed_index, mix64(seed ^ u64::from(dimension)))
             }
             _ => bits_to_unit_f32((self.bits(dimension) >> 32) as u32),
         }
@@ -114,8 +119,8 @@ impl SampleKey {
     #[inline]
     pub fn uniform_2d(self, dimension: u32) -> Vec2 {
         match self.sequence {
-            Some((seed, index)) if dimension > 0 => {
-                crate::sobol::sobol_2d(index, mix64(seed ^ u64::from(dimension)))
+            Some((seed, reversed_index)) if dimension > 0 => {
+                crate::sobol::sobol_2d_reversed(reversed_index, mix64(seed ^ u64::from(dimension)))
             }
             _ => {
                 let b = self.bits(dimension);
@@ -255,6 +260,18 @@ mod tests {
         fn pixel_keys_are_distinct_streams(seed: u64, x: u32, y: u32) {
             prop_assume!(x != y);
             prop_assert_ne!(SampleKey::pixel(seed, x, y, 0), SampleKey::pixel(seed, y, x, 0));
+        }
+
+        /// A pixel's dimensions from 1 on are points of its sequence: sample `index` of
+        /// `sobol_2d` / `sobol_1d` seeded by the pixel's sequence hash and the dimension (the
+        /// key keeps the index bit-reversed, which must not change a value).
+        #[test]
+        fn pixel_dimensions_are_the_sequence(seed: u64, x: u32, y: u32, index: u32, dim in 1u32..64) {
+            let key = SampleKey::pixel(seed, x, y, u64::from(index));
+            let stream = (u64::from(y) << 32) | u64::from(x);
+            let sequence_seed = mix64(hash_keys(&[seed, stream, SEQUENCE_TAG]) ^ u64::from(dim));
+            prop_assert_eq!(key.uniform_2d(dim), crate::sobol::sobol_2d(index, sequence_seed));
+            prop_assert_eq!(key.uniform(dim), crate::sobol::sobol_1d(index, sequence_seed));
         }
     }
 }
