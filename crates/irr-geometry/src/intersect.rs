@@ -110,7 +110,7 @@ impl TriSoa {
 /// An axis, as an index the compiler knows to be below 3 (a `usize` field would be bounds-checked
 /// at every use: a compare and a branch for each coordinate array a packet test reads).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[repr(usize)]
+#[repr(u8)]
 pub(crate) enum Axis {
     X,
     Y,
@@ -120,7 +120,7 @@ pub(crate) enum Axis {
 /// A plane of a box, as an index into a wide node's planes (min x, min y, min z, max x, max y,
 /// max z) that the compiler knows to be below 6 (as [`Axis`]: no bounds check per node test).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[repr(usize)]
+#[repr(u8)]
 pub(crate) enum Plane {
     MinX,
     MinY,
@@ -128,6 +128,64 @@ pub(crate) enum Plane {
     MaxX,
     MaxY,
     MaxZ,
+}
+
+/// The planes and axes a ray's tests read, chosen by the signs of its direction and its
+/// largest axis: the near and far plane of a box per axis, and the permutation of the
+/// triangle test. One 16-byte table entry ([`Slabs::TABLE`]), so that preparing a ray copies
+/// it with one load and one store (three arrays of `usize` indices took 18 instructions;
+/// callgrind per Cornell-box ray: closest 577 → 567, occlusion 345 → 335).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(C, align(16))]
+pub(crate) struct Slabs {
+    /// Per axis, the near plane of a box (the min plane where the direction is positive).
+    pub(crate) near: [Plane; 3],
+    /// Per axis, the far plane (the other one).
+    pub(crate) far: [Plane; 3],
+    /// The axes that become x, y and z in the triangle test: `[kz + 1, kz + 2, kz]` (mod 3),
+    /// `kz` the axis of the largest direction component.
+    /// The 4-wide test indexes the packet's coordinate arrays with them, so it has one body
+    /// for every ray rather than one per axis (a per-ray branch among three bodies was a
+    /// mispredicted branch per ray).
+    pub(crate) perm: [Axis; 3],
+}
+
+impl Slabs {
+    /// By the signs of the direction (bit `a` set: axis `a` negative) and `kz`.
+    const TABLE: [[Slabs; 3]; 8] = {
+        use Axis::{X, Y, Z};
+        use Plane::{MaxX, MaxY, MaxZ, MinX, MinY, MinZ};
+        const PERMUTATION: [[Axis; 3]; 3] = [[Y, Z, X], [Z, X, Y], [X, Y, Z]];
+        const NEAR: [[Plane; 3]; 8] = [
+            [MinX, MinY, MinZ],
+            [MaxX, MinY, MinZ],
+            [MinX, MaxY, MinZ],
+            [MaxX, MaxY, MinZ],
+            [MinX, MinY, MaxZ],
+            [MaxX, MinY, MaxZ],
+            [MinX, MaxY, MaxZ],
+            [MaxX, MaxY, MaxZ],
+        ];
+        let mut t = [[Slabs {
+            near: NEAR[0],
+            far: NEAR[0],
+            perm: PERMUTATION[0],
+        }; 3]; 8];
+        let mut signs = 0;
+        while signs < 8 {
+            let mut kz = 0;
+            while kz < 3 {
+                t[signs][kz] = Slabs {
+                    near: NEAR[signs],
+                    far: NEAR[7 - signs],
+                    perm: PERMUTATION[kz],
+                };
+                kz += 1;
+            }
+            signs += 1;
+        }
+        t
+    };
 }
 
 /// A ray prepared once for all its tests: origin, the clamped inverse direction for the box
@@ -149,16 +207,8 @@ pub(crate) struct PreparedRay {
     /// The inverse direction scaled by Ize's `1 + 2γ₃`, for far slab distances (one more
     /// rounding of at most u, which the factor's margin of γ₃ − u covers).
     pub(crate) inv_far: Vec3A,
-    /// Per axis, the near plane of a box (the min plane where the direction is positive).
-    pub(crate) near: [Plane; 3],
-    /// Per axis, the far plane (the other one).
-    pub(crate) far: [Plane; 3],
-    /// The axes that become x, y and z in the triangle test: `[kz + 1, kz + 2, kz]` (mod 3),
-    /// `kz` the axis of the largest direction component.
-    /// The 4-wide test indexes the packet's coordinate arrays with them, so it has one body
-    /// for every ray rather than one per axis (a per-ray branch among three bodies was a
-    /// mispredicted branch per ray).
-    pub(crate) perm: [Axis; 3],
+    /// Which planes and axes the tests read, by the direction's signs and largest axis.
+    pub(crate) slabs: Slabs,
     /// The 4-wide test's screen: a lane whose edge functions include one below `−screen` and
     /// one above `screen` certainly misses (see [`PreparedRay::set_screen`]). ∞ (no lane is
     /// screened out) until it is set.
@@ -176,7 +226,7 @@ impl PreparedRay {
     /// The axis of the largest direction component, which the triangle test maps to z.
     #[inline(always)]
     pub(crate) fn kz(&self) -> usize {
-        self.perm[2] as usize
+        self.slabs.perm[2] as usize
     }
 
     /// Whether `ray` can hit anything (see [`PreparedRay::new`]).
@@ -184,7 +234,11 @@ impl PreparedRay {
     pub(crate) fn traceable(ray: &Ray) -> bool {
         let o = Vec3A::from(ray.origin);
         let d = Vec3A::from(ray.direction);
-        o.is_finite() && d.is_finite() && !d.cmpeq(Vec3A::ZERO).all() && ray.t_max > 0.0
+        // `&` rather than `&&` on the conditions and lane masks rather than one test per
+        // vector: 3 instructions fewer per ray (callgrind, Cornell box).
+        (o.is_finite_mask() & d.is_finite_mask()).all()
+            & d.cmpne(Vec3A::ZERO).any()
+            & (ray.t_max > 0.0)
     }
 
     /// The prepared ray, for a `ray` that is [`PreparedRay::traceable`], in a scene whose vertex
@@ -194,21 +248,6 @@ impl PreparedRay {
     /// once more per ray.
     #[inline(always)]
     pub(crate) fn prepare(ray: &Ray, coordinate_bound: f32) -> PreparedRay {
-        use Axis::{X, Y, Z};
-        use Plane::{MaxX, MaxY, MaxZ, MinX, MinY, MinZ};
-        /// `perm` by `kz`.
-        const PERMUTATION: [[Axis; 3]; 3] = [[Y, Z, X], [Z, X, Y], [X, Y, Z]];
-        /// The near planes by the signs of the direction (bit `a` set: axis `a` negative).
-        const NEAR: [[Plane; 3]; 8] = [
-            [MinX, MinY, MinZ],
-            [MaxX, MinY, MinZ],
-            [MinX, MaxY, MinZ],
-            [MaxX, MaxY, MinZ],
-            [MinX, MinY, MaxZ],
-            [MaxX, MinY, MaxZ],
-            [MinX, MaxY, MaxZ],
-            [MaxX, MaxY, MaxZ],
-        ];
         let o = Vec3A::from(ray.origin);
         let d = Vec3A::from(ray.direction);
         let a = d.abs();
@@ -242,10 +281,8 @@ impl PreparedRay {
             t_max: ray.t_max,
             inv_far,
             // Looked up by the signs (`inv_dir` is never ±0 or NaN, so its sign bit is
-            // `< 0`): table loads rather than a select per axis.
-            near: NEAR[signs],
-            far: NEAR[7 - signs],
-            perm: PERMUTATION[kz],
+            // `< 0`): a table load rather than a select per axis.
+            slabs: Slabs::TABLE[signs][kz],
             screen: f32::INFINITY,
         };
         r.set_screen(coordinate_bound);
@@ -293,8 +330,8 @@ impl PreparedRay {
         let mut t_near = Vec4::ZERO;
         let mut t_far = Vec4::splat(t_best);
         for a in 0..3 {
-            let near = Vec4::from_array(planes[self.near[a] as usize][g]);
-            let far = Vec4::from_array(planes[self.far[a] as usize][g]);
+            let near = Vec4::from_array(planes[self.slabs.near[a] as usize][g]);
+            let far = Vec4::from_array(planes[self.slabs.far[a] as usize][g]);
             let o = Vec4::splat(self.origin[a]);
             t_near = t_near.max((near - o) * Vec4::splat(self.inv_dir[a]));
             t_far = t_far.min((far - o) * Vec4::splat(self.inv_far[a]));
@@ -527,6 +564,7 @@ impl Tri4Hits {
 fn sheared(tri: &Tri4, ray: &PreparedRay) -> ([[Vec4; 3]; 3], [Vec4; 3], [Vec4; 3]) {
     let o: &[f32; 3] = ray.origin.as_ref();
     let p = ray
+        .slabs
         .perm
         .map(|k| tri.v[k as usize].map(|v| Vec4::from_array(v) - Vec4::splat(o[k as usize])));
     let [px, py, pz] = p;

@@ -153,8 +153,8 @@ impl<const LARGE: bool> NodeTest<2> for Lanes8<LARGE> {
         let mut t_far = avx._mm256_set1_ps(t_best);
         for a in 0..3 {
             let o = avx._mm256_set1_ps(r.origin[a]);
-            let near = avx._mm256_sub_ps(plane(r.near[a] as usize), o);
-            let far = avx._mm256_sub_ps(plane(r.far[a] as usize), o);
+            let near = avx._mm256_sub_ps(plane(r.slabs.near[a] as usize), o);
+            let far = avx._mm256_sub_ps(plane(r.slabs.far[a] as usize), o);
             t_near = avx._mm256_max_ps(
                 t_near,
                 avx._mm256_mul_ps(near, avx._mm256_set1_ps(r.inv_dir[a])),
