@@ -128,6 +128,18 @@ pub struct SurfacePoint {
 /// 1.72–1.88× and 1.87–1.97× on 10⁶ triangles. (The 1.83× and 1.98× above came from
 /// side-by-side runs on another day.)
 ///
+/// Then a leaner ray preparation (the BVH2 oracle's traversal out of line, and the planes and
+/// permutation from one table entry: `intersect.rs`'s `Slabs`): callgrind per ray, closest /
+/// occlusion, Cornell 591 / 358 → 567 / 335, 10⁶ triangles 2654 / 1965 → 2632 / 1945. Where
+/// a Cornell-box ray's instructions go now (callgrind, per instruction, mapped to source):
+/// closest hit, 113 before the dispatch (checking and preparing the ray), 1.38 node tests
+/// (65), 1.20 packet tests (191: 0.98 that reach the distance computation, 0.22 screened
+/// out), and about 190 of traversal steps, stack and dispatch; occlusion, 113 before the
+/// dispatch, 1.27 node tests (61), 0.54 packet tests (61), about 92 of the rest. Against
+/// the filing build, one core, 12 rounds in turn (a noisy day: quartiles in brackets):
+/// Cornell closest 1.70× (1.56–1.99), occlusion 1.19× (1.04–1.39); 10⁶ triangles closest
+/// 1.83× (1.75–2.09), occlusion 2.03× (1.94–2.20).
+///
 /// Tried and not kept (December 2026), because renders got slower although the benchmark got
 /// faster:
 /// - **A 16-wide layout** (`G` = 4 in `wide.rs`: two 8-lane tests per node, 448-byte nodes,
