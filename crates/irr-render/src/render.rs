@@ -231,27 +231,33 @@ pub struct RenderOutput {
 /// with independent positions, and still a function of (seed, pixel, index, spp) alone.
 pub fn raster_position(settings: &RenderSettings, x: u32, y: u32, index: u32) -> Vec2 {
     let key = SampleKey::pixel(settings.seed, x, y, u64::from(index));
+    raster_of(settings, (x, y, index), key)
+}
+
+/// [`raster_position`] of sample `index` of pixel (x, y), whose key is `key`.
+fn raster_of(settings: &RenderSettings, (x, y, index): (u32, u32, u32), key: SampleKey) -> Vec2 {
     let pattern = SampleKey::pixel(settings.seed, x, y, u64::MAX).bits(0) as u32;
     let u = correlated_multi_jitter(index, settings.spp, pattern, key.uniform_2d(0));
     Vec2::new(x as f32, y as f32) + u
 }
 
-/// The camera ray of sample `index` of pixel (x, y), and its distance from the centre of
-/// projection to its origin.
-fn camera_ray(
+/// The camera ray of sample `index` of pixel (x, y), its distance from the centre of projection
+/// to its origin, and the sample's dimensions from 1 on, the integrator's (one key for both).
+fn camera_sample(
     camera: &Camera,
     settings: &RenderSettings,
     (x, y, index): (u32, u32, u32),
-) -> (Ray, f32) {
+) -> (Ray, f32, Dimensions) {
+    let key = SampleKey::pixel(settings.seed, x, y, u64::from(index));
     // Dimension 0: the point inside the pixel (box filter).
-    let raster = raster_position(settings, x, y, index);
+    let raster = raster_of(settings, (x, y, index), key);
     let r = camera.ray(raster, settings.width, settings.height);
     let ray = Ray {
         origin: r.origin,
         direction: r.direction,
         t_max: r.t_max,
     };
-    (ray, r.origin_distance)
+    (ray, r.origin_distance, Dimensions::starting_at(key, 1))
 }
 
 /// One sample of one pixel: the radiance along the camera ray through a uniformly chosen point
@@ -264,10 +270,7 @@ fn sample(
     (x, y, index): (u32, u32, u32),
     rays: &mut RayCounter,
 ) -> Vec3 {
-    let key = SampleKey::pixel(settings.seed, x, y, u64::from(index));
-    let (ray, _) = camera_ray(camera, settings, (x, y, index));
-    // Dimensions 1 and up: the integrator's.
-    let mut dims = Dimensions::starting_at(key, 1);
+    let (ray, _, mut dims) = camera_sample(camera, settings, (x, y, index));
     integrator.li(scene, &ray, &mut dims, rays)
 }
 
@@ -301,9 +304,7 @@ fn sample_with_aovs(
     (x, y, index): (u32, u32, u32),
     rays: &mut RayCounter,
 ) -> (Radiance, Option<FirstHit>) {
-    let key = SampleKey::pixel(settings.seed, x, y, u64::from(index));
-    let (ray, origin_distance) = camera_ray(camera, settings, (x, y, index));
-    let mut dims = Dimensions::starting_at(key, 1);
+    let (ray, origin_distance, mut dims) = camera_sample(camera, settings, (x, y, index));
     let radiance = if wants.split {
         integrator.li_split(scene, &ray, &mut dims, rays)
     } else {
@@ -369,10 +370,9 @@ fn tile_pixels(
         camera_rays.clear();
         dims.clear();
         for &(x, y) in &pixels {
-            let key = SampleKey::pixel(settings.seed, x, y, u64::from(i));
-            camera_rays.push(camera_ray(camera, settings, (x, y, i)).0);
-            // Dimensions 1 and up: the integrator's.
-            dims.push(Dimensions::starting_at(key, 1));
+            let (ray, _, d) = camera_sample(camera, settings, (x, y, i));
+            camera_rays.push(ray);
+            dims.push(d);
         }
         integrator.li_many(scene, &camera_rays, &mut dims, &mut out, rays);
         for (sum, &l) in sums.iter_mut().zip(&out) {
