@@ -172,6 +172,36 @@ pub struct SurfacePoint {
 /// not after it), the same instruction count, closest 1.010× and occlusion 0.990×. This VM
 /// exposes no hardware counters, so what does limit a Cornell-box ray was not measured.
 ///
+/// Where a ray's cycles go (December 2026). This VM's core runs at about 2.95 GHz (timed on a
+/// chain of dependent `imul`s), so a Cornell-box closest hit at 10.1–10.7 Mrays/s takes
+/// 276–292 cycles, and an occlusion ray at 18.6–18.8 Mrays/s about 158.
+/// - **Mispredictions.** The benchmark's rays in coherent order run the same instructions
+///   with fewer mispredicted branches (callgrind: closest 2.88 → 2.17 per ray, occlusion
+///   0.96 → 0.31), at 11.4 and 19.9 Mrays/s (259 and 148 cycles). So a misprediction costs
+///   about 15 cycles on an occlusion ray and 25–45 on a closest hit.
+/// - **The rest.** `llvm-mca` (LLVM 14, whose nearest model is Skylake's) on the
+///   instructions a ray runs at least every other time: closest hits 447 instructions, 206
+///   cycles a ray with rays overlapping (246 alone), bound by chains of vector operations
+///   and by vector ports 0 and 1 (95 µops each a ray); occlusion 285 instructions, 75 cycles
+///   (104 alone). The model's 206 cycles and the mispredictions account for a closest hit's
+///   276–292. Twice the filing build's rate would be about 140 cycles.
+/// - **10⁶ triangles.** Callgrind's cache model (48-KiB L1, 2-MiB L2) per closest ray: 36.1
+///   L1 misses (26 in nodes, 9 in packets) and 14.6 L2 misses (6.5 in nodes, 7.2 in packets).
+///
+/// Tried on that evidence and not kept (December 2026), one core, the builds in turn:
+/// - **Quantised child boxes** for large trees: each plane a byte, `q · 2^k + origin` per
+///   node and axis (CWBVH-like), rounded outwards at the build, 128-byte nodes (two cache
+///   lines, not four). Per 10⁶ closest ray: L1 misses 36.1 → 22.8, L2 14.6 → 10.5, but
+///   instructions 2632 → 3176 (each node test unpacks six planes of bytes). Wall
+///   clock 0.93× closest (8 rounds), 0.88× occlusion (6). The looser boxes also change the
+///   order of visits, and with it which of two triangles at exactly the same distance (on a
+///   shared edge) a ray reports: the 4-lane traversal would have needed the same nodes for
+///   the two traversals to agree bit for bit.
+/// - **Prefetching after the sort**, every pushed child but the nearest (popped next, so
+///   its prefetch looked redundant): 0.84× closest, 0.935× occlusion (8 rounds each), and
+///   4 more mispredicted branches per closest ray (the second loop's). The nearest child's
+///   prefetch pays, presumably because it is issued before the sort's and the pop's branches.
+///
 /// Two ways of tracing a gather's rays together were measured and lost to tracing them one
 /// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree
 /// together (Cornell 16×64 gathers: 943 against 669 instructions per ray; 10⁶ triangles:
