@@ -271,7 +271,11 @@ impl PreparedRay {
         // parallel to that axis to within 5e-20 rad).
         let inv_dir = (Vec3A::ONE / d).clamp(-INV_DIR_LIMIT, INV_DIR_LIMIT);
         let inv_far = inv_dir * BOX_FAR_SCALE;
-        let signs = (inv_dir.is_negative_bitmask() & 7) as usize;
+        // The signs of `d` are those of `inv_dir` (1/±0 = ±∞, clamped to ±2⁶⁴), and do not wait
+        // for the division: the table entry, and the node test's plane loads after it, no
+        // longer follow the division's latency (the same instructions; one core, 16 rounds
+        // against the signs of `inv_dir`: Cornell closest 1.058×, occlusion 1.016×).
+        let signs = (d.is_negative_bitmask() & 7) as usize;
         let mut r = PreparedRay {
             origin: o,
             dir: d,
@@ -281,7 +285,7 @@ impl PreparedRay {
             t_max: ray.t_max,
             inv_far,
             // Looked up by the signs (`inv_dir` is never ±0 or NaN, so its sign bit is
-            // `< 0`): a table load rather than a select per axis.
+            // `< 0`, and it is `d`'s): a table load rather than a select per axis.
             slabs: Slabs::TABLE[signs][kz],
             screen: f32::INFINITY,
         };
@@ -875,6 +879,30 @@ mod tests {
         let r = PreparedRay::new(&Ray::new(Vec3::new(0.5, 1.0, 0.0), Vec3::NEG_Y))
             .unwrap_or_else(|| panic!("valid ray"));
         assert_eq!(box_entry(min, max, &r, f32::INFINITY), 1.0);
+        // Zero components of either sign: −0 has the inverse −2⁶⁴, so its slab's near plane
+        // must be the max plane (the sign bit, not `< 0`, chooses it). The wide layouts' test
+        // reads the planes through the table of the direction's signs: lane 0 the box, lanes 1
+        // to 3 empty (min planes ∞, max planes −∞).
+        let (lo, hi) = (min.to_array(), max.to_array());
+        let planes: [[[f32; 4]; 1]; 6] = std::array::from_fn(|k| {
+            let empty = if k < 3 {
+                f32::INFINITY
+            } else {
+                f32::NEG_INFINITY
+            };
+            [[if k < 3 { lo[k] } else { hi[k - 3] }, empty, empty, empty]]
+        });
+        for d in [
+            Vec3::new(-0.0, -1.0, -0.0),
+            Vec3::new(0.0, -1.0, -0.0),
+            Vec3::new(-0.0, -1.0, 0.0),
+        ] {
+            let r = PreparedRay::new(&Ray::new(Vec3::new(0.5, 1.0, 0.5), d))
+                .unwrap_or_else(|| panic!("valid ray"));
+            assert_eq!(box_entry(min, max, &r, f32::INFINITY), 1.0, "{d}");
+            let (t, mask) = r.hits4(&planes, 0, f32::INFINITY);
+            assert_eq!((t.x, mask), (1.0, 1), "{d}");
+        }
         // Missing above.
         let r = PreparedRay::new(&Ray::new(Vec3::new(-1.0, 0.5, 0.5), Vec3::X))
             .unwrap_or_else(|| panic!("valid ray"));
