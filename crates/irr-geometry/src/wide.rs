@@ -452,7 +452,11 @@ impl<const G: usize> WideBvh<G> {
     /// the time (two series of 32 rounds on one core: 0.960× and 0.969×). Either way the nodes
     /// are visited in the same order.
     ///
-    /// Any hit: children in any order, stopping at the first hit.
+    /// Any hit: children in any order, stopping at the first hit. The last child pushed is
+    /// visited next straight from a register, not read back from the stack: one core, the
+    /// builds in turn, occlusion 1.013× on the Cornell box (16 rounds), 1.017× on 10⁶
+    /// triangles (12). Closest hits tracking their nearest child so (a branchless select per
+    /// push) gained nothing: 0.999× on both scenes.
     #[inline(always)]
     pub(crate) fn step<Q: Query, N: NodeTest<G>>(
         nodes: &[WideNode<G>],
@@ -513,6 +517,8 @@ impl<const G: usize> WideBvh<G> {
                 *current = near.0;
                 return false;
             }
+            // (Any hit:) the last child pushed, popped next.
+            let mut top = EMPTY;
             while hit != 0 {
                 let l = hit.trailing_zeros() as usize;
                 hit &= hit - 1;
@@ -521,6 +527,7 @@ impl<const G: usize> WideBvh<G> {
                 if Q::ANY {
                     // Any order: no distance, no sort.
                     stack[*sp].0 = child;
+                    top = child;
                 } else {
                     // Insertion sort, farthest at the bottom: the nearest is popped first.
                     let entry = (child, t_near[l / 4][l % 4]);
@@ -532,6 +539,13 @@ impl<const G: usize> WideBvh<G> {
                     stack[i] = entry;
                 }
                 *sp += 1;
+            }
+            if Q::ANY && *sp > first {
+                // The last child pushed, popped next: from a register rather than read back
+                // from the stack.
+                *sp -= 1;
+                *current = top;
+                return false;
             }
         }
         loop {
