@@ -481,8 +481,13 @@ impl<const G: usize> WideBvh<G> {
                     return true;
                 }
             } else {
-                let (lane, h) = hits.closest();
-                if lane < 4 {
+                // On the mask, which is known before the closest lane is (the same test:
+                // `closest` finds a lane exactly when one hit), and which spares a packet
+                // without a hit the lane search. One core, the builds in turn, against the
+                // branch on the lane: Cornell closest 1.056× (20 rounds; 567 → 549
+                // instructions a ray), 10⁶ triangles 0.997× (16).
+                if hits.mask != 0 {
+                    let (lane, h) = hits.closest();
                     *t_best = h.t;
                     *best = Some((p, lane, h));
                 }
