@@ -170,6 +170,8 @@ impl<const LARGE: bool> NodeTest<2> for Lanes8<LARGE> {
 
     /// Six prefetches whatever the size, without a branch: for a node (256 bytes) lines 0, 1,
     /// 2, 2, 2, 3; for a packet (192) lines 0, 1, 2, 1, 1, 2; for a pair (384) lines 0 to 5.
+    /// (Four, lines 0, 1, 2 and the last, left a pair's middle lines out: 0.943× on 10⁶
+    /// closest hits, 12 rounds.)
     #[inline(always)]
     fn prefetch(self, p: *const u8, size: usize) {
         if !LARGE {
