@@ -184,7 +184,8 @@ pub struct SurfacePoint {
 ///   cycles a ray with rays overlapping (246 alone), bound by chains of vector operations
 ///   and by vector ports 0 and 1 (95 µops each a ray); occlusion 285 instructions, 75 cycles
 ///   (104 alone). The model's 206 cycles and the mispredictions account for a closest hit's
-///   276–292. Twice the filing build's rate would be about 140 cycles.
+///   276–292. Twice the filing build's best rate (6.8 Mrays/s) is 13.6, about 217 cycles:
+///   close to the model's 206, so it would need nearly every misprediction gone.
 /// - **10⁶ triangles.** Callgrind's cache model (48-KiB L1, 2-MiB L2) per closest ray: 36.1
 ///   L1 misses (26 in nodes, 9 in packets) and 14.6 L2 misses (6.5 in nodes, 7.2 in packets).
 ///
