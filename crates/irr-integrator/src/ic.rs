@@ -1114,9 +1114,7 @@ impl IrradianceCacheIntegrator {
         traced: &[Traced],
         rays: &mut RayCounter,
     ) -> Vec<Vec3> {
-        let deepest = level + 1 >= self.core.levels.len();
-        let path_traced = self.core.settings.bounce_mode == BounceMode::PathTraced || deepest;
-        if !(path_traced && scene.geometry().streams()) {
+        if !(self.path_traced(level) && scene.geometry().streams()) {
             return traced
                 .iter()
                 .map(|(hit, w, k)| self.gather_radiance(scene, level, hit.as_ref(), *w, *k, rays))
@@ -1144,6 +1142,13 @@ impl IrradianceCacheIntegrator {
             .collect()
     }
 
+    /// Whether a gather ray of `level` continues as a path-traced path (`BounceMode::PathTraced`,
+    /// and on the deepest level) rather than through the next level's cache.
+    fn path_traced(&self, level: usize) -> bool {
+        self.core.settings.bounce_mode == BounceMode::PathTraced
+            || level + 1 >= self.core.levels.len()
+    }
+
     /// What a gather ray of `level` brings back from `hit` travelling against `w`: what the
     /// hit point reflects (its emission excluded), or the background if the ray hit nothing.
     fn gather_radiance(
@@ -1160,8 +1165,7 @@ impl IrradianceCacheIntegrator {
             return scene.background();
         };
         let mut dims = Dimensions::starting_at(key, 1);
-        let deepest = level + 1 >= self.core.levels.len();
-        if self.core.settings.bounce_mode == BounceMode::PathTraced || deepest {
+        if self.path_traced(level) {
             let r = self.path.reflected(scene, surface, -w, &mut dims, rays);
             return r.direct + r.indirect;
         }

@@ -126,11 +126,23 @@ pub fn sobol_2d(index: u32, seed: u64) -> Vec2 {
 ///   `reverse(sobol_1(j))` directly ([`REVERSED_TABLES`]).
 #[inline]
 pub(crate) fn sobol_2d_reversed(reversed_index: u32, seed: u64) -> Vec2 {
+    let (x, shuffled, s) = first_coordinate(reversed_index, seed);
+    Vec2::new(
+        x,
+        to_unit(laine_karras(sobol_1_reversed(shuffled), (s >> 32) as u32).reverse_bits()),
+    )
+}
+
+/// What [`sobol_2d_reversed`] and [`sobol_1d_reversed`] share: the point's first coordinate,
+/// and the shuffled index and the scrambles' seed that the second coordinate needs.
+#[inline(always)]
+fn first_coordinate(reversed_index: u32, seed: u64) -> (f32, u32, u64) {
     let s = crate::rng::mix64(seed);
     let shuffled = laine_karras(reversed_index, seed as u32).reverse_bits();
-    Vec2::new(
+    (
         to_unit(laine_karras(shuffled, s as u32).reverse_bits()),
-        to_unit(laine_karras(sobol_1_reversed(shuffled), (s >> 32) as u32).reverse_bits()),
+        shuffled,
+        s,
     )
 }
 
@@ -144,9 +156,7 @@ pub fn sobol_1d(index: u32, seed: u64) -> f32 {
 /// [`sobol_2d_reversed`]).
 #[inline]
 pub(crate) fn sobol_1d_reversed(reversed_index: u32, seed: u64) -> f32 {
-    let s = crate::rng::mix64(seed);
-    let shuffled = laine_karras(reversed_index, seed as u32).reverse_bits();
-    to_unit(laine_karras(shuffled, s as u32).reverse_bits())
+    first_coordinate(reversed_index, seed).0
 }
 
 #[cfg(test)]
