@@ -217,6 +217,16 @@ pub struct SurfacePoint {
 ///   (quartiles 0.94–1.08), 0.91× occlusion (8 rounds each), 485 and 257 more instructions
 ///   per ray.
 ///
+/// On a second 2-core machine (an AMD EPYC, Zen 4, with AVX-512: 32 KiB of L1 data cache and
+/// 1 MiB of L2 a core), the same build against the filing build, one core, the builds in turn,
+/// ratio of medians (geometric mean of per-round ratios): Cornell closest 1.77× (1.73×),
+/// occlusion 1.66× (1.68×), 16 rounds; 10⁶ triangles closest 1.70× (1.77×) and in another
+/// series 1.99× (1.95×), occlusion 2.33× (2.33×) and 2.37× (2.33×), 12 and 8 rounds. The
+/// medians of the 16- and 12-round series, Mrays/s, filing build → this one: Cornell closest
+/// 9.07 → 16.04, occlusion 15.16 → 25.21; 10⁶ triangles closest 0.64 → 1.09, occlusion 0.72
+/// → 1.69. This machine's host was as noisy: this build's Cornell closest median moved from
+/// 12.7 to 16.0 between series.
+///
 /// Two ways of tracing a gather's rays together were measured and lost to tracing them one
 /// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree
 /// together (Cornell 16×64 gathers: 943 against 669 instructions per ray; 10⁶ triangles:

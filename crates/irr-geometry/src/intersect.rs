@@ -205,7 +205,10 @@ pub(crate) struct PreparedRay {
     /// The caller's `t_max`.
     pub(crate) t_max: f32,
     /// The inverse direction scaled by Ize's `1 + 2γ₃`, for far slab distances (one more
-    /// rounding of at most u, which the factor's margin of γ₃ − u covers).
+    /// rounding of at most u, which the factor's margin of γ₃ − u covers). Computed as
+    /// `(1 + 2γ₃)/d` (one rounding, its division beside `1/d`'s rather than a multiply after
+    /// it), it gained nothing: Cornell box, one core, AMD EPYC (Zen 4), 16 rounds, closest
+    /// 1.006× and occlusion 0.959× on the medians.
     pub(crate) inv_far: Vec3A,
     /// Which planes and axes the tests read, by the direction's signs and largest axis.
     pub(crate) slabs: Slabs,

@@ -451,7 +451,8 @@ impl<const G: usize> WideBvh<G> {
     /// callgrind per ray: 611 → 583 instructions). Not on a large tree: on the 10⁶-triangle
     /// scene the shortcut took 11% of the instructions off (2654 → 2359) but its branches on
     /// the number of children hit mispredicted more (17.8 → 18.7 per ray), and it lost 3–4% of
-    /// the time (two series of 32 rounds on one core: 0.960× and 0.969×). Either way the nodes
+    /// the time (two series of 32 rounds on one core: 0.960× and 0.969×; on an AMD EPYC
+    /// (Zen 4) host, 0.979× on the medians, 12 rounds). Either way the nodes
     /// are visited in the same order. Nor did one branch-free path for one and two children
     /// hit (the farther pushed or not, the nearer chosen by a select) pay on the Cornell box:
     /// mispredicted branches 2.89 → 2.20 per closest ray and 549 → 566 instructions, but
@@ -462,7 +463,13 @@ impl<const G: usize> WideBvh<G> {
     /// visited next straight from a register, not read back from the stack: one core, the
     /// builds in turn, occlusion 1.013× on the Cornell box (16 rounds), 1.017× on 10⁶
     /// triangles (12). Closest hits tracking their nearest child so (a branchless select per
-    /// push) gained nothing: 0.999× on both scenes.
+    /// push) gained nothing: 0.999× on both scenes. Nor did pushing a node's hit children
+    /// without a branch per child, on a small tree (the 8-lane test's children gathered to the
+    /// low lanes by one `vpermd`, its index from a 256-entry table, and written as eight
+    /// entries with two stores): on the Cornell box (AMD EPYC, Zen 4), mispredicted branches
+    /// 0.89 → 0.77 per occlusion ray and 336 → 337 instructions, but 0.988× on the medians
+    /// (16 rounds). With the pop made branch-free as well (a node with no child hit pops the
+    /// entry below), the traversal's end mispredicted instead (1.25 per ray), 0.932×.
     #[inline(always)]
     pub(crate) fn step<Q: Query, N: NodeTest<G>>(
         nodes: &[WideNode<G>],
