@@ -47,7 +47,9 @@
 //! and run the bench binary under `valgrind --tool=callgrind` (with
 //! `--collect-atstart=no --toggle-collect='*trace::trace*'` to count only the tracing): it
 //! then traces that case's rays once (or `IRR_PROFILE_REPEATS` times, printing the best rate),
-//! outside divan, and exits.
+//! outside divan, and exits. `docs/ab-trace.py` runs one such case for several builds in turn
+//! on one core (the baseline first) and prints their ratios: how the traversal's changes are
+//! measured.
 
 use std::sync::LazyLock;
 use std::time::Instant;
