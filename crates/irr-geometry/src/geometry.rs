@@ -165,16 +165,18 @@ pub struct SurfacePoint {
 ///
 /// Also tried and not kept: leaving the triangle test's part of the preparation (largest
 /// axis, shear, screen) until a ray first reaches a packet, which at least 46% of the Cornell
-/// box's shadow rays never do (0.54 packet tests per ray). It took 9% of an occlusion ray's instructions off (335 → 306) but
-/// under 1% of its time (20 rounds: 1.007×, quartiles 1.00–1.05; closest hits 0.998×), as if
+/// box's shadow rays never do (0.54 packet tests per ray). It took 9% of an occlusion ray's
+/// instructions off (335 → 306) but under 1% of its time (20 rounds: 1.007×, quartiles 1.00–1.05; closest hits 0.998×), as if
 /// those instructions had run beside the node test. Nor did a shorter chain after the
 /// distance: `δt` as an offset and a slope independent of `t` (their divisions beside `t`'s,
 /// not after it), the same instruction count, closest 1.010× and occlusion 0.990×. This VM
-/// exposes no hardware counters, so what does limit a Cornell-box ray was not measured.
+/// exposes no hardware counters, so what limits a Cornell-box ray cannot be read off them;
+/// the next paragraph estimates it.
 ///
-/// Where a ray's cycles go (December 2026). This VM's core runs at about 2.95 GHz (timed on a
-/// chain of dependent `imul`s), so a Cornell-box closest hit at 10.1–10.7 Mrays/s takes
-/// 276–292 cycles, and an occlusion ray at 18.6–18.8 Mrays/s about 158.
+/// Where a ray's cycles go (December 2026). The development machine's core runs at about
+/// 2.95 GHz (timed on a chain of dependent `imul`s), so a Cornell-box closest hit at
+/// 10.1–10.7 Mrays/s takes 276–292 cycles, and an occlusion ray at 18.6–18.8 Mrays/s about
+/// 158.
 /// - **Mispredictions.** The benchmark's rays in coherent order run the same instructions
 ///   with fewer mispredicted branches (callgrind: closest 2.88 → 2.17 per ray, occlusion
 ///   0.96 → 0.31), at 11.4 and 19.9 Mrays/s (259 and 148 cycles). So a misprediction costs
@@ -218,7 +220,7 @@ pub struct SurfacePoint {
 ///   per ray.
 ///
 /// On a second 2-core machine (an AMD EPYC, Zen 4, with AVX-512: 32 KiB of L1 data cache and
-/// 1 MiB of L2 a core), the same build against the filing build, one core, the builds in turn,
+/// 1 MiB of L2 a core), build f0993aa against the filing build, one core, the builds in turn,
 /// ratio of medians (geometric mean of per-round ratios): Cornell closest 1.77× (1.73×),
 /// occlusion 1.66× (1.68×), 16 rounds; 10⁶ triangles closest 1.70× (1.77×) and in another
 /// series 1.99× (1.95×), occlusion 2.33× (2.33×) and 2.37× (2.33×), 12 and 8 rounds. The
@@ -268,7 +270,10 @@ enum Nodes {
 }
 
 /// Traversal stack sizes kept on the call stack (the smallest that fits is used); a deeper BVH
-/// (only pathological inputs build one) traverses with a heap stack instead.
+/// (only pathological inputs build one) traverses with a heap stack instead. A third, of 16
+/// entries (the Cornell box needs 16), zeroed half as many bytes a ray but cost a comparison
+/// more: callgrind per Cornell ray, closest 549.2 → 549.0 instructions, occlusion 336.1 →
+/// 339.0; one core (AMD EPYC, 16 rounds) 1.001× and 1.014× on the medians. Not kept.
 const SMALL_STACK: usize = 32;
 const LARGE_STACK: usize = 128;
 
