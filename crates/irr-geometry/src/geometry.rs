@@ -229,6 +229,33 @@ pub struct SurfacePoint {
 /// → 1.69. This machine's host was as noisy: this build's Cornell closest median moved from
 /// 12.7 to 16.0 between series.
 ///
+/// On a third 2-core machine (2 December 2026): an Intel Xeon with the development machine's
+/// caches (48 KiB of L1 data and 2 MiB of L2 a core) but a faster core (the chain of dependent
+/// `imul`s ran at about 4.0 GHz, against 2.95), build e431770 against the filing build, the
+/// same way: Cornell closest 1.66× (1.66×), occlusion 1.27× (1.26×), 16 rounds; 10⁶ triangles
+/// closest 1.96× (1.96×), occlusion 2.04× (2.04×), 8 rounds. Medians, filing build → this one:
+/// Cornell 8.35 → 13.88 and 18.64 → 23.73; 10⁶ triangles 0.80 → 1.56 and 1.16 → 2.36 Mrays/s.
+///
+/// Where a Cornell-box shadow ray's time goes, measured rather than modelled (there): the
+/// benchmark's rays traced in batches of 64 that first test every ray's root node without a
+/// branch (a prepared ray, the 8-lane test, the index written and the count advanced by whether
+/// a child was hit), then traverse only the rays whose root test hit a child: 17 777 of the
+/// 65 536 (27%). The root phase alone runs at 114.9 Mrays/s, 133 instructions a ray (about 35
+/// cycles: 3.8 instructions a cycle); the whole at 23.5. So the rays that go on take 80% of the
+/// time: about 125 ns each for 589 instructions more, their preparation and root test again
+/// among them (about 500 cycles, 1.2 instructions a cycle). Each is a chain of dependent steps
+/// (node, child, packet, the packet's screen and hit), each ending on a branch that goes either
+/// way for these rays. The batches took the root's mispredicted branch away (58 498 → 41 791
+/// mispredictions, 22.0 → 18.9 million instructions a pass) and none of the time: one core, 6
+/// rounds, occlusion 0.996×, closest hits 0.988×. Nor did tracing a batch's shadow rays breadth
+/// first, with no branch on what a test found: every ray's root, then node items and packet
+/// items from two lists, each node's hit children appended to them by an AVX2 compress (a
+/// `vpermd` whose index comes from a 256-entry table), the packets tested without stopping at a
+/// ray's first hit. Mispredictions 58 498 → 26 254 a pass and instructions 22.0 → 27.8 million,
+/// but 0.82× (6 rounds); `llvm-mca` (Skylake-AVX512's model) put its loops at about half the
+/// cycles they took. Neither kept. Whatever holds a descending ray back, the mispredicted
+/// branches are not all of it.
+///
 /// Two ways of tracing a gather's rays together were measured and lost to tracing them one
 /// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree
 /// together (Cornell 16×64 gathers: 943 against 669 instructions per ray; 10⁶ triangles:
