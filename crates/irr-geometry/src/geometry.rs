@@ -236,25 +236,40 @@ pub struct SurfacePoint {
 /// closest 1.96× (1.96×), occlusion 2.04× (2.04×), 8 rounds. Medians, filing build → this one:
 /// Cornell 8.35 → 13.88 and 18.64 → 23.73; 10⁶ triangles 0.80 → 1.56 and 1.16 → 2.36 Mrays/s.
 ///
-/// Where a Cornell-box shadow ray's time goes, measured rather than modelled (there): the
+/// Where a Cornell-box shadow ray's time went, measured rather than modelled (there): the
 /// benchmark's rays traced in batches of 64 that first test every ray's root node without a
 /// branch (a prepared ray, the 8-lane test, the index written and the count advanced by whether
 /// a child was hit), then traverse only the rays whose root test hit a child: 17 777 of the
-/// 65 536 (27%). The root phase alone runs at 114.9 Mrays/s, 133 instructions a ray (about 35
-/// cycles: 3.8 instructions a cycle); the whole at 23.5. So the rays that go on take 80% of the
+/// 65 536 (27%). The root phase alone ran at 114.9 Mrays/s, 133 instructions a ray (about 35
+/// cycles: 3.8 instructions a cycle); the whole at 23.5. So the rays that go on took 80% of the
 /// time: about 125 ns each for 589 instructions more, their preparation and root test again
-/// among them (about 500 cycles, 1.2 instructions a cycle). Each is a chain of dependent steps
-/// (node, child, packet, the packet's screen and hit), each ending on a branch that goes either
-/// way for these rays. The batches took the root's mispredicted branch away (58 498 → 41 791
-/// mispredictions, 22.0 → 18.9 million instructions a pass) and none of the time: one core, 6
-/// rounds, occlusion 0.996×, closest hits 0.988×. Nor did tracing a batch's shadow rays breadth
-/// first, with no branch on what a test found: every ray's root, then node items and packet
-/// items from two lists, each node's hit children appended to them by an AVX2 compress (a
-/// `vpermd` whose index comes from a 256-entry table), the packets tested without stopping at a
-/// ray's first hit. Mispredictions 58 498 → 26 254 a pass and instructions 22.0 → 27.8 million,
-/// but 0.82× (6 rounds); `llvm-mca` (Skylake-AVX512's model) put its loops at about half the
-/// cycles they took. Neither kept. Whatever holds a descending ray back, the mispredicted
-/// branches are not all of it.
+/// among them (about 500 cycles, 1.2 instructions a cycle). Two ways of taking the mispredicted
+/// branches out of those rays did not pay. The batches above took the root's away (58 498 →
+/// 41 791 mispredictions, 22.0 → 18.9 million instructions a pass) and none of the time: one
+/// core, 6 rounds, occlusion 0.996×, closest hits 0.988×. Tracing a batch's shadow rays breadth
+/// first, with no branch on what a test found (every ray's root, then node items and packet
+/// items from two lists, each node's hit children appended to them by an AVX2 compress: a
+/// `vpermd` whose index comes from a 256-entry table; the packets tested without stopping at a
+/// ray's first hit) took mispredictions 58 498 → 26 254 a pass and instructions 22.0 → 27.8
+/// million, but ran 0.82× (6 rounds), though `llvm-mca` (Skylake-AVX512's model) put its loops
+/// at about half the cycles they took. Neither kept.
+///
+/// What it was: microcode assists for subnormal results. With the processor flushing subnormal
+/// results to zero (its FTZ flag set by hand, in an experiment; three runs of each), closest
+/// hits ran about 1.2× and occlusion 1.4× as fast, with the same hits; treating subnormal
+/// inputs as zero (DAZ) alone changed nothing. The x86 underflow flag, read around each step,
+/// put every such result in the packet test's shear (`sx·z`) of rays leaving the box's floor,
+/// at y = 0: the ray offsets' floor, the smallest normal float, left their origins 2.4e-38
+/// above it, and the products fell below that float. The offsets now have a floor of 2⁻¹⁰⁰
+/// (`ray.rs`'s docs; the hits unchanged, renders' pixels bit for bit the same). Against the
+/// build before it, one core, 8 rounds: closest hits 1.20×, occlusion 1.47×. Against the filing
+/// build, 16 rounds: Cornell closest 2.01× (2.00×), 8.34 → 16.74 Mrays/s, and occlusion 1.85×
+/// (1.84×), 18.63 → 34.51. The filing build computed the same subnormal products: given the
+/// same floor it ran 10.54 and 20.89 Mrays/s, and this build 1.59× (1.59×) and 1.66× (1.67×) as
+/// fast as that. The 10⁶-triangle scene's rates did not move (closest hits 1.015×, 8 rounds; against the filing build, in a series in which both
+/// ran about a fifth faster than in the first: closest 1.83× (1.80×), occlusion 1.98× (1.96×),
+/// 8 rounds). The cycle accounting for the development machine above knew nothing of the
+/// assists: the Cornell-box rates it explains include them.
 ///
 /// Two ways of tracing a gather's rays together were measured and lost to tracing them one
 /// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree

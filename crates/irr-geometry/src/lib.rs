@@ -96,5 +96,6 @@ pub use error::GeometryError;
 pub use geometry::{BvhLayout, Geometry, Hit, MAX_TRIANGLES, SurfacePoint};
 pub use mesh::{BuildReport, Triangle, TriangleMesh};
 pub use ray::{
-    POSITION_RELATIVE_ERROR, Ray, offset_ray_origin, offset_ray_origin_with_error, position_error,
+    POSITION_ERROR_FLOOR, POSITION_RELATIVE_ERROR, Ray, offset_ray_origin,
+    offset_ray_origin_with_error, position_error,
 };
