@@ -163,11 +163,13 @@ pub struct SurfacePoint {
 ///   s against 0.38 s. The insertion sort's branches are predicted when neighbouring rays
 ///   cross the same nodes.
 ///
-/// Also tried and not kept: leaving the triangle test's part of the preparation (largest
-/// axis, shear, screen) until a ray first reaches a packet, which at least 46% of the Cornell
-/// box's shadow rays never do (0.54 packet tests per ray). It took 9% of an occlusion ray's
-/// instructions off (335 → 306) but under 1% of its time (20 rounds: 1.007×, quartiles 1.00–1.05; closest hits 0.998×), as if
-/// those instructions had run beside the node test. Nor did a shorter chain after the
+/// Also tried and not kept then: leaving the triangle test's part of the preparation
+/// (largest axis, shear, screen) until a ray first reaches a packet, which at least 46% of
+/// the Cornell box's shadow rays never do (0.54 packet tests per ray). It took 9% of an
+/// occlusion ray's instructions off (335 → 306) but under 1% of its time (20 rounds: 1.007×,
+/// quartiles 1.00–1.05; closest hits 0.998×). Measured again once the subnormal arithmetic
+/// described below was gone, it paid, and is kept (without the screen:
+/// `PreparedRay::finish`). Nor did a shorter chain after the
 /// distance: `δt` as an offset and a slope independent of `t` (their divisions beside `t`'s,
 /// not after it), the same instruction count, closest 1.010× and occlusion 0.990×. This VM
 /// exposes no hardware counters, so what limits a Cornell-box ray cannot be read off them;
@@ -696,8 +698,8 @@ impl Geometry {
         if !PreparedRay::traceable(ray) {
             return None;
         }
-        let r = PreparedRay::prepare(ray, self.coordinate_bound);
-        self.trace(Closest(&r))
+        let mut r = PreparedRay::prepare(ray, self.coordinate_bound);
+        self.trace(Closest(&mut r))
     }
 
     /// The closest hits of many rays: `hits[i]` is exactly what [`Geometry::intersect`]
@@ -756,8 +758,8 @@ impl Geometry {
         if !PreparedRay::traceable(ray) {
             return false;
         }
-        let r = PreparedRay::prepare(ray, self.coordinate_bound);
-        self.trace(Any(&r))
+        let mut r = PreparedRay::prepare(ray, self.coordinate_bound);
+        self.trace(Any(&mut r))
     }
 
     /// The surface point of a hit returned by [`Geometry::intersect`]. The ray is not needed
@@ -1096,7 +1098,7 @@ trait Job {
 }
 
 /// One ray's closest hit.
-struct Closest<'a>(&'a PreparedRay);
+struct Closest<'a>(&'a mut PreparedRay);
 
 impl Job for Closest<'_> {
     type Output = Option<Hit>;
@@ -1118,7 +1120,8 @@ impl Job for Closest<'_> {
     /// (callgrind per Cornell-box ray on `Wide8`: closest 591 → 580, occlusion 358 → 348).
     #[inline(never)]
     fn bvh2(self, g: &Geometry, nodes: &[Bvh2Node]) -> Option<Hit> {
-        let r = self.0;
+        self.0.finish();
+        let r = &*self.0;
         let found = match r.kz() {
             0 => g.with_stack(|s| g.bvh2_closest::<0>(nodes, r, s)),
             1 => g.with_stack(|s| g.bvh2_closest::<1>(nodes, r, s)),
@@ -1134,7 +1137,7 @@ impl Job for Closest<'_> {
 }
 
 /// Whether one ray hits anything.
-struct Any<'a>(&'a PreparedRay);
+struct Any<'a>(&'a mut PreparedRay);
 
 impl Job for Any<'_> {
     type Output = bool;
@@ -1147,7 +1150,8 @@ impl Job for Any<'_> {
     /// Out of line, as `Closest::bvh2`.
     #[inline(never)]
     fn bvh2(self, g: &Geometry, nodes: &[Bvh2Node]) -> bool {
-        let r = self.0;
+        self.0.finish();
+        let r = &*self.0;
         match r.kz() {
             0 => g.with_stack(|s| g.bvh2_any::<0>(nodes, r, s)),
             1 => g.with_stack(|s| g.bvh2_any::<1>(nodes, r, s)),
@@ -1172,8 +1176,8 @@ impl<A: Answer> Job for Many<'_, A> {
         for (ray, hit) in self.0.iter().zip(self.1.iter_mut()) {
             // No closure here: it would be compiled outside the dispatched instruction set.
             *hit = if PreparedRay::traceable(ray) {
-                let r = PreparedRay::prepare(ray, g.coordinate_bound);
-                on_stack!(g.stack_len, Entry, |s| A::trace(w, &r, s, test))
+                let mut r = PreparedRay::prepare(ray, g.coordinate_bound);
+                on_stack!(g.stack_len, Entry, |s| A::trace(w, &mut r, s, test))
             } else {
                 A::MISS
             };
@@ -1198,7 +1202,7 @@ trait Answer: Query + Copy {
     #[inline(always)]
     fn trace<const G: usize, N: NodeTest<G>>(
         w: &WideBvh<G>,
-        r: &PreparedRay,
+        r: &mut PreparedRay,
         stack: &mut [Entry],
         test: N,
     ) -> Self {

@@ -133,7 +133,8 @@ pub(crate) enum Plane {
 /// The planes and axes a ray's tests read, chosen by the signs of its direction and its
 /// largest axis: the near and far plane of a box per axis, and the permutation of the
 /// triangle test. One 16-byte table entry ([`Slabs::TABLE`]), so that preparing a ray copies
-/// it with one load and one store (three arrays of `usize` indices took 18 instructions;
+/// it with one load and one store (the permutation is set after, with the rest of the
+/// triangle test's part: [`PreparedRay::finish`]) (three arrays of `usize` indices took 18 instructions;
 /// callgrind per Cornell-box ray: closest 577 → 567, occlusion 345 → 335).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(C, align(16))]
@@ -151,11 +152,16 @@ pub(crate) struct Slabs {
 }
 
 impl Slabs {
-    /// By the signs of the direction (bit `a` set: axis `a` negative) and `kz`.
-    const TABLE: [[Slabs; 3]; 8] = {
+    /// The triangle test's permutation for each `kz`: `[kz + 1, kz + 2, kz]` (mod 3).
+    const PERMUTATION: [[Axis; 3]; 3] = {
         use Axis::{X, Y, Z};
+        [[Y, Z, X], [Z, X, Y], [X, Y, Z]]
+    };
+
+    /// By the signs of the direction (bit `a` set: axis `a` negative), with the permutation of
+    /// `kz` = z until [`PreparedRay::finish`] sets the ray's own.
+    const TABLE: [Slabs; 8] = {
         use Plane::{MaxX, MaxY, MaxZ, MinX, MinY, MinZ};
-        const PERMUTATION: [[Axis; 3]; 3] = [[Y, Z, X], [Z, X, Y], [X, Y, Z]];
         const NEAR: [[Plane; 3]; 8] = [
             [MinX, MinY, MinZ],
             [MaxX, MinY, MinZ],
@@ -166,22 +172,18 @@ impl Slabs {
             [MinX, MaxY, MaxZ],
             [MaxX, MaxY, MaxZ],
         ];
-        let mut t = [[Slabs {
+        let mut t = [Slabs {
             near: NEAR[0],
             far: NEAR[0],
-            perm: PERMUTATION[0],
-        }; 3]; 8];
+            perm: Slabs::PERMUTATION[2],
+        }; 8];
         let mut signs = 0;
         while signs < 8 {
-            let mut kz = 0;
-            while kz < 3 {
-                t[signs][kz] = Slabs {
-                    near: NEAR[signs],
-                    far: NEAR[7 - signs],
-                    perm: PERMUTATION[kz],
-                };
-                kz += 1;
-            }
+            t[signs] = Slabs {
+                near: NEAR[signs],
+                far: NEAR[7 - signs],
+                perm: Slabs::PERMUTATION[2],
+            };
             signs += 1;
         }
         t
@@ -189,7 +191,8 @@ impl Slabs {
 }
 
 /// A ray prepared once for all its tests: origin, the clamped inverse direction for the box
-/// test, and the shear constants of the triangle test.
+/// test, and the shear constants of the triangle test (those on the ray's first packet:
+/// [`PreparedRay::finish`]).
 ///
 /// Scalars only: the vector tests splat the origin and the inverse directions where they use
 /// them. On x86-64-v3, where they run, a splat from memory is one `vbroadcastss`, as cheap as
@@ -200,6 +203,7 @@ pub(crate) struct PreparedRay {
     pub(crate) origin: Vec3A,
     pub(crate) dir: Vec3A,
     pub(crate) inv_dir: Vec3A,
+    /// The shear of the triangle test (0 until [`PreparedRay::finish`]).
     pub(crate) sx: f32,
     pub(crate) sy: f32,
     /// The caller's `t_max`.
@@ -210,12 +214,15 @@ pub(crate) struct PreparedRay {
     /// it), it gained nothing: Cornell box, one core, AMD EPYC (Zen 4), 16 rounds, closest
     /// 1.006× and occlusion 0.959× on the medians.
     pub(crate) inv_far: Vec3A,
-    /// Which planes and axes the tests read, by the direction's signs and largest axis.
+    /// Which planes and axes the tests read, by the direction's signs and (from
+    /// [`PreparedRay::finish`] on) its largest axis.
     pub(crate) slabs: Slabs,
     /// The 4-wide test's screen: a lane whose edge functions include one below `−screen` and
     /// one above `screen` certainly misses (see [`PreparedRay::set_screen`]). ∞ (no lane is
     /// screened out) until it is set.
     pub(crate) screen: f32,
+    /// Whether [`PreparedRay::finish`] has computed the triangle test's part.
+    pub(crate) finished: bool,
 }
 
 impl PreparedRay {
@@ -223,13 +230,53 @@ impl PreparedRay {
     /// direction, or a `t_max` that is NaN or not positive.
     #[inline(always)]
     pub(crate) fn new(ray: &Ray) -> Option<PreparedRay> {
-        Self::traceable(ray).then(|| Self::prepare(ray, f32::INFINITY))
+        Self::traceable(ray).then(|| {
+            let mut r = Self::prepare(ray, f32::INFINITY);
+            r.finish();
+            r
+        })
     }
 
-    /// The axis of the largest direction component, which the triangle test maps to z.
+    /// The axis of the largest direction component, which the triangle test maps to z (once
+    /// [`PreparedRay::finish`]ed).
     #[inline(always)]
     pub(crate) fn kz(&self) -> usize {
+        debug_assert!(self.finished, "the triangle test's part is not computed");
         self.slabs.perm[2] as usize
+    }
+
+    /// Computes the triangle test's part of the preparation, if not done yet: the largest axis
+    /// of the direction, the permutation and the shear. The wide traversals call it on a
+    /// ray's first packet, which in a small scene most shadow rays never reach (73% of the
+    /// Cornell box's are done at the root): per such ray the largest axis's selection and a
+    /// division fewer. Callgrind per Cornell-box occlusion ray 336 → 311 instructions
+    /// (closest hits 549 → 550); one core (the third machine of `BvhLayout`'s docs), the builds
+    /// in turn, 10 rounds: occlusion 1.031× (per-round ratios 1.054×), closest hits 1.010×;
+    /// 10⁶ triangles (6 rounds) 1.040× and 1.034×. Measured before the ray offsets' floor was
+    /// raised (`ray.rs`), when subnormal arithmetic took much of a packet test's time, the
+    /// same change gained under 1%.
+    #[inline(always)]
+    pub(crate) fn finish(&mut self) {
+        if self.finished {
+            return;
+        }
+        self.finished = true;
+        let a = self.dir.abs();
+        // kz is the largest component; kx = kz + 1, ky = kz + 2 (mod 3). pbrt-v4: Sx = −d_x/d_z,
+        // Sy = −d_y/d_z in the permuted frame (Sz is not needed: the distance comes from the
+        // plane, see the module docs).
+        // Selected without branches: the largest axis of a random direction is a coin toss.
+        let kz = if a.x > a.y && a.x > a.z {
+            0
+        } else if a.y > a.z {
+            1
+        } else {
+            2
+        };
+        let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
+        let da = self.dir.to_array();
+        (self.sx, self.sy) = (-da[kx] / da[kz], -da[ky] / da[kz]);
+        self.slabs.perm = Slabs::PERMUTATION[kz];
     }
 
     /// Whether `ray` can hit anything (see [`PreparedRay::new`]).
@@ -246,28 +293,14 @@ impl PreparedRay {
 
     /// The prepared ray, for a `ray` that is [`PreparedRay::traceable`], in a scene whose vertex
     /// coordinates are at most `coordinate_bound` in magnitude (its screen, see
-    /// [`PreparedRay::set_screen`]; ∞ screens nothing out). Separate from the check so that
+    /// [`PreparedRay::set_screen`]; ∞ screens nothing out), without the triangle test's part
+    /// ([`PreparedRay::finish`] computes it). Separate from the check so that
     /// the hot callers build it in place: returned in an `Option`, its 300 bytes were copied
     /// once more per ray.
     #[inline(always)]
     pub(crate) fn prepare(ray: &Ray, coordinate_bound: f32) -> PreparedRay {
         let o = Vec3A::from(ray.origin);
         let d = Vec3A::from(ray.direction);
-        let a = d.abs();
-        // kz is the largest component; kx = kz + 1, ky = kz + 2 (mod 3). pbrt-v4: Sx = −d_x/d_z,
-        // Sy = −d_y/d_z in the permuted frame (Sz is not needed: the distance comes from the
-        // plane, see the module docs).
-        // Selected without branches: the largest axis of a random direction is a coin toss.
-        let kz = if a.x > a.y && a.x > a.z {
-            0
-        } else if a.y > a.z {
-            1
-        } else {
-            2
-        };
-        let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
-        let da = d.to_array();
-        let (sx, sy) = (-da[kx] / da[kz], -da[ky] / da[kz]);
         // 1/d, clamped to ±2⁶⁴ so that a zero component gives a large finite value instead of
         // ±∞ (∞·0 is NaN when the origin lies on a slab plane). The clamp
         // only changes components below 5.4e-20 (relative to the others: the ray is then
@@ -285,14 +318,15 @@ impl PreparedRay {
             origin: o,
             dir: d,
             inv_dir,
-            sx,
-            sy,
+            sx: 0.0,
+            sy: 0.0,
             t_max: ray.t_max,
             inv_far,
             // Looked up by the signs (`inv_dir` is never ±0 or NaN, so its sign bit is
             // `< 0`, and it is `d`'s): a table load rather than a select per axis.
-            slabs: Slabs::TABLE[signs][kz],
+            slabs: Slabs::TABLE[signs],
             screen: f32::INFINITY,
+            finished: false,
         };
         r.set_screen(coordinate_bound);
         r
@@ -384,6 +418,7 @@ pub(crate) fn intersect_triangle<const KZ: usize>(
     ray: &PreparedRay,
     t_best: f32,
 ) -> Option<TriHit> {
+    debug_assert!(ray.finished, "the triangle test's part is not computed");
     // Translate the vertices so the ray starts at the origin.
     let x = tri.xs - Vec3A::splat(ray.origin.x);
     let y = tri.ys - Vec3A::splat(ray.origin.y);
@@ -626,6 +661,7 @@ pub(crate) fn intersect_tri4(
     t_best: f32,
     shortcut: bool,
 ) -> Tri4Hits {
+    debug_assert!(ray.finished, "the triangle test's part is not computed");
     const MISS: Tri4Hits = Tri4Hits {
         t: Vec4::ZERO,
         b1: Vec4::ZERO,

@@ -440,7 +440,8 @@ impl<const G: usize> WideBvh<G> {
 
     /// One step of a traversal from the root (`walk` from [`Walk::new`]; run until it returns
     /// `true`), for the closest hit or, with `Q::ANY`, for any hit: visits `walk.current` (a
-    /// node, or a leaf's packet) and picks the next, from the stack unless a shortcut chose it.
+    /// node, or a leaf's packet; on the first packet it finishes preparing `r`,
+    /// [`PreparedRay::finish`]) and picks the next, from the stack unless a shortcut chose it.
     /// Returns whether the traversal is over, with the answer in `walk.best` as (packet, lane,
     /// hit): the stack ran out, or (`Q::ANY`) a packet was hit, which `walk.best` then holds with
     /// lane 0 and no meaningful hit. `geometry.rs` runs one ray's steps in a loop, or
@@ -482,7 +483,7 @@ impl<const G: usize> WideBvh<G> {
     pub(crate) fn step<Q: Query, N: NodeTest<G>>(
         nodes: &[WideNode<G>],
         packets: &[Tri4],
-        r: &PreparedRay,
+        r: &mut PreparedRay,
         stack: &mut [Entry],
         walk: &mut Walk,
         test: N,
@@ -495,6 +496,8 @@ impl<const G: usize> WideBvh<G> {
         } = walk;
         if *current & LEAF != 0 {
             let p = *current & PACKET_MASK;
+            // The triangle test's part of the preparation, on the ray's first packet.
+            r.finish();
             let hits = intersect_tri4(&packets[p as usize], r, *t_best, !N::LARGE);
             if Q::ANY {
                 if hits.mask != 0 {
