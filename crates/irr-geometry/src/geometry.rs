@@ -168,8 +168,8 @@ pub struct SurfacePoint {
 /// the Cornell box's shadow rays never do (0.54 packet tests per ray). It took 9% of an
 /// occlusion ray's instructions off (335 → 306) but under 1% of its time (20 rounds: 1.007×,
 /// quartiles 1.00–1.05; closest hits 0.998×). Measured again once the subnormal arithmetic
-/// described below was gone, it paid, and is kept (without the screen:
-/// `PreparedRay::finish`). Nor did a shorter chain after the
+/// described below was gone, it paid, and is kept (`PreparedRay::finish`). Nor did a
+/// shorter chain after the
 /// distance: `δt` as an offset and a slope independent of `t` (their divisions beside `t`'s,
 /// not after it), the same instruction count, closest 1.010× and occlusion 0.990×. This VM
 /// exposes no hardware counters, so what limits a Cornell-box ray cannot be read off them;

@@ -218,8 +218,8 @@ pub(crate) struct PreparedRay {
     /// [`PreparedRay::finish`] on) its largest axis.
     pub(crate) slabs: Slabs,
     /// The 4-wide test's screen: a lane whose edge functions include one below `−screen` and
-    /// one above `screen` certainly misses (see [`PreparedRay::set_screen`]). ∞ (no lane is
-    /// screened out) until it is set.
+    /// one above `screen` certainly misses (see [`PreparedRay::set_screen`]). Until
+    /// [`PreparedRay::finish`], the scene's coordinate bound, from which it sets the screen.
     pub(crate) screen: f32,
     /// Whether [`PreparedRay::finish`] has computed the triangle test's part.
     pub(crate) finished: bool,
@@ -246,15 +246,18 @@ impl PreparedRay {
     }
 
     /// Computes the triangle test's part of the preparation, if not done yet: the largest axis
-    /// of the direction, the permutation and the shear. The wide traversals call it on a
-    /// ray's first packet, which in a small scene most shadow rays never reach (73% of the
-    /// Cornell box's are done at the root): per such ray the largest axis's selection and a
-    /// division fewer. Callgrind per Cornell-box occlusion ray 336 → 311 instructions
-    /// (closest hits 549 → 550); one core (the third machine of `BvhLayout`'s docs), the builds
-    /// in turn, 10 rounds: occlusion 1.031× (per-round ratios 1.054×), closest hits 1.010×;
-    /// 10⁶ triangles (6 rounds) 1.040× and 1.034×. Measured before the ray offsets' floor was
-    /// raised (`ray.rs`), when subnormal arithmetic took much of a packet test's time, the
-    /// same change gained under 1%.
+    /// of the direction, the permutation, the shear and the screen. The wide traversals call
+    /// it on a ray's first packet, which in a small scene most shadow rays never reach (73% of
+    /// the Cornell box's are done at the root): per such ray the largest axis's selection, a
+    /// division and the screen's arithmetic fewer. Callgrind per Cornell-box occlusion ray
+    /// 336 → 311 instructions without the screen, 304 with it (closest hits 549 → 550 → 547).
+    /// One core (the third machine of `BvhLayout`'s docs), the builds in turn, without the
+    /// screen: occlusion 1.031× and 1.076× on the medians (per-round ratios 1.054× and
+    /// 1.038×; 10 and 12 rounds), closest hits 1.010× and 1.015×; 10⁶ triangles (6 rounds)
+    /// 1.040× and 1.002×. The screen as well, on top of that (12 rounds): occlusion 1.027×,
+    /// closest hits 1.000×. Measured before the ray offsets' floor was raised (`ray.rs`), when
+    /// subnormal arithmetic took much of a packet test's time, the same change gained under
+    /// 1%.
     #[inline(always)]
     pub(crate) fn finish(&mut self) {
         if self.finished {
@@ -277,6 +280,7 @@ impl PreparedRay {
         let da = self.dir.to_array();
         (self.sx, self.sy) = (-da[kx] / da[kz], -da[ky] / da[kz]);
         self.slabs.perm = Slabs::PERMUTATION[kz];
+        self.set_screen(self.screen);
     }
 
     /// Whether `ray` can hit anything (see [`PreparedRay::new`]).
@@ -328,7 +332,8 @@ impl PreparedRay {
             screen: f32::INFINITY,
             finished: false,
         };
-        r.set_screen(coordinate_bound);
+        // The bound, until `finish` turns it into the screen.
+        r.screen = coordinate_bound;
         r
     }
 
