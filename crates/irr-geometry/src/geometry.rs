@@ -254,7 +254,8 @@ pub struct SurfacePoint {
 /// `vpermd` whose index comes from a 256-entry table; the packets tested without stopping at a
 /// ray's first hit) took mispredictions 58 498 → 26 254 a pass and instructions 22.0 → 27.8
 /// million, but ran 0.82× (6 rounds), though `llvm-mca` (Skylake-AVX512's model) put its loops
-/// at about half the cycles they took. Neither kept.
+/// at about half the cycles they took. Neither kept. (All of this paragraph was measured before
+/// the ray offsets' floor of the next one.)
 ///
 /// What it was: microcode assists for subnormal results. With the processor flushing subnormal
 /// results to zero (its FTZ flag set by hand, in an experiment; three runs of each), closest
@@ -268,10 +269,14 @@ pub struct SurfacePoint {
 /// build, 16 rounds: Cornell closest 2.01× (2.00×), 8.34 → 16.74 Mrays/s, and occlusion 1.85×
 /// (1.84×), 18.63 → 34.51. The filing build computed the same subnormal products: given the
 /// same floor it ran 10.54 and 20.89 Mrays/s, and this build 1.59× (1.59×) and 1.66× (1.67×) as
-/// fast as that. The 10⁶-triangle scene's rates did not move (closest hits 1.015×, 8 rounds; against the filing build, in a series in which both
-/// ran about a fifth faster than in the first: closest 1.83× (1.80×), occlusion 1.98× (1.96×),
-/// 8 rounds). The cycle accounting for the development machine above knew nothing of the
-/// assists: the Cornell-box rates it explains include them.
+/// fast as that. The 10⁶-triangle scene's rates did not move (closest hits 1.015×, 8 rounds;
+/// against the filing build, in a series in which both ran about a fifth faster than in the
+/// first: closest 1.83× (1.80×), occlusion 1.98× (1.96×), 8 rounds). The cycle accounting for
+/// the development machine above knew nothing of the assists: the Cornell-box rates it explains
+/// include them. With the triangle test's preparation then left to a ray's first packet
+/// (`PreparedRay::finish`), against the filing build: Cornell closest 2.02× (2.03×), occlusion
+/// 1.95× (1.93×), 16 rounds; 10⁶ triangles closest 1.93× (1.88×), occlusion 2.00× (2.00×), 8
+/// rounds.
 ///
 /// Two ways of tracing a gather's rays together were measured and lost to tracing them one
 /// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree
@@ -317,7 +322,9 @@ enum Nodes {
 /// (only pathological inputs build one) traverses with a heap stack instead. A third, of 16
 /// entries (the Cornell box needs 16), zeroed half as many bytes a ray but cost a comparison
 /// more: callgrind per Cornell ray, closest 549.2 → 549.0 instructions, occlusion 336.1 →
-/// 339.0; one core (AMD EPYC, 16 rounds) 1.001× and 1.014× on the medians. Not kept.
+/// 339.0; one core (AMD EPYC, 16 rounds) 1.001× and 1.014× on the medians. Not kept; nor on
+/// the third machine of `BvhLayout`'s docs after the ray offsets' floor (12 rounds): 1.000×
+/// and 0.988×.
 const SMALL_STACK: usize = 32;
 const LARGE_STACK: usize = 128;
 

@@ -134,7 +134,8 @@ impl<const G: usize, const LARGE: bool> NodeTest<G> for Lanes4<LARGE> {
 /// same order, as [`Lanes4`], so the same bits; half the instructions. (Taking the three
 /// axes' maxima and minima as a tree, two levels rather than three, shortened the chain to
 /// the mask by one operation but not the time: Cornell box, one core of the third machine
-/// of `BvhLayout`'s docs, 10 rounds, closest 0.993×, occlusion 1.001×.) On a large tree
+/// of `BvhLayout`'s docs, before the ray offsets' floor, 10 rounds, closest 0.993×, occlusion
+/// 1.001×.) On a large tree
 /// (`LARGE`), the traversal also prefetches each child it pushes (`_mm_prefetch`, which pulp's
 /// token offers as a safe call: a prefetch never faults, whatever the address); otherwise that
 /// code is compiled out, since prefetching a tree that is in cache only costs instructions.
@@ -478,7 +479,7 @@ impl<const G: usize> WideBvh<G> {
     /// the surface the shadow ray leaves, which cannot block it): packet tests per 65 536
     /// Cornell shadow rays 35 579 → 32 500, but the extra pass over the children cost more:
     /// 0.938× (8 rounds), and 0.968× on 10⁶ triangles (4; the third machine of `BvhLayout`'s
-    /// docs).
+    /// docs, before the ray offsets' floor).
     #[inline(always)]
     pub(crate) fn step<Q: Query, N: NodeTest<G>>(
         nodes: &[WideNode<G>],
