@@ -133,9 +133,9 @@ pub(crate) enum Plane {
 /// The planes and axes a ray's tests read, chosen by the signs of its direction and its
 /// largest axis: the near and far plane of a box per axis, and the permutation of the
 /// triangle test. One 16-byte table entry ([`Slabs::TABLE`]), so that preparing a ray copies
-/// it with one load and one store (the permutation is set after, with the rest of the
-/// triangle test's part: [`PreparedRay::finish`]) (three arrays of `usize` indices took 18 instructions;
-/// callgrind per Cornell-box ray: closest 577 → 567, occlusion 345 → 335).
+/// it with one load and one store (three arrays of `usize` indices took 18 instructions;
+/// callgrind per Cornell-box ray: closest 577 → 567, occlusion 345 → 335). The permutation
+/// is set later, with the rest of the triangle test's part ([`PreparedRay::finish`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(C, align(16))]
 pub(crate) struct Slabs {
@@ -300,7 +300,11 @@ impl PreparedRay {
     /// [`PreparedRay::set_screen`]; ∞ screens nothing out), without the triangle test's part
     /// ([`PreparedRay::finish`] computes it). Separate from the check so that
     /// the hot callers build it in place: returned in an `Option`, its 300 bytes were copied
-    /// once more per ray.
+    /// once more per ray. Prepared inside the function the run-time dispatch calls (compiled
+    /// for AVX2, the ray passed in rather than the prepared ray) rather than before it, it took
+    /// more instructions (Cornell box per ray: occlusion 304 → 314, closest 547 → 568) and
+    /// more time (one core of the third machine of `BvhLayout`'s docs, 12 rounds: 0.961× and
+    /// 0.989×).
     #[inline(always)]
     pub(crate) fn prepare(ray: &Ray, coordinate_bound: f32) -> PreparedRay {
         let o = Vec3A::from(ray.origin);
@@ -318,7 +322,7 @@ impl PreparedRay {
         // ratios) and 1.035× (24 rounds, medians; the per-round ratios of that noisy series
         // gave 0.994×), occlusion 1.016× (16 rounds).
         let signs = (d.is_negative_bitmask() & 7) as usize;
-        let mut r = PreparedRay {
+        PreparedRay {
             origin: o,
             dir: d,
             inv_dir,
@@ -329,12 +333,10 @@ impl PreparedRay {
             // Looked up by the signs (`inv_dir` is never ±0 or NaN, so its sign bit is
             // `< 0`, and it is `d`'s): a table load rather than a select per axis.
             slabs: Slabs::TABLE[signs],
-            screen: f32::INFINITY,
+            // The bound, until `finish` turns it into the screen.
+            screen: coordinate_bound,
             finished: false,
-        };
-        // The bound, until `finish` turns it into the screen.
-        r.screen = coordinate_bound;
-        r
+        }
     }
 
     /// Sets [`PreparedRay::screen`] for a scene whose vertex coordinates are all at most
