@@ -23,7 +23,9 @@
 //! - [`Ray::spawn`], [`Ray::spawn_to`] and [`offset_ray_origin`]: origins offset by a few ulps of
 //!   the point's magnitude (Wächter & Binder, Ray Tracing Gems ch. 6), so secondary rays neither
 //!   re-hit their own surface nor tunnel through thin geometry, in tiny, huge or far-translated
-//!   scenes alike.
+//!   scenes alike; and at least [`POSITION_ERROR_FLOOR`] (2⁻¹⁰⁰) off a plane through zero, so
+//!   that the triangle test's arithmetic on such a ray stays in normal floats (a subnormal
+//!   result costs a microcode assist on x86).
 //!
 //! # Robustness, and its limits
 //! - Watertight: a ray through a shared edge or vertex hits at least one of the triangles
