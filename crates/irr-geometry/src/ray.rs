@@ -42,9 +42,9 @@
 //! Why 2⁻¹⁰⁰: the difference from a plane's vertex is then at least 2⁻¹⁰⁰, its product with a
 //! shear factor stays normal for any factor of at least 2⁻²⁶ (roughly, a direction more than
 //! 1.5e-8 rad out of a coordinate plane; an exact zero factor gives an exact zero), and its
-//! products with the test's error factors (`γ₇ < 2⁻²⁰`) stay normal too. And the floor only moves a coordinate below 2⁻⁷⁸
-//! (3.3e-24), where `2⁻²²·|p_i|` is smaller: in a scene 1e-20 across or larger, only an exact
-//! zero moves more than before (2⁻¹⁰⁰ instead of 2⁻¹²⁵).
+//! products with the test's error factors (`γ₇ < 2⁻²⁰`) stay normal too. And it moves no
+//! coordinate more than before unless the coordinate is below 2⁻⁷⁸ (3.3e-24), where
+//! `2⁻²²·|p_i|` is smaller than the floor: exact zeros above all (2⁻¹⁰⁰ instead of 2⁻¹²⁵).
 //!
 //! The other half of the robustness lives in the triangle test: a hit is only reported when its
 //! distance is provably positive and provably below `t_max` (see `intersect.rs`), so an origin
