@@ -169,9 +169,9 @@ pub struct SurfacePoint {
 /// occlusion ray's instructions off (335 → 306) but under 1% of its time (20 rounds: 1.007×,
 /// quartiles 1.00–1.05; closest hits 0.998×). Measured again once the subnormal arithmetic
 /// described below was gone, it paid, and is kept (`PreparedRay::finish`). Nor did a
-/// shorter chain after the
-/// distance: `δt` as an offset and a slope independent of `t` (their divisions beside `t`'s,
-/// not after it), the same instruction count, closest 1.010× and occlusion 0.990×. This VM
+/// shorter chain after the distance: `δt` as an offset and a slope independent of `t` (their
+/// divisions beside `t`'s, not after it), the same instruction count, closest 1.010× and
+/// occlusion 0.990×. This VM
 /// exposes no hardware counters, so what limits a Cornell-box ray cannot be read off them;
 /// the next paragraph estimates it.
 ///
@@ -1090,7 +1090,9 @@ impl Geometry {
 /// 353 → 370, LLVM hoisting the ray's splats out of the loop and spilling them; only the
 /// 10⁶-triangle scene's longer traversals gained, 2518 → 2462 per closest ray). Measured
 /// again in December 2026 by wall clock, the ray prepared inside against outside (one core,
-/// 16 rounds, Cornell box): closest 0.976×, occlusion 0.973×.
+/// 16 rounds, Cornell box): closest 0.976×, occlusion 0.973×; and once more after the ray
+/// offsets' floor and `PreparedRay::finish` (the third machine of `BvhLayout`'s docs, 12
+/// rounds): occlusion 304 → 314 and closest 547 → 568 instructions a ray, 0.961× and 0.989×.
 trait Job {
     type Output;
     /// On a wide BVH, with node test `test`.

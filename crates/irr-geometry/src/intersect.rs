@@ -300,11 +300,8 @@ impl PreparedRay {
     /// [`PreparedRay::set_screen`]; ∞ screens nothing out), without the triangle test's part
     /// ([`PreparedRay::finish`] computes it). Separate from the check so that
     /// the hot callers build it in place: returned in an `Option`, its 300 bytes were copied
-    /// once more per ray. Prepared inside the function the run-time dispatch calls (compiled
-    /// for AVX2, the ray passed in rather than the prepared ray) rather than before it, it took
-    /// more instructions (Cornell box per ray: occlusion 304 → 314, closest 547 → 568) and
-    /// more time (one core of the third machine of `BvhLayout`'s docs, 12 rounds: 0.961× and
-    /// 0.989×).
+    /// once more per ray. (Where it is called, before the run-time dispatch: see `Job`'s docs
+    /// in `geometry.rs`.)
     #[inline(always)]
     pub(crate) fn prepare(ray: &Ray, coordinate_bound: f32) -> PreparedRay {
         let o = Vec3A::from(ray.origin);
