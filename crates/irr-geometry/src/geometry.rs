@@ -211,7 +211,12 @@ pub struct SurfacePoint {
 ///   clock 0.93× closest (8 rounds), 0.88× occlusion (6). The looser boxes also change the
 ///   order of visits, and with it which of two triangles at exactly the same distance (on a
 ///   shared edge) a ray reports: the 4-lane traversal would have needed the same nodes for
-///   the two traversals to agree bit for bit.
+///   the two traversals to agree bit for bit. Measured again on the third machine below after
+///   the ray offsets' floor, each plane stepped inward from its own side of the node's box
+///   and one rounding of `base + q·step` (the same bits from an FMA as from a product and a
+///   sum, so both dispatches agree): node visits per closest ray 11.8 → 12.0, instructions 2599 → 2928, and 0.896×
+///   closest, 0.912× occlusion (6 rounds each). A node visit's wait is for its first line,
+///   which a smaller node does not shorten.
 /// - **Prefetching after the sort**, every pushed child but the nearest (popped next, so
 ///   its prefetch looked redundant): 0.84× closest, 0.935× occlusion (8 rounds each), and
 ///   4 more mispredicted branches per closest ray (the second loop's). The nearest child's
@@ -278,6 +283,15 @@ pub struct SurfacePoint {
 /// 1.95× (1.93×), 16 rounds; 10⁶ triangles closest 1.93× (1.88×), occlusion 2.00× (2.00×), 8
 /// rounds.
 ///
+/// Later that day, on the same machine, one core, the builds in turn: a huge tree's occlusion
+/// rays traced as two walks of their own (`WideBvh::two_walks`), 1.064× (1.070×) on the
+/// 10⁶-triangle scene, kept; closest hits traced so too, 1.047× (1.033×) there but renders of
+/// such a scene about 1% slower, not kept. Nor a better tree for that scene, closest hits, 8
+/// rounds each: obvhs's reinsertion over every node (the build 0.51 → 1.04 s) 1.044× in one
+/// series and 1.012× in the next; over a tenth or a quarter of them (0.65 and 0.67 s), 1.011×
+/// and 1.009×. 32 SAH bins instead of 16: closest 1.040× (gmean 1.021×), occlusion 0.965×
+/// (6 rounds).
+///
 /// Two ways of tracing a gather's rays together were measured and lost to tracing them one
 /// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree
 /// together (Cornell 16×64 gathers: 943 against 669 instructions per ray; 10⁶ triangles:
@@ -327,20 +341,29 @@ enum Nodes {
 /// and 0.988×.
 const SMALL_STACK: usize = 32;
 const LARGE_STACK: usize = 128;
+/// For the two walks of any hit on a large tree (`WideBvh::two_walks`; the 10⁶-triangle
+/// benchmark scene's need 144 entries), so that a large tree's one walk is not given a stack
+/// this size to zero.
+const HUGE_STACK: usize = 256;
 
 /// Runs `$body` with `$s` bound to a zeroed traversal stack of at least `$len` entries of type
-/// `$t`: an array on the call stack (the smaller of two sizes that fits), or a heap vector for a
-/// pathologically deep tree. A macro rather than a closure, so that the body is compiled inside
+/// `$t`: an array on the call stack (the smallest of two sizes that fits, or of three for two
+/// walks, `$two_walks`), or a heap vector for a pathologically deep tree. (The third size
+/// compiled into the other traversals too cost Cornell-box occlusion rays six instructions
+/// each and 10⁶-triangle closest hits fourteen, spills of a larger function.) A macro rather than a closure, so that the body is compiled inside
 /// its caller: a closure is one function whatever pulp's dispatch selected, compiled for the
 /// baseline instruction set.
 macro_rules! on_stack {
-    ($len:expr, $t:ty, |$s:ident| $body:expr) => {{
+    ($len:expr, $t:ty, $two_walks:expr, |$s:ident| $body:expr) => {{
         let len: usize = $len;
         if len <= SMALL_STACK {
             let $s: &mut [$t] = &mut [<$t>::default(); SMALL_STACK];
             $body
         } else if len <= LARGE_STACK {
             let $s: &mut [$t] = &mut [<$t>::default(); LARGE_STACK];
+            $body
+        } else if $two_walks && len <= HUGE_STACK {
+            let $s: &mut [$t] = &mut [<$t>::default(); HUGE_STACK];
             $body
         } else {
             let $s: &mut [$t] = &mut vec![<$t>::default(); len];
@@ -759,7 +782,9 @@ impl Geometry {
     }
 
     /// Whether anything is hit with `t` in `(0, ray.t_max)` (with the same error margins as
-    /// [`Geometry::intersect`]). For shadow rays built with [`Ray::spawn_to`].
+    /// [`Geometry::intersect`]). For shadow rays built with [`Ray::spawn_to`]. On a tree larger
+    /// than the caches, the ray is traced as two walks that take steps in turn, so that one's
+    /// wait for memory overlaps the other's work (1.06× on the 10⁶-triangle benchmark scene).
     #[must_use]
     pub fn occluded(&self, ray: &Ray) -> bool {
         if !PreparedRay::traceable(ray) {
@@ -1119,7 +1144,7 @@ impl Job for Closest<'_> {
         g: &Geometry,
         test: N,
     ) -> Option<Hit> {
-        on_stack!(g.stack_len, Entry, |s| Option::<Hit>::trace(
+        on_stack!(g.stack_len, Entry, false, |s| Option::<Hit>::trace(
             w, self.0, s, test
         ))
     }
@@ -1153,7 +1178,10 @@ impl Job for Any<'_> {
 
     #[inline(always)]
     fn wide<const G: usize, N: NodeTest<G>>(self, w: &WideBvh<G>, g: &Geometry, test: N) -> bool {
-        on_stack!(g.stack_len, Entry, |s| bool::trace(w, self.0, s, test))
+        let walks = WideBvh::<G>::walks::<bool, N>();
+        on_stack!(g.stack_len * walks, Entry, walks == 2, |s| bool::trace(
+            w, self.0, s, test
+        ))
     }
 
     /// Out of line, as `Closest::bvh2`.
@@ -1182,11 +1210,13 @@ impl<A: Answer> Job for Many<'_, A> {
         if N::LARGE && self.2 {
             return wide_stream::<G, N, STREAM, A>(w, g, self.0, self.1, test);
         }
+        let walks = WideBvh::<G>::walks::<A, N>();
+        let len = g.stack_len * walks;
         for (ray, hit) in self.0.iter().zip(self.1.iter_mut()) {
             // No closure here: it would be compiled outside the dispatched instruction set.
             *hit = if PreparedRay::traceable(ray) {
                 let mut r = PreparedRay::prepare(ray, g.coordinate_bound);
-                on_stack!(g.stack_len, Entry, |s| A::trace(w, &mut r, s, test))
+                on_stack!(len, Entry, walks == 2, |s| A::trace(w, &mut r, s, test))
             } else {
                 A::MISS
             };
@@ -1207,7 +1237,8 @@ trait Answer: Query + Copy {
     const MISS: Self;
     /// The answer from a finished traversal's `walk.best`.
     fn from_best<const G: usize>(w: &WideBvh<G>, best: Option<(u32, usize, TriHit)>) -> Self;
-    /// One ray's answer on a wide BVH.
+    /// One ray's answer on a wide BVH, with a stack of `WideBvh::walks` times its
+    /// `stack_len` entries.
     #[inline(always)]
     fn trace<const G: usize, N: NodeTest<G>>(
         w: &WideBvh<G>,
@@ -1216,6 +1247,10 @@ trait Answer: Query + Copy {
         test: N,
     ) -> Self {
         let (nodes, packets) = w.arrays();
+        if WideBvh::<G>::walks::<Self, N>() == 2 {
+            let best = WideBvh::two_walks::<Self, N>(nodes, packets, r, stack, test);
+            return Self::from_best(w, best);
+        }
         let mut walk = Walk::new(r);
         while !WideBvh::step::<Self, N>(nodes, packets, r, stack, &mut walk, test) {}
         Self::from_best(w, walk.best)

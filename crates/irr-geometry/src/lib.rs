@@ -17,7 +17,8 @@
 //!   reports a hit only when its distance is provably inside `(0, t_max)`; and for batches:
 //!   a coherent one in one dispatch ([`Geometry::intersect_many`]), and incoherent ones
 //!   ([`Geometry::intersect_stream`], [`Geometry::occluded_stream`]), which on a tree larger
-//!   than the caches keep several rays in flight so that their waits for memory overlap.
+//!   than the caches keep several rays in flight so that their waits for memory overlap (as
+//!   [`Geometry::occluded`] does there with two walks of its one ray).
 //! - [`Geometry::surface`]: the hit point computed from the barycentrics, the geometric normal
 //!   (from the winding, never flipped) and the shading normal.
 //! - [`Ray::spawn`], [`Ray::spawn_to`] and [`offset_ray_origin`]: origins offset by a few ulps of
