@@ -214,9 +214,9 @@ pub struct SurfacePoint {
 ///   the two traversals to agree bit for bit. Measured again on the third machine below after
 ///   the ray offsets' floor, each plane stepped inward from its own side of the node's box
 ///   and one rounding of `base + q·step` (the same bits from an FMA as from a product and a
-///   sum, so both dispatches agree): node visits per closest ray 11.8 → 12.0, instructions 2599 → 2928, and 0.896×
-///   closest, 0.912× occlusion (6 rounds each). A node visit's wait is for its first line,
-///   which a smaller node does not shorten.
+///   sum, so both dispatches agree): node visits per closest ray 11.8 → 12.0, instructions
+///   2599 → 2928, and 0.896× closest, 0.912× occlusion (6 rounds each). A node visit's wait
+///   is for its first line, which a smaller node does not shorten.
 /// - **Prefetching after the sort**, every pushed child but the nearest (popped next, so
 ///   its prefetch looked redundant): 0.84× closest, 0.935× occlusion (8 rounds each), and
 ///   4 more mispredicted branches per closest ray (the second loop's). The nearest child's
@@ -283,14 +283,17 @@ pub struct SurfacePoint {
 /// 1.95× (1.93×), 16 rounds; 10⁶ triangles closest 1.93× (1.88×), occlusion 2.00× (2.00×), 8
 /// rounds.
 ///
-/// Later that day, on the same machine, one core, the builds in turn: a huge tree's occlusion
+/// Later that day, on the same machine, one core, the builds in turn: a large tree's occlusion
 /// rays traced as two walks of their own (`WideBvh::two_walks`), 1.064× (1.070×) on the
 /// 10⁶-triangle scene, kept; closest hits traced so too, 1.047× (1.033×) there but renders of
 /// such a scene about 1% slower, not kept. Nor a better tree for that scene, closest hits, 8
 /// rounds each: obvhs's reinsertion over every node (the build 0.51 → 1.04 s) 1.044× in one
 /// series and 1.012× in the next; over a tenth or a quarter of them (0.65 and 0.67 s), 1.011×
 /// and 1.009×. 32 SAH bins instead of 16: closest 1.040× (gmean 1.021×), occlusion 0.965×
-/// (6 rounds).
+/// (6 rounds). Kept too: a small tree's children held largest box first (`wide.rs`'s
+/// `set_children`), Cornell occlusion 1.062×. Against the filing build after both: Cornell
+/// closest 2.04× (2.04×, 12 rounds), occlusion 2.08× (2.07×, 16); 10⁶ triangles closest 1.96×
+/// (1.97×, 12), occlusion 2.14× (2.13×, 8).
 ///
 /// Two ways of tracing a gather's rays together were measured and lost to tracing them one
 /// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree
@@ -350,9 +353,9 @@ const HUGE_STACK: usize = 256;
 /// `$t`: an array on the call stack (the smallest of two sizes that fits, or of three for two
 /// walks, `$two_walks`), or a heap vector for a pathologically deep tree. (The third size
 /// compiled into the other traversals too cost Cornell-box occlusion rays six instructions
-/// each and 10⁶-triangle closest hits fourteen, spills of a larger function.) A macro rather than a closure, so that the body is compiled inside
-/// its caller: a closure is one function whatever pulp's dispatch selected, compiled for the
-/// baseline instruction set.
+/// each and 10⁶-triangle closest hits fourteen, spills of a larger function.) A macro rather
+/// than a closure, so that the body is compiled inside its caller: a closure is one function
+/// whatever pulp's dispatch selected, compiled for the baseline instruction set.
 macro_rules! on_stack {
     ($len:expr, $t:ty, $two_walks:expr, |$s:ident| $body:expr) => {{
         let len: usize = $len;
