@@ -651,6 +651,9 @@ impl<const G: usize> WideBvh<G> {
         test: N,
     ) -> Option<(u32, usize, TriHit)> {
         debug_assert!(Q::ANY, "two walks trace any hit only");
+        // The two walks' turns are written out. With the hand-over as a shared function the
+        // 10⁶-triangle scene's occlusion rays ran 11 instructions fewer but 0.970× and 0.969× as
+        // fast (6 and 8 rounds): another layout of the loop's branches.
         let (sa, sb) = stack.split_at_mut(stack.len() / 2);
         let (mut a, mut b) = (Walk::new(r), Walk::new(r));
         let (mut a_on, mut b_on) = (true, false);
