@@ -295,6 +295,14 @@ pub struct SurfacePoint {
 /// closest 2.04× (2.04×, 12 rounds), occlusion 2.08× (2.07×, 16); 10⁶ triangles closest 1.96×
 /// (1.97×, 12), occlusion 2.14× (2.13×, 8).
 ///
+/// The next day, same machine: a closest hit's triangle id, which the answer reads from a
+/// 5.3-MB array after the traversal, is prefetched when its packet is hit, and that array is
+/// on huge pages (`wide.rs`'s `WideBvh::ids`). Against the filing build, 16 rounds, the three
+/// builds in turn: 10⁶ triangles closest 1.98× (1.97×) before, **2.05× (2.04×)** with it
+/// (quartiles 2.00–2.10; medians 0.623 → 1.237 → 1.278 Mrays/s, a slow spell of the host:
+/// the filing build ran 0.91 in session 10's series); Cornell closest 2.050× (2.055×) before,
+/// 2.046× (2.051×) with it (the storage check of the ids' array, 6 instructions a hit).
+///
 /// Two ways of tracing a gather's rays together were measured and lost to tracing them one
 /// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree
 /// together (Cornell 16×64 gathers: 943 against 669 instructions per ray; 10⁶ triangles:
@@ -1249,13 +1257,13 @@ trait Answer: Query + Copy {
         stack: &mut [Entry],
         test: N,
     ) -> Self {
-        let (nodes, packets) = w.arrays();
+        let (nodes, packets, ids) = w.arrays();
         if WideBvh::<G>::walks::<Self, N>() == 2 {
-            let best = WideBvh::two_walks::<Self, N>(nodes, packets, r, stack, test);
+            let best = WideBvh::two_walks::<Self, N>(nodes, packets, ids, r, stack, test);
             return Self::from_best(w, best);
         }
         let mut walk = Walk::new(r);
-        while !WideBvh::step::<Self, N>(nodes, packets, r, stack, &mut walk, test) {}
+        while !WideBvh::step::<Self, N>(nodes, packets, ids, r, stack, &mut walk, test) {}
         Self::from_best(w, walk.best)
     }
     /// One ray's answer on the BVH2 layout.
@@ -1338,7 +1346,7 @@ fn wide_stream<const G: usize, N: NodeTest<G>, const K: usize, A: Answer>(
     out: &mut [A],
     test: N,
 ) {
-    let (nodes, packets) = w.arrays();
+    let (nodes, packets, ids) = w.arrays();
     let len = g.stack_len;
     let mut stacks = vec![Entry::default(); K * len];
     let mut next = 0;
@@ -1350,7 +1358,7 @@ fn wide_stream<const G: usize, N: NodeTest<G>, const K: usize, A: Answer>(
     while active > 0 {
         for (lane, stack) in lanes.iter_mut().zip(stacks.chunks_exact_mut(len)) {
             let Some((i, r, walk)) = lane else { continue };
-            if WideBvh::step::<A, N>(nodes, packets, r, stack, walk, test) {
+            if WideBvh::step::<A, N>(nodes, packets, ids, r, stack, walk, test) {
                 out[*i] = A::from_best(w, walk.best);
                 *lane = refill(g, rays, out, &mut next);
                 active -= usize::from(lane.is_none());

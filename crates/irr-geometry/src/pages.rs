@@ -1,6 +1,7 @@
-//! Where a wide BVH keeps its nodes and triangle packets: on Linux, a large array goes into an
-//! anonymous mapping advised for transparent huge pages (`MADV_HUGEPAGE`, through memmap2's
-//! safe API, and read back through bytemuck); otherwise, and for small arrays, into a `Vec`.
+//! Where a wide BVH keeps its nodes, triangle packets and the packets' triangle ids: on Linux,
+//! a large array goes into an anonymous mapping advised for transparent huge pages
+//! (`MADV_HUGEPAGE`, through memmap2's safe API, and read back through bytemuck); otherwise,
+//! and for small arrays, into a `Vec`.
 //!
 //! Why: a large scene's rays reach nodes and packets all over a tree of tens of megabytes, and
 //! with 4-KiB pages nearly every one of those visits is also a TLB miss. On the 10⁶-triangle
@@ -8,8 +9,10 @@
 //! on the heap: nodes and packets on huge pages traced 1.17× as many closest-hit rays per
 //! second (16 rounds) and 1.11× as many occlusion rays (12 rounds), as much as glibc's
 //! `glibc.malloc.hugetlb=1` (every large allocation on huge pages) gave; the packets alone,
-//! 1.05×. The price on a small scene, whose arrays stay on the heap: the storage check, once
-//! per array per ray (Cornell box, callgrind: 580 → 589 instructions per closest ray).
+//! 1.05×. The packets' triangle ids (read once per closest hit) followed later, with a
+//! prefetch: see `wide.rs`'s `WideBvh::ids`. The price on a small scene, whose arrays stay on
+//! the heap: the storage check, once per array per ray (Cornell box, callgrind: 580 → 589
+//! instructions per closest ray), and for the ids once per closest hit (6 instructions).
 //!
 //! Huge pages are advice: where the kernel has none to give, or the mapping fails, the arrays
 //! stay where they would have been. The nodes are moved onto huge pages once built, before
@@ -29,6 +32,13 @@ pub(crate) trait Plain: AnyBitPattern {
     /// Writes the value's bytes into `out` (`size_of::<Self>()` bytes; padding may be left as
     /// it is).
     fn write_to(&self, out: &mut [u8]);
+}
+
+/// A packet's four triangle ids (`wide.rs`).
+impl Plain for [u32; 4] {
+    fn write_to(&self, out: &mut [u8]) {
+        out.copy_from_slice(bytemuck::bytes_of(self));
+    }
 }
 
 /// A fixed-length array (see the module docs).
@@ -180,5 +190,21 @@ mod tests {
         }
         // A small array stays on the heap.
         assert!(!Pages::from_fn(3, packet).huge_pages());
+    }
+
+    /// The same for packets' triangle ids (`[u32; 4]`, written through their own `Plain`).
+    #[test]
+    fn a_huge_page_array_of_ids_holds_them() {
+        let len = HUGE_PAGE / size_of::<[u32; 4]>() + 3;
+        let ids = |i: usize| {
+            let i = i as u32;
+            [4 * i, 4 * i + 1, u32::MAX - i, i.reverse_bits()]
+        };
+        let on_pages = Pages::from_fn(len, ids);
+        println!("huge pages: {}", on_pages.huge_pages());
+        assert_eq!(on_pages.len(), len);
+        for (i, got) in on_pages.iter().enumerate() {
+            assert_eq!(*got, ids(i), "ids {i}");
+        }
     }
 }
