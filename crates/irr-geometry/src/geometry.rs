@@ -302,6 +302,10 @@ pub struct SurfacePoint {
 /// (quartiles 2.00–2.10; medians 0.623 → 1.237 → 1.278 Mrays/s, a slow spell of the host:
 /// the filing build ran 0.91 in session 10's series); Cornell closest 2.050× (2.055×) before,
 /// 2.046× (2.051×) with it (the storage check of the ids' array, 6 instructions a hit).
+/// Occlusion, which reads no id, the same build against the filing build: Cornell 2.076×
+/// (2.053×), 12 rounds; 10⁶ triangles 2.31× (2.33×), 8 rounds. In divan (`cargo bench`, one
+/// thread, the two builds' runs alternating, 4 rounds) 10⁶ closest hits ran 1.26–1.30 Mrays/s
+/// (medians) against the filing build's 0.62–0.64: 1.97× to 2.04× by round.
 ///
 /// Two ways of tracing a gather's rays together were measured and lost to tracing them one
 /// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree
