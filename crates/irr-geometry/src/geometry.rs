@@ -296,12 +296,13 @@ pub struct SurfacePoint {
 /// (1.97×, 12), occlusion 2.14× (2.13×, 8).
 ///
 /// The next day, same machine: a closest hit's triangle id, which the answer reads from a
-/// 5.3-MB array after the traversal, is prefetched when its packet is hit, and that array is
-/// on huge pages (`wide.rs`'s `WideBvh::ids`). Against the filing build, 16 rounds, the three
-/// builds in turn: 10⁶ triangles closest 1.98× (1.97×) before, **2.05× (2.04×)** with it
-/// (quartiles 2.00–2.10; medians 0.623 → 1.237 → 1.278 Mrays/s, a slow spell of the host:
-/// the filing build ran 0.91 in session 10's series); Cornell closest 2.050× (2.055×) before,
-/// 2.046× (2.051×) with it (the storage check of the ids' array, 6 instructions a hit).
+/// 4.3-MB array (`Geometry::heap_bytes`) after the traversal, is prefetched when its packet
+/// is hit, and that array is on huge pages (`wide.rs`'s `WideBvh::ids`). Against the filing
+/// build, 16 rounds, the three builds in turn: 10⁶ triangles closest 1.98× (1.97×) before,
+/// **2.05× (2.04×)** with it (quartiles 2.00–2.10; medians 0.623 → 1.237 → 1.278 Mrays/s, a
+/// slow spell of the host: the filing build ran 0.91 in session 10's series); Cornell closest
+/// 2.050× (2.055×) before, 2.046× (2.051×) with it (the storage check of the ids' array, 6
+/// instructions a hit).
 /// Occlusion, which reads no id, the same build against the filing build: Cornell 2.076×
 /// (2.053×), 12 rounds; 10⁶ triangles 2.31× (2.33×), 8 rounds. In divan (`cargo bench`, one
 /// thread, the two builds' runs alternating, 4 rounds) 10⁶ closest hits ran 1.26–1.30 Mrays/s

@@ -104,13 +104,21 @@ pub(crate) trait NodeTest<const G: usize>: Copy {
     /// traversal's one- and two-child shortcut.
     const LARGE: bool;
     fn hits(self, node: &WideNode<G>, r: &PreparedRay, t_best: f32) -> ([[f32; 4]; G], u32);
-    /// Asks for the cache lines of the `size` bytes (192 to 384) from `p` on, without waiting
-    /// for them; by default, nothing.
-    #[inline(always)]
-    fn prefetch(self, _p: *const u8, _size: usize) {}
-    /// Prefetches the cache line at `p`, where `prefetch` would; by default, nothing.
+    /// Asks for the cache line at `p` without waiting for it, where the test can and the tree
+    /// is large; by default, nothing.
     #[inline(always)]
     fn prefetch_line(self, _p: *const u8) {}
+    /// Asks for the cache lines of the `size` bytes (192 to 384) from `p` on
+    /// ([`NodeTest::prefetch_line`]). Six prefetches whatever the size, without a branch: for
+    /// a node (256 bytes) lines 0, 1, 2, 2, 2, 3; for a packet (192) lines 0, 1, 2, 1, 1, 2;
+    /// for a pair (384) lines 0 to 5. (Four, lines 0, 1, 2 and the last, left a pair's middle
+    /// lines out: 0.943× on 10⁶ closest hits, 12 rounds.)
+    #[inline(always)]
+    fn prefetch(self, p: *const u8, size: usize) {
+        for offset in [0, 64, 128, size / 2, size - 128, size - 64] {
+            self.prefetch_line(p.wrapping_add(offset));
+        }
+    }
 }
 
 /// The node test as `G` four-lane slab tests (`PreparedRay::hits4`), for any instruction set,
@@ -176,21 +184,6 @@ impl<const LARGE: bool> NodeTest<2> for Lanes8<LARGE> {
         (cast(t_near), mask)
     }
 
-    /// Six prefetches whatever the size, without a branch: for a node (256 bytes) lines 0, 1,
-    /// 2, 2, 2, 3; for a packet (192) lines 0, 1, 2, 1, 1, 2; for a pair (384) lines 0 to 5.
-    /// (Four, lines 0, 1, 2 and the last, left a pair's middle lines out: 0.943× on 10⁶
-    /// closest hits, 12 rounds.)
-    #[inline(always)]
-    fn prefetch(self, p: *const u8, size: usize) {
-        if !LARGE {
-            return;
-        }
-        for offset in [0, 64, 128, size / 2, size - 128, size - 64] {
-            self.0
-                .sse
-                ._mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.wrapping_add(offset).cast());
-        }
-    }
     #[inline(always)]
     fn prefetch_line(self, p: *const u8) {
         if LARGE {
@@ -211,7 +204,7 @@ pub(crate) struct WideBvh<const G: usize> {
     /// huge pages where the array is large, and on a large tree prefetched when a packet is
     /// hit ([`NodeTest::prefetch_line`]), so that its line is on its way while the traversal
     /// goes on. Without both, a hit's id was one more miss, taken after its traversal, with
-    /// nothing left to overlap it. On the 10⁶-triangle benchmark scene (5.3 MB of ids, 16
+    /// nothing left to overlap it. On the 10⁶-triangle benchmark scene (4.3 MB of ids, 16
     /// bytes a packet), one core, the builds in turn, closest hits: 1.033× (1.036×) in 16
     /// rounds, 1.041× (1.032×) and 1.012× (1.026×) in 12; either alone, 8 rounds, gained less
     /// (prefetch 1.016× (1.010×), huge pages 1.012× (1.015×)) than both (1.052× (1.044×), an
@@ -422,23 +415,24 @@ impl<const G: usize> WideBvh<G> {
         // allocated, so this adds nothing to the build's peak memory. The ids then go straight
         // onto huge pages too (where the array is large), not through a heap copy.
         self.nodes = std::mem::take(&mut self.nodes).onto_huge_pages();
+        // Packet `packet`'s primitives (one to four), from its `first << 2 | (count − 1)`.
+        let prims = |packet: usize| {
+            let leaf = leaves[packet] as usize;
+            let first = leaf >> 2;
+            &primitive_indices[first..=first + (leaf & 3)]
+        };
         self.packets = Pages::from_fn(leaves.len(), |packet| {
-            let leaf = leaves[packet];
-            let first = (leaf >> 2) as usize;
-            let count = (leaf & 3) as usize + 1;
-            let prims = &primitive_indices[first..first + count];
+            let prims = prims(packet);
             let mut tris = [TriSoa::default(); 4];
             for (lane, &id) in prims.iter().enumerate() {
                 tris[lane] = triangle(id);
                 slots[id as usize] = (packet * 4 + lane) as u32;
             }
-            Tri4::new(&tris[..count])
+            Tri4::new(&tris[..prims.len()])
         });
         self.ids = Pages::from_fn(leaves.len(), |packet| {
-            let leaf = leaves[packet];
-            let first = (leaf >> 2) as usize;
-            let count = (leaf & 3) as usize + 1;
-            std::array::from_fn(|lane| primitive_indices[first + lane.min(count - 1)])
+            let prims = prims(packet);
+            std::array::from_fn(|lane| prims[lane.min(prims.len() - 1)])
         });
     }
 
