@@ -16,10 +16,7 @@
 //! row by row (the second bounce of a path tracer's first sample; fewer than 2¹⁶ rays where
 //! primary rays miss). Neighbouring rays then start close together and share their part of
 //! the tree, which stays in cache: a change that speeds up the incoherent rays above can slow
-//! these, and renders with them. Of the two changes `BvhLayout`'s docs record as not kept for
-//! that reason, the branchless sorted push shows here: 0.94× on the 10⁶-triangle scene's
-//! closest-hit rays in render order (12 rounds, one core, the builds in turn), where the
-//! renders took 1.09× as long; the 16-wide layout on top of it did not (1.035×).
+//! these, and renders with them (docs/performance.md has such changes).
 //!
 //! `closest_stream` and `occluded_stream` trace the random-order rays in batches of 4096 (a
 //! 32 × 128 gather's), one `Geometry::intersect_stream` or `Geometry::occluded_stream` call
@@ -49,7 +46,7 @@
 //! then traces that case's rays once (or `IRR_PROFILE_REPEATS` times, printing the best rate),
 //! outside divan, and exits. `docs/ab-trace.py` runs one such case for several builds in turn
 //! on one core (the baseline first) and prints their ratios: how the traversal's changes are
-//! measured.
+//! measured (docs/performance.md, how the traversal is measured).
 
 use std::sync::LazyLock;
 use std::time::Instant;
@@ -70,7 +67,7 @@ fn main() {
 
 /// `n` nested triangles sharing one centroid (and one box centre: the origin), each 1.0001
 /// times the size of the previous one (1.00001 beyond 10⁵ triangles, so that the largest stays
-/// finite): the input of issue 12, item 5.
+/// finite): the input on which PLOC stalls (see irr-geometry's `build.rs`).
 fn same_centroid(n: usize) -> Vec<TriangleMesh> {
     let factor: f32 = if n <= 100_000 { 1.0001 } else { 1.00001 };
     let shape = [

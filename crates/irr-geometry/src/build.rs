@@ -2,38 +2,16 @@
 //! triangles, one four-triangle packet of the wide layouts): obvhs's PLOC + reinsertion for
 //! scenes of at most [`PLOC_LIMIT`] triangles, a lean top-down binned-SAH build above.
 //!
-//! # Which builder, and why (issue 15: huge scenes)
-//! PLOC's scratch alone is about 320 bytes per triangle (its 2n-node output, 96 B/triangle, its
-//! builder's buffers, 128, the boxes, 32, then a collapsed copy), more than the 150 bytes per
-//! triangle that a whole 10⁶-triangle render may peak at. The lean build needs the prims (32
-//! B/triangle), about half a 48-byte node per triangle and the final leaf order (4 B/triangle).
-//! It also traces faster on every scene measured but the Cornell box. Instructions per ray
-//! (callgrind, `BvhLayout::Wide8`, the 2¹⁶ second-bounce rays of `cargo bench -p irr-geometry`,
-//! `IRR_PROFILE`; closest hit / occlusion):
-//!
-//! | scene | triangles | PLOC + reinsertion | lean | lean + reinsertion |
-//! |---|---|---|---|---|
-//! | Cornell box | 36 | **728 / 445** | | 771 / 458 |
-//! | `IRR_SCALE=16` | 3 266 | 1299 / 998 | 1275 / 979 ¹ | **1234 / 950** |
-//! | `IRR_SCALE=4` | 64 386 | 1897 / 1456 | 1859 / 1485 ¹ | **1835 / 1375** |
-//! | 10⁶-triangle scene | 1 035 010 | 2911 / 2246 | **2834 / 2022** | 2785 / 1951 |
-//!
-//! ¹ with an earlier version of the lean build (truncated bin indices, ties by index).
-//! L1 data misses per ray on the 10⁶-triangle scene (callgrind's cache model): 38.3 / 35.9
-//! with PLOC, 36.8 / 30.2 lean. Wall clock there (best of 5, six interleaved runs, one thread
-//! on the shared 2-core machine): closest 0.754 → 0.770 Mrays/s, occlusion 1.07 → 1.29.
-//!
-//! Build time (best of 8, the `docs/make-huge-scene.py` heightfield, load time subtracted):
-//! 10⁵ triangles 0.064 s with PLOC, 0.075 s lean + reinsertion; 10⁶ triangles 0.86 s with
-//! PLOC, 0.61 s lean (with reinsertion ~1.0 s). Reinsertion over every node costs about as much
-//! as the lean build itself (+73% instructions at 2·10⁵ triangles) for 1.7% / 3.5% fewer
-//! instructions per ray at 10⁶ and 3% / 9% at 6·10⁴.
-//!
-//! So: PLOC + reinsertion up to [`PLOC_LIMIT`] = 1024 triangles (where it traced a room
-//! faster, and its scratch is a few hundred kilobytes), the lean build above, with reinsertion
-//! over every node up to [`REINSERT_LIMIT`] = 2¹⁸ triangles (where it adds about 0.1 s: 0.12 →
-//! 0.20 s at 2.6·10⁵), none beyond, where the build's time and memory matter most. The
-//! crossover between 36 and 3 266 triangles was not looked for more closely.
+//! # Which builder, and why
+//! PLOC's scratch alone is about 320 bytes per triangle (its 2n-node output, its builder's
+//! buffers, the boxes, then a collapsed copy), more than a whole 10⁶-triangle render may peak
+//! at. The lean build needs the prims (32 B/triangle), about half a 48-byte node per triangle
+//! and the final leaf order (4 B/triangle), and its trees trace faster on every scene measured
+//! but the Cornell box. So: PLOC + reinsertion up to [`PLOC_LIMIT`] = 1024 triangles (where it
+//! traced a room faster, and its scratch is a few hundred kilobytes), the lean build above,
+//! with reinsertion over every node up to [`REINSERT_LIMIT`] = 2¹⁸ triangles, none beyond,
+//! where the build's time and memory matter most. The figures are in docs/performance.md, BVH
+//! build.
 //!
 //! # Why PLOC stalls on shared centroids
 //! PLOC (Meister & Bittner 2018) sorts the primitives by the Morton code of their centroid and
@@ -42,10 +20,9 @@
 //! and for nested boxes (coincident instances, stacked decals, the same triangle at growing
 //! scales) the merge cost `area(a ∪ b)` is the area of the larger box, so most nodes tie between
 //! all their smaller neighbours and few pairs agree: each pass merges only a handful of a
-//! cluster's nodes, and the passes repeat until the cluster is one node. Measured with obvhs
-//! 0.4 (`cargo bench -p irr-geometry -- same_centroid`): 10⁴ nested triangles ~0.3 s,
-//! 2·10⁴ ~1 s, 4·10⁴ ~10 s, 10⁵ over a minute. PLOC now only sees scenes of at most
-//! [`PLOC_LIMIT`] = [`CLUSTER_LIMIT`] triangles, where that costs nothing noticeable.
+//! cluster's nodes, and the passes repeat until the cluster is one node (with obvhs 0.4, 10⁵
+//! nested triangles take over a minute). PLOC now only sees scenes of at most [`PLOC_LIMIT`] =
+//! [`CLUSTER_LIMIT`] triangles, where that costs nothing noticeable.
 //!
 //! # The lean build
 //! Top down over one array of [`Prim`]s (box and index, 32 bytes), partitioned in place:
@@ -75,12 +52,8 @@
 //!
 //! Memory: the prims (32 B/triangle), the nodes (48 B per node, about half a node per
 //! triangle) and the final `primitive_indices` (4 B/triangle). The whole build's peak comes
-//! later, in `Geometry::build_from`, while the wide BVH's packets are filled from the meshes:
-//! on the 10⁶-triangle heightfield 103 bytes per triangle of heap (packets 48.8, wide nodes
-//! 18.8, the loader's indices 12 and positions 6, packet ids 4.1, material ids 4, slots 4, the
-//! leaf order 4, the leaf list 1), and 108 of resident memory for the whole `irr` process.
-//! (Measured before the wide tree's pair leaves, which took its nodes from 18.8 to 9.7 bytes
-//! per triangle there: 73 531 → 38 080 nodes, 79.7 → 70.6 bytes per triangle kept.)
+//! later, in `Geometry::build_from`, while the wide BVH's packets are filled from the meshes
+//! (see docs/performance.md, memory per triangle).
 
 use glam::Vec3A;
 use obvhs::{
@@ -98,7 +71,7 @@ pub(crate) const CLUSTER_LIMIT: usize = 1024;
 pub(crate) const PLOC_LIMIT: usize = CLUSTER_LIMIT;
 
 /// The lean build is followed by a reinsertion pass over every node up to this many triangles
-/// (see the module docs for what it gains and costs).
+/// (see docs/performance.md, BVH build, for what it gains and costs).
 pub(crate) const REINSERT_LIMIT: usize = 1 << 18;
 
 /// A range of at most [`LEAF_SIZE`] primitives is split rather than made a leaf when its two

@@ -52,289 +52,27 @@ pub struct SurfacePoint {
     pub b2: f32,
 }
 
-/// Which BVH layout [`Geometry`] builds and traverses. All come from the same BVH2 build (see
-/// `build.rs`) and give the same answers; they differ in speed.
-///
-/// Instructions per ray from callgrind (which the load of a shared machine does not disturb)
-/// on `cargo bench -p irr-geometry`'s second-bounce rays, with the wide traversals compiled
-/// for x86-64-v3 (AVX2, dispatched at run time); on the 10⁶-triangle scene also L1 data-cache
-/// read misses per ray (callgrind's cache model):
-///
-/// | layout | Cornell, closest | Cornell, occlusion | 10⁶ tris, closest | 10⁶ tris, occlusion |
-/// |---|---|---|---|---|
-/// | `Bvh2` | 1500 | 921 | 5567 (61 misses) | 3770 (48) |
-/// | `Wide4` | 871 | 522 | 3033 (31) | 2253 (29) |
-/// | `Wide8` (default) | 728 | 445 | 2954 (38) | 2326 (36) |
-/// | former `Bvh8` (CWBVH tree, float boxes) | 882 | 555 | 3938 (48) | 3387 (39) |
-/// | former `Cwbvh` (quantised boxes) | 1196 | 1088 | 5197 | 4721 |
-///
-/// (The 10⁶-triangle columns were measured before the four-triangle test learnt to return
-/// early when no lane can hit, which took 1–3% off on the Cornell box, and on PLOC's tree:
-/// the lean top-down build that replaced it for scenes above 1024 triangles takes `Wide8` to
-/// 2834 and 2022; see `build.rs`.)
-///
-/// Wall clock (best of 30 runs, 6 on 10⁶ triangles, interleaved with the previous build, one
-/// thread, load ~4 on the 2-core development machine): Cornell closest 6.8 → 7.5 Mrays/s,
-/// occlusion 15.4 → 14.7; 10⁶ triangles closest 0.70 → 0.74, occlusion 0.95 → 1.16.
-///
-/// Per ray on the 10⁶-triangle scene (the lean build's tree, counted in December 2026),
-/// `Wide8` visits 24.4 nodes and tests 4.2 four-triangle packets for a closest hit (22.8 and
-/// 4.1 for occlusion), `Wide4` 36.6 and 4.2; on the Cornell box `Wide8` visits 2.6 nodes and
-/// 2.4 packets (2.5 and 1.7).
-///
-/// Since then (issue 11): an 8-lane AVX node test for `Wide8` where the CPU has AVX2 (the
-/// same bits as two 4-lane tests, half the instructions), one packet test for every ray
-/// permutation, a screen that skips most of a missed packet's test, and lanes read through
-/// arrays, and the ray prepared in place. Callgrind (with fat LTO), per ray, closest /
-/// occlusion: Cornell 694 / 458, 10⁶ triangles 2419 / 1846; mispredicted branches per ray 8.4 → 3.4 (Cornell, closest) and
-/// 38.3 → 17.7 (10⁶, closest). Wall clock, one thread, best of 20, side by side with the
-/// previous build on the other core: Cornell closest 7.3 → 9.6 Mrays/s, occlusion 14.7 →
-/// 16.5; 10⁶ triangles closest 0.70–0.72 → 0.74–0.77, occlusion 1.33–1.37 → 1.27–1.33 (that
-/// scene is bound by memory latency: 4 cache lines per node, 3 per packet).
-///
-/// Then pair leaves and prefetching (see `wide.rs`). `Wide8` on the 10⁶-triangle scene:
-/// 93 989 → 55 924 nodes, 85.1 → 75.7 heap bytes per triangle; callgrind per ray, closest /
-/// occlusion, 2419 / 1846 → 2874 / 2179 instructions (the prefetches, and pair packets that
-/// a node test would have culled), while the time falls: one thread, side by side with the
-/// previous build on the other core, swapping cores each round, geometric mean of six rounds'
-/// ratios, closest 1.35× (best 0.75 → 1.07 Mrays/s), occlusion 1.40× (1.11 → 1.53). Apart,
-/// on closest hits (eight rounds each): pairs alone 1.03×, prefetching on top of pairs 1.29×,
-/// pairs on top of prefetching 1.13×. Prefetching only pays on trees larger than the caches:
-/// on the same scene shrunk to 15 490 triangles (about 1 MB) closest hits gained 1.22× and
-/// occlusion 1.05×, at 64 386 (4.9 MB) 1.11× and 0.81–1.03×, at 258 754 (19 MB) 1.14× and
-/// 0.94×; at 3 266 (0.2 MB) 0.99× and 0.80×; at 10⁶ 1.29× and 1.18×; hence [`Geometry`]
-/// prefetches above 1 MiB. The Cornell box's tree has no pair and is not prefetched: 694 →
-/// 705 instructions per closest ray (the pair check at each leaf), 458 → 458 for occlusion.
-/// Against the build issue 11 was filed on (its `Bvh8` layout), by the same method: 10⁶
-/// triangles closest 1.83×, occlusion 1.98×; Cornell closest 1.48×, occlusion 1.05×.
-///
-/// Then a leaner prepared ray and packet test, on small trees the screen's shortcut and a
-/// shortcut for nodes with one or two children hit (see `intersect.rs`, `wide.rs`'s
-/// `LARGE_BYTES` and `WideBvh::step`), and on Linux large arrays on huge pages (see
-/// `pages.rs`): callgrind per ray, closest / occlusion, Cornell 705 / 458 → 589 / 356
-/// instructions, 10⁶ triangles 2874 / 2179 → 2656 / 1932. Wall clock on one core, the builds
-/// run in turn, rotating their order, 16 to 24 rounds (side by side on the two cores, the
-/// builds disturbed each other by up to ±30% that day), geometric mean of each round's ratio
-/// to the filing build's `Bvh8` (a range: several series):
-///
-/// | case | filing build | before | after |
-/// |---|---|---|---|
-/// | Cornell, closest | 1 (best 6.8 Mrays/s) | 1.45–1.47× (9.7) | 1.59–1.60× (10.6) |
-/// | Cornell, occlusion | 1 (15.4) | 1.05–1.13× (16.4) | 1.21–1.27× (18.4) |
-/// | 10⁶ triangles, closest | 1 (0.71) | 1.65–1.78× (1.27) | 1.85–1.93× (1.32) |
-/// | 10⁶ triangles, occlusion | 1 (0.96) | 1.83–1.92× (1.82) | 2.12–2.13× (1.91) |
-///
-/// Before huge pages, the same method gave 1.57–1.58× and 1.21–1.22× on the Cornell box, and
-/// 1.72–1.88× and 1.87–1.97× on 10⁶ triangles. (The 1.83× and 1.98× above came from
-/// side-by-side runs on another day.)
-///
-/// Then a leaner ray preparation (the BVH2 oracle's traversal out of line, and the planes and
-/// permutation from one table entry: `intersect.rs`'s `Slabs`): callgrind per ray, closest /
-/// occlusion, Cornell 591 / 358 → 567 / 335, 10⁶ triangles 2654 / 1965 → 2632 / 1945. Where
-/// a Cornell-box ray's instructions go now (callgrind, per instruction, mapped to source):
-/// closest hit, 113 before the dispatch (checking and preparing the ray), 1.38 node tests
-/// (65), 1.20 packet tests (191: 0.98 that reach the distance computation, 0.22 screened
-/// out), and about 190 of traversal steps, stack and dispatch; occlusion, 113 before the
-/// dispatch, 1.27 node tests (61), 0.54 packet tests (61), about 92 of the rest. Against
-/// the filing build, one core, 12 rounds in turn (a noisy day: quartiles in brackets):
-/// Cornell closest 1.70× (1.56–1.99), occlusion 1.19× (1.04–1.39); 10⁶ triangles closest
-/// 1.83× (1.75–2.09), occlusion 2.03× (1.94–2.20).
-///
-/// Tried and not kept (December 2026), because renders got slower although the benchmark got
-/// faster:
-/// - **A 16-wide layout** (`G` = 4 in `wide.rs`: two 8-lane tests per node, 448-byte nodes,
-///   8 levels on the 10⁶-triangle scene against 10). Per closest ray there, callgrind counted
-///   more of everything: 2769 instructions against 2695, 45.4 L1 and 16.9 L2 misses against
-///   36.2 and 14.5 (48-KiB and 2-MiB models). Yet the benchmark's incoherent rays ran faster,
-///   since fewer misses waited on each other. With the sorted push below, against `Wide8`
-///   without it, two series of 24 rounds (one core, the builds in turn): closest 1.07× and
-///   1.02×, occlusion 1.02× and 1.02×. Against `Wide8` with it, on the heightfield at other
-///   sizes (12 rounds, closest): 0.92× at 3 266 triangles, 1.06× at 15 490, 1.04× at 64 386,
-///   1.10× at 258 754. But renders of the same 10⁶-triangle scene
-///   (`docs/make-huge-scene.py`, one thread, four rounds in turn, medians) took about 6%
-///   longer: the path tracer's 192² × 64 spp 1.41 s against 1.32 s, the irradiance cache's
-///   gathers 0.44 s against 0.41 s. A render's rays stay in the part of the tree they share,
-///   which is then in cache, and the wider nodes only cost instructions.
-/// - **A branchless sorted push** for closest hits: each hit child written straight to its
-///   slot, counted from the hit children farther than it (one 8-lane compare), in the order
-///   the insertion sort gives. Mispredicted branches per closest ray fell (10⁶ triangles 19.6
-///   → 15.9, Cornell 2.93 → 2.44) but not the benchmark's time (0.99–1.01×, four series on
-///   the two scenes), and the renders above took longer with it: 1.32 s against 1.21 s, 0.41
-///   s against 0.38 s. The insertion sort's branches are predicted when neighbouring rays
-///   cross the same nodes.
-///
-/// Also tried and not kept then: leaving the triangle test's part of the preparation
-/// (largest axis, shear, screen) until a ray first reaches a packet, which at least 46% of
-/// the Cornell box's shadow rays never do (0.54 packet tests per ray). It took 9% of an
-/// occlusion ray's instructions off (335 → 306) but under 1% of its time (20 rounds: 1.007×,
-/// quartiles 1.00–1.05; closest hits 0.998×). Measured again once the subnormal arithmetic
-/// described below was gone, it paid, and is kept (`PreparedRay::finish`). Nor did a
-/// shorter chain after the distance: `δt` as an offset and a slope independent of `t` (their
-/// divisions beside `t`'s, not after it), the same instruction count, closest 1.010× and
-/// occlusion 0.990×. This VM
-/// exposes no hardware counters, so what limits a Cornell-box ray cannot be read off them;
-/// the next paragraph estimates it.
-///
-/// Where a ray's cycles go (December 2026). The development machine's core runs at about
-/// 2.95 GHz (timed on a chain of dependent `imul`s), so a Cornell-box closest hit at
-/// 10.1–10.7 Mrays/s takes 276–292 cycles, and an occlusion ray at 18.6–18.8 Mrays/s about
-/// 158.
-/// - **Mispredictions.** The benchmark's rays in coherent order run the same instructions
-///   with fewer mispredicted branches (callgrind: closest 2.88 → 2.17 per ray, occlusion
-///   0.96 → 0.31), at 11.4 and 19.9 Mrays/s (259 and 148 cycles). So a misprediction costs
-///   about 15 cycles on an occlusion ray and 25–45 on a closest hit.
-/// - **The rest.** `llvm-mca` (LLVM 14, whose nearest model is Skylake's) on the
-///   instructions a ray runs at least every other time: closest hits 447 instructions, 206
-///   cycles a ray with rays overlapping (246 alone), bound by chains of vector operations
-///   and by vector ports 0 and 1 (95 µops each a ray); occlusion 285 instructions, 75 cycles
-///   (104 alone). The model's 206 cycles and the mispredictions account for a closest hit's
-///   276–292. Twice the filing build's best rate (6.8 Mrays/s) is 13.6, about 217 cycles:
-///   close to the model's 206, so it would need nearly every misprediction gone.
-/// - **10⁶ triangles.** Callgrind's cache model (48-KiB L1, 2-MiB L2) per closest ray: 36.1
-///   L1 misses (26 in nodes, 9 in packets) and 14.6 L2 misses (6.5 in nodes, 7.2 in packets).
-///
-/// Kept on that evidence: the slab table looked up by the direction's sign bits rather than
-/// its inverse's (`PreparedRay::prepare`), the closest-hit leaf's branch on the hit mask
-/// rather than the closest lane, and the any-hit traversal's next child from a register
-/// (both `WideBvh::step`): the same instructions or fewer, and chains shorter to the loads
-/// and branches that follow. Against the filing build, one core, the three builds in turn,
-/// ratio of medians (and geometric mean of per-round ratios), the session's first build →
-/// after them: Cornell closest 1.57× → 1.68× (1.62×), occlusion 1.22× → 1.26× (1.26×), 16
-/// rounds; 10⁶ triangles closest 1.90× → 1.88× (1.90×), occlusion 1.99× → 2.06× (2.06×),
-/// 12 rounds.
-///
-/// Tried on that evidence and not kept (December 2026), one core, the builds in turn:
-/// - **Quantised child boxes** for large trees: each plane a byte, `q · 2^k + origin` per
-///   node and axis (CWBVH-like), rounded outwards at the build, 128-byte nodes (two cache
-///   lines, not four). Per 10⁶ closest ray: L1 misses 36.1 → 22.8, L2 14.6 → 10.5, but
-///   instructions 2632 → 3176 (each node test unpacks six planes of bytes). Wall
-///   clock 0.93× closest (8 rounds), 0.88× occlusion (6). The looser boxes also change the
-///   order of visits, and with it which of two triangles at exactly the same distance (on a
-///   shared edge) a ray reports: the 4-lane traversal would have needed the same nodes for
-///   the two traversals to agree bit for bit. Measured again on the third machine below after
-///   the ray offsets' floor, each plane stepped inward from its own side of the node's box
-///   and one rounding of `base + q·step` (the same bits from an FMA as from a product and a
-///   sum, so both dispatches agree): node visits per closest ray 11.8 → 12.0, instructions
-///   2599 → 2928, and 0.896× closest, 0.912× occlusion (6 rounds each). A node visit's wait
-///   is for its first line, which a smaller node does not shorten.
-/// - **Prefetching after the sort**, every pushed child but the nearest (popped next, so
-///   its prefetch looked redundant): 0.84× closest, 0.935× occlusion (8 rounds each), and
-///   4 more mispredicted branches per closest ray (the second loop's). The nearest child's
-///   prefetch pays, presumably because it is issued before the sort's and the pop's branches.
-/// - **Prefetching the child visited next first**, before the push loop (the nearest hit
-///   child, found with an 8-lane minimum; for occlusion the last pushed): 0.97× closest
-///   (quartiles 0.94–1.08), 0.91× occlusion (8 rounds each), 485 and 257 more instructions
-///   per ray.
-///
-/// On a second 2-core machine (an AMD EPYC, Zen 4, with AVX-512: 32 KiB of L1 data cache and
-/// 1 MiB of L2 a core), build f0993aa against the filing build, one core, the builds in turn,
-/// ratio of medians (geometric mean of per-round ratios): Cornell closest 1.77× (1.73×),
-/// occlusion 1.66× (1.68×), 16 rounds; 10⁶ triangles closest 1.70× (1.77×) and in another
-/// series 1.99× (1.95×), occlusion 2.33× (2.33×) and 2.37× (2.33×), 12 and 8 rounds. The
-/// medians of the 16- and 12-round series, Mrays/s, filing build → this one: Cornell closest
-/// 9.07 → 16.04, occlusion 15.16 → 25.21; 10⁶ triangles closest 0.64 → 1.09, occlusion 0.72
-/// → 1.69. This machine's host was as noisy: this build's Cornell closest median moved from
-/// 12.7 to 16.0 between series.
-///
-/// On a third 2-core machine (2 December 2026): an Intel Xeon with the development machine's
-/// caches (48 KiB of L1 data and 2 MiB of L2 a core) but a faster core (the chain of dependent
-/// `imul`s ran at about 4.0 GHz, against 2.95), build e431770 against the filing build, the
-/// same way: Cornell closest 1.66× (1.66×), occlusion 1.27× (1.26×), 16 rounds; 10⁶ triangles
-/// closest 1.96× (1.96×), occlusion 2.04× (2.04×), 8 rounds. Medians, filing build → this one:
-/// Cornell 8.35 → 13.88 and 18.64 → 23.73; 10⁶ triangles 0.80 → 1.56 and 1.16 → 2.36 Mrays/s.
-///
-/// Where a Cornell-box shadow ray's time went, measured rather than modelled (there): the
-/// benchmark's rays traced in batches of 64 that first test every ray's root node without a
-/// branch (a prepared ray, the 8-lane test, the index written and the count advanced by whether
-/// a child was hit), then traverse only the rays whose root test hit a child: 17 777 of the
-/// 65 536 (27%). The root phase alone ran at 114.9 Mrays/s, 133 instructions a ray (about 35
-/// cycles: 3.8 instructions a cycle); the whole at 23.5. So the rays that go on took 80% of the
-/// time: about 125 ns each for 589 instructions more, their preparation and root test again
-/// among them (about 500 cycles, 1.2 instructions a cycle). Two ways of taking the mispredicted
-/// branches out of those rays did not pay. The batches above took the root's away (58 498 →
-/// 41 791 mispredictions, 22.0 → 18.9 million instructions a pass) and none of the time: one
-/// core, 6 rounds, occlusion 0.996×, closest hits 0.988×. Tracing a batch's shadow rays breadth
-/// first, with no branch on what a test found (every ray's root, then node items and packet
-/// items from two lists, each node's hit children appended to them by an AVX2 compress: a
-/// `vpermd` whose index comes from a 256-entry table; the packets tested without stopping at a
-/// ray's first hit) took mispredictions 58 498 → 26 254 a pass and instructions 22.0 → 27.8
-/// million, but ran 0.82× (6 rounds), though `llvm-mca` (Skylake-AVX512's model) put its loops
-/// at about half the cycles they took. Neither kept. (All of this paragraph was measured before
-/// the ray offsets' floor of the next one.)
-///
-/// What it was: microcode assists for subnormal results. With the processor flushing subnormal
-/// results to zero (its FTZ flag set by hand, in an experiment; three runs of each), closest
-/// hits ran about 1.2× and occlusion 1.4× as fast, with the same hits; treating subnormal
-/// inputs as zero (DAZ) alone changed nothing. The x86 underflow flag, read around each step,
-/// put every such result in the packet test's shear (`sx·z`) of rays leaving the box's floor,
-/// at y = 0: the ray offsets' floor, the smallest normal float, left their origins 2.4e-38
-/// above it, and the products fell below that float. The offsets now have a floor of 2⁻¹⁰⁰
-/// (`ray.rs`'s docs; the hits unchanged, renders' pixels bit for bit the same). Against the
-/// build before it, one core, 8 rounds: closest hits 1.20×, occlusion 1.47×. Against the filing
-/// build, 16 rounds: Cornell closest 2.01× (2.00×), 8.34 → 16.74 Mrays/s, and occlusion 1.85×
-/// (1.84×), 18.63 → 34.51. The filing build computed the same subnormal products: given the
-/// same floor it ran 10.54 and 20.89 Mrays/s, and this build 1.59× (1.59×) and 1.66× (1.67×) as
-/// fast as that. The 10⁶-triangle scene's rates did not move (closest hits 1.015×, 8 rounds;
-/// against the filing build, in a series in which both ran about a fifth faster than in the
-/// first: closest 1.83× (1.80×), occlusion 1.98× (1.96×), 8 rounds). The cycle accounting for
-/// the development machine above knew nothing of the assists: the Cornell-box rates it explains
-/// include them. With the triangle test's preparation then left to a ray's first packet
-/// (`PreparedRay::finish`), against the filing build: Cornell closest 2.02× (2.03×), occlusion
-/// 1.95× (1.93×), 16 rounds; 10⁶ triangles closest 1.93× (1.88×), occlusion 2.00× (2.00×), 8
-/// rounds.
-///
-/// Later that day, on the same machine, one core, the builds in turn: a large tree's occlusion
-/// rays traced as two walks of their own (`WideBvh::two_walks`), 1.064× (1.070×) on the
-/// 10⁶-triangle scene, kept; closest hits traced so too, 1.047× (1.033×) there but renders of
-/// such a scene about 1% slower, not kept. Nor a better tree for that scene, closest hits, 8
-/// rounds each: obvhs's reinsertion over every node (the build 0.51 → 1.04 s) 1.044× in one
-/// series and 1.012× in the next; over a tenth or a quarter of them (0.65 and 0.67 s), 1.011×
-/// and 1.009×. 32 SAH bins instead of 16: closest 1.040× (gmean 1.021×), occlusion 0.965×
-/// (6 rounds). Kept too: a small tree's children held largest box first (`wide.rs`'s
-/// `set_children`), Cornell occlusion 1.062×. Against the filing build after both: Cornell
-/// closest 2.04× (2.04×, 12 rounds), occlusion 2.08× (2.07×, 16); 10⁶ triangles closest 1.96×
-/// (1.97×, 12), occlusion 2.14× (2.13×, 8).
-///
-/// The next day, same machine: a closest hit's triangle id, which the answer reads from a
-/// 4.3-MB array (`Geometry::heap_bytes`) after the traversal, is prefetched when its packet
-/// is hit, and that array is on huge pages (`wide.rs`'s `WideBvh::ids`). Against the filing
-/// build, 16 rounds, the three builds in turn: 10⁶ triangles closest 1.98× (1.97×) before,
-/// **2.05× (2.04×)** with it (quartiles 2.00–2.10; medians 0.623 → 1.237 → 1.278 Mrays/s, a
-/// slow spell of the host: the filing build ran 0.91 in session 10's series); Cornell closest
-/// 2.050× (2.055×) before, 2.046× (2.051×) with it (the storage check of the ids' array, 6
-/// instructions a hit).
-/// Occlusion, which reads no id, the same build against the filing build: Cornell 2.076×
-/// (2.053×), 12 rounds; 10⁶ triangles 2.31× (2.33×), 8 rounds. In divan (`cargo bench`, one
-/// thread, the two builds' runs alternating, 4 rounds) 10⁶ closest hits ran 1.26–1.30 Mrays/s
-/// (medians) against the filing build's 0.62–0.64: 1.97× to 2.04× by round.
-///
-/// Two ways of tracing a gather's rays together were measured and lost to tracing them one
-/// by one (`Geometry::intersect_many`): packets of four shared-origin rays going down the tree
-/// together (Cornell 16×64 gathers: 943 against 669 instructions per ray; 10⁶ triangles:
-/// 0.37 against 0.44 Mrays/s), and grouping the rays by octant and dominant axis first (737
-/// against 652).
+/// Which BVH layout [`Geometry`] builds and traverses. All come from the same BVH2 build
+/// (`build.rs`) and give the same answers; they differ in speed (see docs/performance.md,
+/// traversal layout).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum BvhLayout {
-    /// Binary BVH, leaves of up to 4 triangles, 48-byte nodes with exact `f32` boxes, tested
-    /// one box and one triangle at a time: the scalar traversal, kept as the oracle the SIMD
+    /// Binary BVH, leaves of up to four triangles, 48-byte nodes with exact `f32` boxes, tested
+    /// one box and one triangle at a time: the scalar traversal, kept as the oracle the wide
     /// layouts are tested against.
     Bvh2,
-    /// Formerly obvhs's compressed wide BVH8 (quantised child boxes). It lost to the wide
-    /// layouts on every scene measured, so it is no longer built: this now builds
-    /// [`BvhLayout::Wide8`].
+    /// Builds [`BvhLayout::Wide8`] (formerly obvhs's compressed wide BVH8).
     #[deprecated(note = "builds BvhLayout::Wide8, which was faster on every scene measured")]
     Cwbvh,
-    /// Formerly the CWBVH tree with float child boxes (the previous default). It lost to
-    /// [`BvhLayout::Wide8`] on every scene measured, so it is no longer built: this now builds
-    /// [`BvhLayout::Wide8`].
+    /// Builds [`BvhLayout::Wide8`] (formerly the CWBVH tree with float child boxes).
     #[deprecated(note = "builds BvhLayout::Wide8, which was faster on every scene measured")]
     Bvh8,
-    /// 4-wide BVH (one 4-wide slab test per node, 128-byte nodes) whose leaves are packets of
-    /// up to four triangles tested at once; ordered traversal for closest hits.
+    /// 4-wide BVH (one 4-lane slab test per node, 128-byte nodes) whose leaves are packets of
+    /// up to four triangles tested at once.
     Wide4,
     /// 8-wide BVH (one 8-lane slab test per node where the CPU has AVX2, else two 4-lane ones;
-    /// 256-byte nodes) with the same four-triangle packets. The fewest node visits and instructions per ray on both
-    /// benchmark scenes, so the default.
+    /// 256-byte nodes) with the same four-triangle packets: the fastest on the benchmark
+    /// scenes, so the default.
     #[default]
     Wide8,
 }
@@ -348,27 +86,21 @@ enum Nodes {
     Wide8(WideBvh<2>),
 }
 
-/// Traversal stack sizes kept on the call stack (the smallest that fits is used); a deeper BVH
-/// (only pathological inputs build one) traverses with a heap stack instead. A third, of 16
-/// entries (the Cornell box needs 16), zeroed half as many bytes a ray but cost a comparison
-/// more: callgrind per Cornell ray, closest 549.2 → 549.0 instructions, occlusion 336.1 →
-/// 339.0; one core (AMD EPYC, 16 rounds) 1.001× and 1.014× on the medians. Not kept; nor on
-/// the third machine of `BvhLayout`'s docs after the ray offsets' floor (12 rounds): 1.000×
-/// and 0.988×.
+/// Traversal stack sizes kept on the call stack, zeroed for every ray (the smallest that fits
+/// is used); a deeper BVH (only pathological inputs build one) traverses with a heap stack
+/// instead. See docs/performance.md, traversal stack sizes.
 const SMALL_STACK: usize = 32;
 const LARGE_STACK: usize = 128;
-/// For the two walks of any hit on a large tree (`WideBvh::two_walks`; the 10⁶-triangle
-/// benchmark scene's need 144 entries), so that a large tree's one walk is not given a stack
-/// this size to zero.
+/// Only for the two walks of any hit on a large tree (`WideBvh::two_walks`), so that one walk
+/// is not given a stack this size to zero.
 const HUGE_STACK: usize = 256;
 
 /// Runs `$body` with `$s` bound to a zeroed traversal stack of at least `$len` entries of type
 /// `$t`: an array on the call stack (the smallest of two sizes that fits, or of three for two
-/// walks, `$two_walks`), or a heap vector for a pathologically deep tree. (The third size
-/// compiled into the other traversals too cost Cornell-box occlusion rays six instructions
-/// each and 10⁶-triangle closest hits fourteen, spills of a larger function.) A macro rather
-/// than a closure, so that the body is compiled inside its caller: a closure is one function
-/// whatever pulp's dispatch selected, compiled for the baseline instruction set.
+/// walks, `$two_walks`: compiled into the other traversals too, it made them spill), or a heap
+/// vector for a pathologically deep tree. A macro rather than a closure, so that the body is
+/// compiled inside its caller: a closure is one function whatever pulp's dispatch selected,
+/// compiled for the baseline instruction set.
 macro_rules! on_stack {
     ($len:expr, $t:ty, $two_walks:expr, |$s:ident| $body:expr) => {{
         let len: usize = $len;
@@ -754,10 +486,9 @@ impl Geometry {
     /// Made for a coherent batch, such as a gather's rays: they are traced one after the other,
     /// in the caller's order, within one run-time dispatch whose setup is then paid once (a
     /// stratified gather's consecutive rays are neighbours, so they visit mostly the same nodes
-    /// while those are in cache). Two ways to make more of their coherence were measured and
-    /// lost (see `BvhLayout`'s notes): packets of four shared-origin rays traversing together,
-    /// and grouping the rays by octant and dominant axis first. For independent rays that
-    /// share no path through the tree, [`Geometry::intersect_stream`].
+    /// while those are in cache). Ray packets and sorting the rays first lost to this (see
+    /// docs/performance.md, streams and two walks). For independent rays that share no path
+    /// through the tree, [`Geometry::intersect_stream`].
     ///
     /// # Panics
     /// If `rays` and `hits` differ in length.
@@ -771,12 +502,9 @@ impl Geometry {
     ///
     /// On a tree larger than the caches (the wide layouts' large trees, above 1 MiB), eight
     /// rays are kept in flight, each taking one traversal step in turn, so that one ray's wait
-    /// for memory overlaps the others' work. On the 10⁶-triangle benchmark scene, second-bounce
-    /// rays in batches of 4096 against one at a time (one core): 1.67× in random order, 1.29×
-    /// in render order. Coherent rays gain less, their nodes being in cache already: gathers
-    /// from the camera's primary hits, 1.09× for 12 × 48 rays per record and 0.94× (within the
-    /// noise) for 16 × 64. On a tree that fits in cache (the Cornell box) streams lost (0.82×),
-    /// so smaller trees trace the rays one at a time, as `intersect_many`.
+    /// for memory overlaps the others' work. On a tree that fits in cache that only adds work,
+    /// so there the rays are traced one at a time, as `intersect_many` does (see
+    /// docs/performance.md, streams and two walks).
     ///
     /// # Panics
     /// If `rays` and `hits` differ in length.
@@ -787,8 +515,7 @@ impl Geometry {
 
     /// Whether each of many incoherent rays is occluded: `occluded[i]` is exactly what
     /// [`Geometry::occluded`] returns for `rays[i]`, traced as
-    /// [`Geometry::intersect_stream`] traces its rays (shadow rays of the same benchmark
-    /// bounce: 1.48× in random order).
+    /// [`Geometry::intersect_stream`] traces its rays.
     ///
     /// # Panics
     /// If `rays` and `occluded` differ in length.
@@ -800,7 +527,7 @@ impl Geometry {
     /// Whether anything is hit with `t` in `(0, ray.t_max)` (with the same error margins as
     /// [`Geometry::intersect`]). For shadow rays built with [`Ray::spawn_to`]. On a tree larger
     /// than the caches, the ray is traced as two walks that take steps in turn, so that one's
-    /// wait for memory overlaps the other's work (1.06× on the 10⁶-triangle benchmark scene).
+    /// wait for memory overlaps the other's work.
     #[must_use]
     pub fn occluded(&self, ray: &Ray) -> bool {
         if !PreparedRay::traceable(ray) {
@@ -906,9 +633,7 @@ impl Geometry {
     /// Whether [`Geometry::intersect_stream`] and [`Geometry::occluded_stream`] keep several
     /// rays in flight here (a wide layout's tree larger than the caches). Where they do not,
     /// they trace one ray at a time, and a caller that gathers rays into batches for them only
-    /// pays for the bookkeeping: the path tracer's batched paths, as first written, took 7.5%
-    /// more instructions in the Cornell box (callgrind, a 48² render at 16 spp) for no gain,
-    /// so it batches only where this holds.
+    /// pays for the bookkeeping (see docs/performance.md, streams and two walks).
     #[must_use]
     pub fn streams(&self) -> bool {
         match &self.nodes {
@@ -955,7 +680,7 @@ impl Geometry {
 
     /// Runs `job` on wide BVH `w` with the four-lane node test, compiled for the instruction
     /// set pulp detected. Out of line: inlined, its two dispatches cost the 8-lane test's
-    /// callers about 8 instructions per ray (callgrind, Cornell box occlusion rays).
+    /// callers instructions on every ray.
     #[inline(never)]
     fn lanes4<const G: usize, J: Job>(&self, w: &WideBvh<G>, job: J) -> J::Output {
         let g = self;
@@ -1126,14 +851,8 @@ impl Geometry {
 
 /// What [`Geometry::trace`] computes, on each layout. The one-ray jobs take the ray prepared
 /// outside the dispatched function: prepared in there, its fields compete for registers with
-/// the traversal's (measured first at 15% more instructions for closest hits; with today's
-/// smaller prepared ray, callgrind per Cornell-box ray, closest 583 → 591 and occlusion
-/// 353 → 370, LLVM hoisting the ray's splats out of the loop and spilling them; only the
-/// 10⁶-triangle scene's longer traversals gained, 2518 → 2462 per closest ray). Measured
-/// again in December 2026 by wall clock, the ray prepared inside against outside (one core,
-/// 16 rounds, Cornell box): closest 0.976×, occlusion 0.973×; and once more after the ray
-/// offsets' floor and `PreparedRay::finish` (the third machine of `BvhLayout`'s docs, 12
-/// rounds): occlusion 304 → 314 and closest 547 → 568 instructions a ray, 0.961× and 0.989×.
+/// the traversal's, and LLVM spills them (see docs/performance.md, node test and ray
+/// preparation).
 trait Job {
     type Output;
     /// On a wide BVH, with node test `test`.
@@ -1166,8 +885,7 @@ impl Job for Closest<'_> {
     }
 
     /// Out of line (the BVH2 layout is the test oracle, not the default): inlined, its stack
-    /// array made every `intersect` call set up a 1.2-KB frame and save five registers
-    /// (callgrind per Cornell-box ray on `Wide8`: closest 591 → 580, occlusion 358 → 348).
+    /// array made every `intersect` call set up a 1.2-KB frame and save five registers.
     #[inline(never)]
     fn bvh2(self, g: &Geometry, nodes: &[Bvh2Node]) -> Option<Hit> {
         self.0.finish();
@@ -1334,15 +1052,14 @@ impl<const G: usize, N: NodeTest<G>, J: Job> pulp::WithSimd for WideOp<'_, G, N,
     }
 }
 
-/// Rays a stream keeps in flight: on the 10⁶-triangle benchmark scene's closest hits (one
-/// core, rotating order, 4 rounds, against one ray at a time) 2: 1.13×, 4: 1.47×, 6: 1.53×,
-/// 8: 1.53×.
+/// Rays a stream keeps in flight (more than six gained nothing: see docs/performance.md,
+/// streams and two walks).
 const STREAM: usize = 8;
 
 /// The answers for `rays` into `out`, `K` rays at a time: each ray in turn takes one step of
 /// its own traversal ([`WideBvh::step`]), so that one ray's wait for a node or a packet
 /// overlaps the others' work (memory-level parallelism). For large trees: on one in cache it
-/// only adds work (Cornell box, closest hits: 0.82× with 4 or 8 rays in flight).
+/// only adds work.
 #[inline(always)]
 fn wide_stream<const G: usize, N: NodeTest<G>, const K: usize, A: Answer>(
     w: &WideBvh<G>,
@@ -2086,10 +1803,10 @@ mod tests {
     }
 
     /// What a built geometry holds per triangle, on a heightfield with shared vertices and no
-    /// normals, the kind of mesh the huge-scene measurements use (issue 15): packets of four
-    /// triangles (192 bytes) nearly full, their ids, 8-wide nodes, material ids and slots. The
-    /// budget, 100 bytes per triangle, is the design target that keeps a 10⁶-triangle render
-    /// under the issue's 150 bytes per triangle of peak memory.
+    /// normals (the kind of mesh a large scene has): packets of four triangles (192 bytes)
+    /// nearly full, their ids, 8-wide nodes, material ids and slots. The budget, 100 bytes per
+    /// triangle, is the design target that keeps a 10⁶-triangle render under 150 bytes per
+    /// triangle of peak memory (see docs/performance.md, memory per triangle).
     #[test]
     fn a_built_heightfield_holds_under_100_bytes_per_triangle() {
         let n = 64u32;

@@ -133,9 +133,9 @@ pub(crate) enum Plane {
 /// The planes and axes a ray's tests read, chosen by the signs of its direction and its
 /// largest axis: the near and far plane of a box per axis, and the permutation of the
 /// triangle test. One 16-byte table entry ([`Slabs::TABLE`]), so that preparing a ray copies
-/// it with one load and one store (three arrays of `usize` indices took 18 instructions;
-/// callgrind per Cornell-box ray: closest 577 → 567, occlusion 345 → 335). The permutation
-/// is set later, with the rest of the triangle test's part ([`PreparedRay::finish`]).
+/// it with one load and one store (three arrays of `usize` indices took more instructions).
+/// The permutation is set later, with the rest of the triangle test's part
+/// ([`PreparedRay::finish`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(C, align(16))]
 pub(crate) struct Slabs {
@@ -196,8 +196,8 @@ impl Slabs {
 ///
 /// Scalars only: the vector tests splat the origin and the inverse directions where they use
 /// them. On x86-64-v3, where they run, a splat from memory is one `vbroadcastss`, as cheap as
-/// the load of a splatted copy (keeping twelve such copies made the prepared ray 300 bytes,
-/// whose stores cost about 30 instructions a ray).
+/// the load of a splatted copy (twelve such copies made the prepared ray 300 bytes, whose
+/// stores cost more than the splats).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct PreparedRay {
     pub(crate) origin: Vec3A,
@@ -209,10 +209,7 @@ pub(crate) struct PreparedRay {
     /// The caller's `t_max`.
     pub(crate) t_max: f32,
     /// The inverse direction scaled by Ize's `1 + 2γ₃`, for far slab distances (one more
-    /// rounding of at most u, which the factor's margin of γ₃ − u covers). Computed as
-    /// `(1 + 2γ₃)/d` (one rounding, its division beside `1/d`'s rather than a multiply after
-    /// it), it gained nothing: Cornell box, one core, AMD EPYC (Zen 4), 16 rounds, closest
-    /// 1.006× and occlusion 0.959× on the medians.
+    /// rounding of at most u, which the factor's margin of γ₃ − u covers).
     pub(crate) inv_far: Vec3A,
     /// Which planes and axes the tests read, by the direction's signs and (from
     /// [`PreparedRay::finish`] on) its largest axis.
@@ -247,17 +244,10 @@ impl PreparedRay {
 
     /// Computes the triangle test's part of the preparation, if not done yet: the largest axis
     /// of the direction, the permutation, the shear and the screen. The wide traversals call
-    /// it on a ray's first packet, which in a small scene most shadow rays never reach (73% of
-    /// the Cornell box's are done at the root): per such ray the largest axis's selection, a
-    /// division and the screen's arithmetic fewer. Callgrind per Cornell-box occlusion ray
-    /// 336 → 311 instructions without the screen, 304 with it (closest hits 549 → 550 → 547).
-    /// One core (the third machine of `BvhLayout`'s docs), the builds in turn, without the
-    /// screen: occlusion 1.031× and 1.076× on the medians (per-round ratios 1.054× and
-    /// 1.038×; 10 and 12 rounds), closest hits 1.010× and 1.015×; 10⁶ triangles (6 rounds)
-    /// 1.040× and 1.002×. The screen as well, on top of that (12 rounds): occlusion 1.027×,
-    /// closest hits 1.000×. Measured before the ray offsets' floor was raised (`ray.rs`), when
-    /// subnormal arithmetic took much of a packet test's time, the same change gained under
-    /// 1%.
+    /// it on a ray's first packet, which in a small scene most shadow rays never reach (most
+    /// of the Cornell box's are done at the root): per such ray the largest axis's selection, a
+    /// division and the screen's arithmetic fewer (see docs/performance.md, ray offsets' floor
+    /// and lazy preparation).
     #[inline(always)]
     pub(crate) fn finish(&mut self) {
         if self.finished {
@@ -289,7 +279,7 @@ impl PreparedRay {
         let o = Vec3A::from(ray.origin);
         let d = Vec3A::from(ray.direction);
         // `&` rather than `&&` on the conditions and lane masks rather than one test per
-        // vector: 3 instructions fewer per ray (callgrind, Cornell box).
+        // vector: fewer instructions, and no branch.
         (o.is_finite_mask() & d.is_finite_mask()).all()
             & d.cmpne(Vec3A::ZERO).any()
             & (ray.t_max > 0.0)
@@ -298,10 +288,9 @@ impl PreparedRay {
     /// The prepared ray, for a `ray` that is [`PreparedRay::traceable`], in a scene whose vertex
     /// coordinates are at most `coordinate_bound` in magnitude (its screen, see
     /// [`PreparedRay::set_screen`]; ∞ screens nothing out), without the triangle test's part
-    /// ([`PreparedRay::finish`] computes it). Separate from the check so that
-    /// the hot callers build it in place: returned in an `Option`, its 300 bytes were copied
-    /// once more per ray. (Where it is called, before the run-time dispatch: see `Job`'s docs
-    /// in `geometry.rs`.)
+    /// ([`PreparedRay::finish`] computes it). Separate from the check so that the hot callers
+    /// build it in place: returned in an `Option`, it was copied once more per ray. (Where it is
+    /// called, before the run-time dispatch: see `Job`'s docs in `geometry.rs`.)
     #[inline(always)]
     pub(crate) fn prepare(ray: &Ray, coordinate_bound: f32) -> PreparedRay {
         let o = Vec3A::from(ray.origin);
@@ -313,11 +302,9 @@ impl PreparedRay {
         let inv_dir = (Vec3A::ONE / d).clamp(-INV_DIR_LIMIT, INV_DIR_LIMIT);
         let inv_far = inv_dir * BOX_FAR_SCALE;
         // The signs of `d` are those of `inv_dir` (1/±0 = ±∞, clamped to ±2⁶⁴), and do not wait
-        // for the division: the table entry, and the node test's plane loads after it, no
-        // longer follow the division's latency. The same instructions; against the signs of
-        // `inv_dir`, one core, the builds in turn: Cornell closest 1.058× (16 rounds, per-round
-        // ratios) and 1.035× (24 rounds, medians; the per-round ratios of that noisy series
-        // gave 0.994×), occlusion 1.016× (16 rounds).
+        // for the division: the table entry, and the node test's plane loads after it, do not
+        // follow the division's latency (see docs/performance.md, node test and ray
+        // preparation).
         let signs = (d.is_negative_bitmask() & 7) as usize;
         PreparedRay {
             origin: o,
@@ -582,8 +569,7 @@ pub(crate) struct Tri4Hits {
 impl Tri4Hits {
     /// The closest of the hits, as (lane, hit); lane 4 (and a meaningless hit) if no lane hit.
     /// Of equal distances, the lowest lane. Without a branch: which lanes hit, and how many, is a
-    /// coin toss (a loop over the hit lanes mispredicted 0.7 times per closest-hit ray in the
-    /// Cornell box).
+    /// coin toss (a loop over the hit lanes mispredicted).
     #[inline(always)]
     pub(crate) fn closest(&self) -> (usize, TriHit) {
         // Lanes that missed have distance ∞ and a hit's is finite, so the minimum is a hit's

@@ -9,9 +9,9 @@
 //!   8-wide tree with four-triangle SIMD leaves with exact float child boxes, its nodes tested
 //!   8 lanes at once where the CPU has AVX2 (detected at run time; any x86-64 CPU runs the
 //!   4-lane path); a subtree of two packets is one pair leaf, and trees above 1 MiB prefetch
-//!   the children they push ([`BvhLayout`] lists the layouts and their measured cost). The
-//!   leaves hold each triangle's vertices,
-//!   once: about 80 bytes per triangle in all ([`Geometry::heap_bytes`]).
+//!   the children they push ([`BvhLayout`] lists the layouts; docs/performance.md has their
+//!   measured cost). The leaves hold each triangle's vertices, once: about 80 bytes per
+//!   triangle in all ([`Geometry::heap_bytes`]).
 //! - [`Geometry::intersect`] (closest hit: distance, triangle id, barycentrics) and
 //!   [`Geometry::occluded`] (any hit), with a watertight triangle test (Woop et al. 2013) that
 //!   reports a hit only when its distance is provably inside `(0, t_max)`; and for batches:

@@ -4,15 +4,9 @@
 //! and for small arrays, into a `Vec`.
 //!
 //! Why: a large scene's rays reach nodes and packets all over a tree of tens of megabytes, and
-//! with 4-KiB pages nearly every one of those visits is also a TLB miss. On the 10⁶-triangle
-//! benchmark scene (14 MB of nodes, 48 MB of packets), one core, against the same traversal
-//! on the heap: nodes and packets on huge pages traced 1.17× as many closest-hit rays per
-//! second (16 rounds) and 1.11× as many occlusion rays (12 rounds), as much as glibc's
-//! `glibc.malloc.hugetlb=1` (every large allocation on huge pages) gave; the packets alone,
-//! 1.05×. The packets' triangle ids (read once per closest hit) followed later, with a
-//! prefetch: see `wide.rs`'s `WideBvh::ids`. The price on a small scene, whose arrays stay on
-//! the heap: the storage check, once per array per ray (Cornell box, callgrind: 580 → 589
-//! instructions per closest ray), and for the ids once per closest hit (6 instructions).
+//! with 4-KiB pages nearly every one of those visits is also a TLB miss. The price on a small
+//! scene, whose arrays stay on the heap, is the storage check, once per array per ray (and for
+//! the ids once per closest hit). See docs/performance.md, huge pages.
 //!
 //! Huge pages are advice: where the kernel has none to give, or the mapping fails, the arrays
 //! stay where they would have been. The nodes are moved onto huge pages once built, before

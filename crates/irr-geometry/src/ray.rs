@@ -29,15 +29,9 @@
 //! multiplied that coordinate's difference from the plane's vertices by the shear factors
 //! (`|Sx|, |Sy| ≤ 1`), and the products fell below the smallest normal float: on x86, an
 //! instruction whose result is subnormal takes a microcode assist, on the order of a hundred
-//! cycles. In the trace benchmark's Cornell box, whose floor is at y = 0, 5 568 of 35 579
-//! packet tests of shadow rays and 7 528 of 78 689 of bounce rays took at least one (read off
-//! the x86 underflow flag around each test); with the floor at 2⁻¹⁰⁰, none took any, and the
-//! hit counts did not change. One core (an Intel Xeon, the third machine of
-//! `BvhLayout`'s docs), the builds in turn, 8 rounds: closest hits 1.20×, occlusion 1.47×;
-//! the path tracer's and the irradiance cache's Cornell-box renders (128², one thread, medians
-//! of 5 rounds in turn) took 1.07 s and 0.28 s instead of 1.20 s and 0.32 s, their pixels bit
-//! for bit the same; the path tracer's 256² × 256 spp on two threads 8.40–8.82 s instead of
-//! 9.52–9.61 s (3 rounds).
+//! cycles. With the floor at 2⁻¹⁰⁰ no packet test takes one, the hits are the same, and rays
+//! leaving such a plane trace much faster (see docs/performance.md, ray offsets' floor and lazy
+//! preparation).
 //!
 //! Why 2⁻¹⁰⁰: the difference from a plane's vertex is then at least 2⁻¹⁰⁰, its product with a
 //! shear factor stays normal for any factor of at least 2⁻²⁶ (roughly, a direction more than

@@ -12,20 +12,16 @@
 //!
 //! A BVH2 node whose two children are both leaves is not made a wide node of its own: it
 //! becomes one *pair* leaf of its parent, two consecutive packets tested one after the other
-//! (a leaf reference with [`PAIR`] set). Without pairs, 40% of the wide nodes of the
-//! 10⁶-triangle benchmark scene held just two packets (38 065 of 93 989; another 21 356 held
-//! three): a node visit, with its four cache lines, only to choose between two packets. With
-//! pairs that scene has 55 924 nodes, and the tree takes 75.7 instead of 85.1 bytes per
-//! triangle. The Cornell box's tree has no such node, and is unchanged.
+//! (a leaf reference with [`PAIR`] set), rather than a node visit, with its four cache lines,
+//! only to choose between two packets.
 //!
 //! On a tree larger than the caches (more than [`LARGE_BYTES`]), the 8-lane traversal
 //! prefetches each child as it pushes it: the nearest child is visited next, and the others
 //! are on their way by the time they are popped. A node is four cache lines, a packet three,
-//! a pair six. On smaller trees it only costs instructions (6 prefetches and the address, per
-//! push), so it is compiled out there ([`NodeTest::LARGE`]). The packet test's screen
-//! shortcut goes the other way (it pays on small trees, whose triangles are large against the
-//! scene), and switches at the same size. The measurements are in `BvhLayout`'s docs and at
-//! [`LARGE_BYTES`].
+//! a pair six. On smaller trees it only costs instructions, so it is compiled out there
+//! ([`NodeTest::LARGE`]). The packet test's screen shortcut goes the other way (it pays on
+//! small trees, whose triangles are large against the scene), and switches at the same size.
+//! See docs/performance.md, packet leaves and pair leaves, and prefetching.
 //!
 //! The conversion runs in two steps so that the BVH2's nodes are freed before the packets are
 //! allocated: [`WideBvh::topology`] makes the nodes (counted first, so allocated at their exact
@@ -51,17 +47,11 @@ const PACKET_MASK: u32 = PAIR - 1;
 
 /// Trees of more bytes (nodes and packets) than this are *large*: the 8-lane traversal
 /// prefetches what it pushes (see the module docs), the packet test computes every filter
-/// bound rather than first trying the screen's shortcut (`intersect_tri4`'s `shortcut`), and
-/// the closest-hit traversal takes no shortcut for one or two children hit (measured at
-/// [`WideBvh::step`]). 1 MiB,
-/// measured on a machine with 48 KiB of L1 data cache and 2 MiB of L2 a core (`BvhLayout`'s
-/// docs). Prefetching against none: every tree of about 1 MB and more gained on closest hits
-/// (1.11× to 1.29×), occlusion moved within the noise but on the 72-MB tree (1.18×), and a
-/// 0.2-MB tree only lost. The shortcut (callgrind per closest ray, with it against without,
-/// on the benchmark's heightfield): 3 266 triangles (0.2 MB) 952 → 904 instructions and 5.02
-/// → 5.17 mispredicted branches, 15 490 (1 MB) 1076 → 1048 and 6.88 → 7.22, 64 386 (4.9 MB)
-/// 1509 → 1534 and 9.76 → 10.30; at 10⁶ triangles it cost 6% of the time. The smaller a
-/// scene's triangles against its size, the more edge functions fall within half the screen.
+/// bound rather than first trying the screen's shortcut (`intersect_tri4`'s `shortcut`: the
+/// smaller a scene's triangles against its size, the more edge functions fall within half the
+/// screen), and the closest-hit traversal takes no shortcut for one or two children hit.
+/// 1 MiB: where prefetching starts to pay, and the shortcuts to cost, on a CPU with 48 KiB of
+/// L1 data cache and 2 MiB of L2 a core (see docs/performance.md, prefetching).
 const LARGE_BYTES: usize = 1 << 20;
 
 /// The two BVH2 leaves under inner node `b`, if both its children are leaves: such a subtree
@@ -111,8 +101,7 @@ pub(crate) trait NodeTest<const G: usize>: Copy {
     /// Asks for the cache lines of the `size` bytes (192 to 384) from `p` on
     /// ([`NodeTest::prefetch_line`]). Six prefetches whatever the size, without a branch: for
     /// a node (256 bytes) lines 0, 1, 2, 2, 2, 3; for a packet (192) lines 0, 1, 2, 1, 1, 2;
-    /// for a pair (384) lines 0 to 5. (Four, lines 0, 1, 2 and the last, left a pair's middle
-    /// lines out: 0.943× on 10⁶ closest hits, 12 rounds.)
+    /// for a pair (384) lines 0 to 5. (Four left a pair's middle lines out, and lost.)
     #[inline(always)]
     fn prefetch(self, p: *const u8, size: usize) {
         for offset in [0, 64, 128, size / 2, size - 128, size - 64] {
@@ -143,11 +132,7 @@ impl<const G: usize, const LARGE: bool> NodeTest<G> for Lanes4<LARGE> {
 }
 
 /// The 8-wide node test as one 8-lane (AVX) slab test: the same operations on each lane, in the
-/// same order, as [`Lanes4`], so the same bits; half the instructions. (Taking the three
-/// axes' maxima and minima as a tree, two levels rather than three, shortened the chain to
-/// the mask by one operation but not the time: Cornell box, one core of the third machine
-/// of `BvhLayout`'s docs, before the ray offsets' floor, 10 rounds, closest 0.993×, occlusion
-/// 1.001×.) On a large tree
+/// same order, as [`Lanes4`], so the same bits; half the instructions. On a large tree
 /// (`LARGE`), the traversal also prefetches each child it pushes (`_mm_prefetch`, which pulp's
 /// token offers as a safe call: a prefetch never faults, whatever the address); otherwise that
 /// code is compiled out, since prefetching a tree that is in cache only costs instructions.
@@ -203,14 +188,8 @@ pub(crate) struct WideBvh<const G: usize> {
     /// The triangle id of each packet lane, read once per closest hit (for its answer). On
     /// huge pages where the array is large, and on a large tree prefetched when a packet is
     /// hit ([`NodeTest::prefetch_line`]), so that its line is on its way while the traversal
-    /// goes on. Without both, a hit's id was one more miss, taken after its traversal, with
-    /// nothing left to overlap it. On the 10⁶-triangle benchmark scene (4.3 MB of ids, 16
-    /// bytes a packet), one core, the builds in turn, closest hits: 1.033× (1.036×) in 16
-    /// rounds, 1.041× (1.032×) and 1.012× (1.026×) in 12; either alone, 8 rounds, gained less
-    /// (prefetch 1.016× (1.010×), huge pages 1.012× (1.015×)) than both (1.052× (1.044×), an
-    /// earlier version reading the ids through a slice). Renders bit for bit the same, in the
-    /// same time. Cornell box closest hits, whose ids stay on the heap, 0.996× (0.997×), 12
-    /// rounds: the storage check ([`Pages`]' `Deref`), 6 instructions a hit.
+    /// goes on: otherwise a hit's id is one more miss, taken after its traversal, with nothing
+    /// left to overlap it (see docs/performance.md, prefetching).
     ids: Pages<[u32; 4]>,
     /// Traversal stack entries the deepest path can need.
     stack_len: usize,
@@ -247,13 +226,9 @@ fn open(nodes: &[Bvh2Node], b: usize, width: usize, kids: &mut Vec<usize>) {
 /// On a small tree (not [`LARGE_BYTES`]) the children come ordered by decreasing box area, so
 /// that any hit, which visits the last slot hit first ([`WideBvh::step`]), tries the smallest
 /// boxes first: in a room those are what stands in it, and the largest are the walls and the
-/// floor, which a shadow ray leaves or runs along but seldom meets. Cornell box, one core, the
-/// builds in turn, against the collapse's order: occlusion 1.062× (1.063×), 8 rounds (packet
-/// tests per ray 0.54 → 0.46, instructions 304 → 293; callgrind); closest hits, whose order is
-/// the entry distance, 1.005×. Not on a large tree: the 10⁶-triangle benchmark scene's
-/// occlusion ran 0.975× (10 rounds) with it, and that scene shrunk to 15 490 and 64 386
-/// triangles 0.999× and 1.005× (6). Increasing area (the largest box first) ran 1.015× on
-/// the Cornell box and 0.968× and 0.986× at 10⁶ (two series).
+/// floor, which a shadow ray leaves or runs along but seldom meets. (Closest hits visit by
+/// entry distance, whatever the slots' order.) A large tree keeps the collapse's order, which
+/// was faster there (see docs/performance.md, node child order and traversal shortcuts).
 fn set_children<const G: usize>(node: &mut WideNode<G>, children: &[(u32, Aabb)]) {
     for axis in 0..3 {
         node.planes[axis] = [[f32::INFINITY; 4]; G];
@@ -484,34 +459,15 @@ impl<const G: usize> WideBvh<G> {
     /// farthest first, and an entry farther than the best hit so far is dropped when popped.
     /// On a small tree, a node with one child hit goes straight to it, and one with two pushes
     /// the farther and goes to the nearer, in the order the general sort would give: those
-    /// visits skip the stack, or the sort loop and its mispredicted exit (Cornell box,
-    /// callgrind per ray: 611 → 583 instructions). Not on a large tree: on the 10⁶-triangle
-    /// scene the shortcut took 11% of the instructions off (2654 → 2359) but its branches on
-    /// the number of children hit mispredicted more (17.8 → 18.7 per ray), and it lost 3–4% of
-    /// the time (two series of 32 rounds on one core: 0.960× and 0.969×; on an AMD EPYC
-    /// (Zen 4) host, 0.979× on the medians, 12 rounds). Either way the nodes
-    /// are visited in the same order. Nor did one branch-free path for one and two children
-    /// hit (the farther pushed or not, the nearer chosen by a select) pay on the Cornell box:
-    /// mispredicted branches 2.89 → 2.20 per closest ray and 549 → 566 instructions, but
-    /// 0.973× and 0.987× (20 and 24 rounds), the select's comparison now on the way to the
-    /// next node's loads, which a predicted branch lets run ahead.
+    /// visits skip the stack, or the sort loop and its mispredicted exit. Not on a large tree,
+    /// where the branches on the number of children hit mispredict more than the shortcut
+    /// saves. Either way the nodes are visited in the same order.
     ///
     /// Any hit: children in any order, stopping at the first hit. The last child pushed is
-    /// visited next straight from a register, not read back from the stack: one core, the
-    /// builds in turn, occlusion 1.013× on the Cornell box (16 rounds), 1.017× on 10⁶
-    /// triangles (12). Closest hits tracking their nearest child so (a branchless select per
-    /// push) gained nothing: 0.999× on both scenes. Nor did pushing a node's hit children
-    /// without a branch per child, on a small tree (the 8-lane test's children gathered to the
-    /// low lanes by one `vpermd`, its index from a 256-entry table, and written as eight
-    /// entries with two stores): on the Cornell box (AMD EPYC, Zen 4), mispredicted branches
-    /// 0.89 → 0.77 per occlusion ray and 336 → 337 instructions, but 0.988× on the medians
-    /// (16 rounds). With the pop made branch-free as well (a node with no child hit pops the
-    /// entry below), the traversal's end mispredicted instead (1.25 per ray), 0.932×. Nor did
-    /// visiting last the children whose box holds the ray's origin (entry distance 0: mostly
-    /// the surface the shadow ray leaves, which cannot block it): packet tests per 65 536
-    /// Cornell shadow rays 35 579 → 32 500, but the extra pass over the children cost more:
-    /// 0.938× (8 rounds), and 0.968× on 10⁶ triangles (4; the third machine of `BvhLayout`'s
-    /// docs, before the ray offsets' floor).
+    /// visited next straight from a register, not read back from the stack.
+    ///
+    /// The alternatives measured and rejected (branch-free variants of both, other visit
+    /// orders) are in docs/performance.md, node child order and traversal shortcuts.
     #[inline(always)]
     pub(crate) fn step<Q: Query, N: NodeTest<G>>(
         nodes: &[WideNode<G>],
@@ -541,9 +497,7 @@ impl<const G: usize> WideBvh<G> {
             } else {
                 // On the mask, which is known before the closest lane is (the same test:
                 // `closest` finds a lane exactly when one hit), and which spares a packet
-                // without a hit the lane search. One core, the builds in turn, against the
-                // branch on the lane: Cornell closest 1.056× (20 rounds; 567 → 549
-                // instructions a ray), 10⁶ triangles 0.997× (16).
+                // without a hit the lane search.
                 if hits.mask != 0 {
                     // The packet's triangle ids, which the answer will read, on their way
                     // while the traversal goes on (a large tree's only; see `ids`).
@@ -645,24 +599,9 @@ impl<const G: usize> WideBvh<G> {
     /// each half of the stack holds what one traversal can need. Returns `Walk::best` of the
     /// walk that hit (`None` if neither did).
     ///
-    /// More work, less time. On the 10⁶-triangle benchmark scene (callgrind per occlusion ray,
-    /// against one walk) instructions 1972 → 2403, the same answers; one core, the builds in
-    /// turn, ratio of medians (per-round gmean): 1.064× (1.070×), 12 rounds. The scene shrunk
-    /// (`IRR_SCALE`) to 64 386 triangles (4 MB of tree): 1.046× (1.032×), 8 rounds; to 15 490
-    /// (1.1 MB): 1.001×, 6 rounds. Renders did not move, bit for bit the same (one thread, five
-    /// rounds each, 384²: the path tracer at 32 spp on a 10⁶-triangle heightfield from
-    /// `docs/make-huge-scene.py` 1.54–1.55 s before, 1.53–1.54 s with it; on 64 000 triangles
-    /// 1.33 s either way; the irradiance cache at 16 spp, 0.99–1.00 s and 0.99 s).
-    ///
-    /// Closest hits traced so too (the closest hit so far shared between the walks, each
-    /// stealing only entries within it) did more and, on the benchmark, took less time: node
-    /// visits per ray 11.8 → 12.9, packet tests 2.9 → 3.2, instructions 2599 → 3248, 1.047×
-    /// (1.033×) in 12 rounds. But renders of the 10⁶-triangle scene took longer, where rays are
-    /// coherent and their nodes in cache, and the second walk's detours only cost (384², five
-    /// rounds each): the path tracer 1.54 s in every round before, 1.55 s in every round with
-    /// it; the irradiance cache 0.99–1.00 s and 1.00–1.02 s. Not kept. Nor was a version for
-    /// any number of walks (an array of them, the closest hit copied in and out of each step),
-    /// closest hits, 6 rounds: two walks 0.956×, three 0.888×.
+    /// More work, less time, on large trees. Closest hits are not traced so: the benchmark
+    /// gained, but renders, whose coherent rays find their nodes in cache, lost to the second
+    /// walk's detours (see docs/performance.md, streams and two walks).
     #[inline(always)]
     pub(crate) fn two_walks<Q: Query, N: NodeTest<G>>(
         nodes: &[WideNode<G>],
@@ -673,9 +612,8 @@ impl<const G: usize> WideBvh<G> {
         test: N,
     ) -> Option<(u32, usize, TriHit)> {
         debug_assert!(Q::ANY, "two walks trace any hit only");
-        // The two walks' turns are written out. With the hand-over as a shared function the
-        // 10⁶-triangle scene's occlusion rays ran 11 instructions fewer but 0.970× and 0.969× as
-        // fast (6 and 8 rounds): another layout of the loop's branches.
+        // The two walks' turns are written out: with the hand-over as a shared function the
+        // loop's branches were laid out otherwise, and ran slower.
         let (sa, sb) = stack.split_at_mut(stack.len() / 2);
         let (mut a, mut b) = (Walk::new(r), Walk::new(r));
         let (mut a_on, mut b_on) = (true, false);
@@ -709,7 +647,7 @@ impl<const G: usize> WideBvh<G> {
 
     /// The nodes and the packets, as slices, and the packets' triangle ids (for
     /// [`WideBvh::step`]; left as they are, since a step only reads them for a prefetch, on a
-    /// large tree: a slice here cost the Cornell box's closest hits 6 instructions a ray).
+    /// large tree: a slice here costs every closest hit the storage check).
     #[inline(always)]
     pub(crate) fn arrays(&self) -> (&[WideNode<G>], &[Tri4], &Pages<[u32; 4]>) {
         (&self.nodes, &self.packets, &self.ids)

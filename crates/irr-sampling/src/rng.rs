@@ -75,12 +75,9 @@ impl SampleKey {
     /// ([`crate::sobol`]), sample `index` of it (indices past 2³² − 1 wrap). Every value is still a
     /// function of (seed, pixel, index, dimension) alone.
     ///
-    /// Every dimension, not only the first bounce's: measured (December 2026) with the sequence
-    /// stopped after dimension 3 (the first vertex's light choice, light point and bounce) and
-    /// hashed numbers beyond, path tracer, Cornell box, 256² at 256 spp, 2 threads, six seeds:
-    /// relMSE 1.044×, time 0.927×, efficiency 1/(relMSE·time) 1.033× (0.95–1.08 by seed);
-    /// stopped after dimension 6, 1.024×, 0.960×, 1.017× (0.93–1.07). Gains within the seeds'
-    /// spread, for noisier images at equal samples: not taken.
+    /// Every dimension, not only the first bounce's: stopping the sequence earlier gained time
+    /// within the seeds' spread, for noisier images at equal samples (see docs/performance.md,
+    /// Sobol sampler).
     #[inline]
     pub fn pixel(seed: u64, x: u32, y: u32, index: u64) -> Self {
         let stream = (u64::from(y) << 32) | u64::from(x);
