@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Compares builds of irr-geometry's trace benchmark one case at a time, the way the notes of
-issue 11 measure every traversal change: the builds take turns on one core, in an order that
-rotates every round, so that a shared machine's slow spells fall on all of them alike.
+"""Compares builds of irr-geometry's trace benchmark one case at a time, the way
+docs/performance.md measures every traversal change: the builds take turns on one core, in an
+order that rotates every round, so that a shared machine's slow spells fall on all of them alike.
 
 Usage: python3 docs/ab-trace.py SCENE:QUERY [--rounds N] [--repeats N] [--core N] BIN[:LAYOUT]...
 
@@ -9,8 +9,8 @@ Usage: python3 docs/ab-trace.py SCENE:QUERY [--rounds N] [--repeats N] [--core N
                closest-in-order, closest-stream, gather16x64, ...): see benches/trace.rs.
   BIN[:LAYOUT] a bench binary (`cargo bench -p irr-geometry --no-run` prints its path; copy it
                away before building the next version) and the layout it traces, wide8 unless
-               given (an older build's name for it, e.g. bvh8 for the build issue 11 was filed
-               on). The first binary is the baseline.
+               given (builds before 8b7d972 have no wide8: give e7c4e82's default, bvh8, the
+               name its bench uses). The first binary is the baseline.
   --rounds     rounds (default 16); --repeats: passes over the rays per run, the best counted
                (default 5; 3 suits the 10^6-triangle scene); --core: the core (default 1).
 

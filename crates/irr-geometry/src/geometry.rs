@@ -61,12 +61,6 @@ pub enum BvhLayout {
     /// one box and one triangle at a time: the scalar traversal, kept as the oracle the wide
     /// layouts are tested against.
     Bvh2,
-    /// Builds [`BvhLayout::Wide8`] (formerly obvhs's compressed wide BVH8).
-    #[deprecated(note = "builds BvhLayout::Wide8, which was faster on every scene measured")]
-    Cwbvh,
-    /// Builds [`BvhLayout::Wide8`] (formerly the CWBVH tree with float child boxes).
-    #[deprecated(note = "builds BvhLayout::Wide8, which was faster on every scene measured")]
-    Bvh8,
     /// 4-wide BVH (one 4-lane slab test per node, 128-byte nodes) whose leaves are packets of
     /// up to four triangles tested at once.
     Wide4,
@@ -285,8 +279,8 @@ impl Geometry {
             TriSoa::new(mesh.indices[id as usize - starts[m]].map(|i| mesh.positions[i as usize]))
         };
         let mut slots = vec![0u32; kept];
-        // The deprecated CWBVH layouts build the default wide one. The BVH2 traversal pushes
-        // at most one entry per level below the root; the wide BVH knows its own bound.
+        // The BVH2 traversal pushes at most one entry per level below the root; the wide BVH
+        // knows its own bound.
         let (nodes, stack_len, bvh_triangles, bvh_ids) = match layout {
             BvhLayout::Bvh2 => {
                 let depth = bvh2_depth(&bvh_nodes);
@@ -304,7 +298,7 @@ impl Geometry {
                 let depth = w.stack_len();
                 (Nodes::Wide4(w), depth, Vec::new(), Vec::new())
             }
-            _ => {
+            BvhLayout::Wide8 => {
                 let (mut w, leaves) = WideBvh::<2>::topology(&bvh_nodes);
                 drop(bvh_nodes);
                 w.fill_packets(&leaves, &primitive_indices, triangle, &mut slots);
@@ -1674,13 +1668,9 @@ mod tests {
     }
 
     #[test]
-    #[expect(deprecated, reason = "checks what the deprecated layouts build")]
-    fn deprecated_layouts_build_the_default() {
-        for layout in [BvhLayout::Cwbvh, BvhLayout::Bvh8] {
-            let g = Geometry::build_with_layout(&[quad(0.0, 0)], layout)
-                .unwrap_or_else(|e| panic!("{e}"));
-            assert_eq!(g.layout(), BvhLayout::Wide8);
-        }
+    fn the_default_layout_is_wide8() {
+        let g = Geometry::build(&[quad(0.0, 0)]).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(g.layout(), BvhLayout::Wide8);
         assert_eq!(BvhLayout::default(), BvhLayout::Wide8);
     }
 
