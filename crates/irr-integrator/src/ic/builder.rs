@@ -1,0 +1,185 @@
+//! Cache construction as the renderer drives it: probes, selection, full gathers, ordered
+//! commits.
+//!
+//! # Construction, deterministic and parallel
+//! The renderer drives construction through [`CacheBuilder`]: in each pass the cache is
+//! read-only; [`CacheBuilder::probe`] tells, in parallel, whether a camera ray's hit is covered
+//! and if not predicts its record's radius from a cheap 4×8 distance-only gather;
+//! [`CacheBuilder::select`] keeps, in pixel order, the probes whose predicted spheres do not cover
+//! each other; [`CacheBuilder::complete`] gathers for those in parallel; and
+//! [`CacheBuilder::commit`] inserts the candidates in the order given (pixel order), dropping any
+//! that an earlier candidate of the same pass already covers. A candidate depends only on the
+//! cache before its pass and on its own sample key, and selection and commits run in a fixed
+//! order, so the cache (and the image) are the same bit for bit whatever
+//! the thread count. The final shading pass only reads; a shading point that no record covers
+//! (rare: an edge pixel's jittered sample, or a record shrunk by neighbour clamping) gets a gather
+//! of its own, used and not stored.
+
+use crate::integrator::{Integrator, RayCounter};
+use crate::path::ShadingPoint;
+use crate::scene::Scene;
+use glam::Vec3;
+use irr_cache::{RadiusInputs, Record, Rgb};
+use irr_geometry::Ray;
+use irr_sampling::SampleKey;
+
+/// A record computed in a construction pass, waiting for [`CacheBuilder::commit`].
+#[derive(Clone, Debug)]
+pub struct Candidate {
+    pub(super) level: u32,
+    pub(super) record: Record<Rgb>,
+    pub(super) inputs: RadiusInputs,
+    pub(super) occluder: f32,
+    /// Gather rays (and their continuations) this candidate cost.
+    pub rays: RayCounter,
+}
+
+impl Candidate {
+    /// The cache level it belongs to (0: the camera's).
+    pub fn level(&self) -> u32 {
+        self.level
+    }
+    /// Where it was computed.
+    pub fn position(&self) -> Vec3 {
+        self.record.position
+    }
+}
+
+/// A point of a construction pass that no record covers, with a cheap prediction of the radius
+/// its record will get (a distance-only gather of [`PROBE_M`]×[`PROBE_N`] rays). The renderer
+/// selects among a pass's probes ([`CacheBuilder::select`]) before any full gather is paid for,
+/// so few full gathers are wasted on candidates that cover each other.
+#[derive(Clone, Debug)]
+pub struct Probe {
+    pub(super) level: u32,
+    pub(super) x: ShadingPoint,
+    pub(super) spacing: f32,
+    pub(super) key: SampleKey,
+    pub(super) predicted_radius: f32,
+    /// Rays the probe cost.
+    pub rays: RayCounter,
+}
+
+impl Probe {
+    /// The cache level (0: the camera's).
+    pub fn level(&self) -> u32 {
+        self.level
+    }
+    /// The radius its record is predicted to get.
+    pub fn predicted_radius(&self) -> f32 {
+        self.predicted_radius
+    }
+}
+
+/// Strata of a probe's distance-only gather along θ.
+pub const PROBE_M: u32 = 4;
+/// Strata of a probe's distance-only gather along φ.
+pub const PROBE_N: u32 = 8;
+
+/// What one commit did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CommitStats {
+    /// Candidates inserted.
+    pub inserted: u64,
+    /// Candidates dropped because an earlier candidate of the same pass covered them.
+    pub dropped: u64,
+    /// Rays spent on the dropped candidates' gathers (wasted work).
+    pub dropped_rays: u64,
+    /// Candidates the cache refused (not finite: a NaN in a gather); should be 0.
+    pub refused: u64,
+    /// Shadow rays traced by the leak guard while committing.
+    pub guard_rays: u64,
+}
+
+impl std::ops::AddAssign for CommitStats {
+    fn add_assign(&mut self, o: Self) {
+        self.inserted += o.inserted;
+        self.dropped += o.dropped;
+        self.dropped_rays += o.dropped_rays;
+        self.refused += o.refused;
+        self.guard_rays += o.guard_rays;
+    }
+}
+
+/// What the renderer needs to drive deterministic cache construction (see the module docs): the
+/// cache levels to build, a read-only candidate computation per camera ray, and an ordered
+/// commit. Threads, tiles and pixel order are the renderer's.
+pub trait CacheBuilder: Integrator + Send {
+    /// How many cache levels there are; the renderer builds them from the deepest (`levels() −
+    /// 1`) to 0, because a level's gathers read the level below.
+    fn levels(&self) -> u32;
+
+    /// The probe of level `level` for this camera ray, or `None` when the cache already covers
+    /// the point (or the ray hits nothing). Level 0 uses the camera ray's first hit, whose pixel
+    /// footprint is `spread`·t (`spread`: the pixel's size per unit distance along the ray);
+    /// level L ≥ 1 the point reached by L cosine-distributed bounces. Every random number comes
+    /// from `key`. Read-only: many threads call it at once.
+    fn probe(
+        &self,
+        scene: &Scene,
+        level: u32,
+        ray: &Ray,
+        spread: f32,
+        key: SampleKey,
+        rays: &mut RayCounter,
+    ) -> Option<Probe>;
+
+    /// The probes worth a full gather, in the order given: a probe is skipped when the predicted
+    /// sphere of an earlier selected probe covers it. Sequential and deterministic.
+    fn select(&self, probes: Vec<Probe>) -> Vec<Probe>;
+
+    /// The candidate record of a selected probe: the full gather, its gradients and radius
+    /// inputs. Read-only: many threads call it at once.
+    fn complete(&self, scene: &Scene, probe: &Probe, rays: &mut RayCounter) -> Option<Candidate>;
+
+    /// Inserts `candidates` in the order given, dropping each one an earlier record covers.
+    fn commit(&mut self, scene: &Scene, candidates: Vec<Candidate>) -> CommitStats;
+
+    /// Records per level.
+    fn record_counts(&self) -> Vec<usize>;
+
+    /// The final pass's shading points that no record covered (each gathered for itself).
+    fn fallback_gathers(&self) -> u64;
+
+    /// Every level-0 record's position, radius and influence radius (for the debug view).
+    fn records_for_display(&self) -> Vec<(Vec3, Vec3, f32)>;
+}
+
+/// The parts of [`CacheBuilder`] both cached integrators share, forwarded to their `core`.
+macro_rules! forward_to_core {
+    () => {
+        fn probe(
+            &self,
+            scene: &Scene,
+            level: u32,
+            ray: &Ray,
+            spread: f32,
+            key: SampleKey,
+            rays: &mut RayCounter,
+        ) -> Option<Probe> {
+            // A level the integrator does not have (AO has one) probes nothing.
+            self.core.probe(scene, level, ray, spread, key, rays)
+        }
+
+        fn select(&self, probes: Vec<Probe>) -> Vec<Probe> {
+            self.core.select(probes)
+        }
+
+        fn commit(&mut self, scene: &Scene, candidates: Vec<Candidate>) -> CommitStats {
+            self.core.commit(scene, candidates)
+        }
+
+        fn record_counts(&self) -> Vec<usize> {
+            self.core.levels.iter().map(|l| l.cache.len()).collect()
+        }
+
+        fn fallback_gathers(&self) -> u64 {
+            self.core.fallbacks.load(Ordering::Relaxed)
+        }
+
+        fn records_for_display(&self) -> Vec<(Vec3, Vec3, f32)> {
+            display(&self.core)
+        }
+    };
+}
+pub(super) use forward_to_core;

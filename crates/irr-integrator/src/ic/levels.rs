@@ -1,0 +1,171 @@
+//! What both cached integrators share: the cache levels, construction's walks, selection and
+//! commits.
+
+use super::IcMetric;
+use super::builder::{Candidate, CommitStats, Probe};
+use super::settings::{IcSettings, IcSettingsError};
+use super::value::{IcValue, convert_record};
+use crate::integrator::RayCounter;
+use crate::path::ShadingPoint;
+use crate::scene::Scene;
+use glam::Vec3;
+use irr_cache::{ErrorMetric, InsertError, IrradianceCache, Record};
+use irr_geometry::Ray;
+use irr_sampling::{Frame, HemisphereStrata, SampleKey, sample_cosine_hemisphere};
+use std::sync::atomic::AtomicU64;
+
+/// One level of cache: the records, their leak-guard distances and the level's gather settings.
+#[derive(Clone, Debug)]
+pub(super) struct Level<V: IcValue> {
+    pub(super) cache: IrradianceCache<V, IcMetric>,
+    /// Per record (by id): the nearest hit distance of its whole gather (+∞ if none).
+    pub(super) occluder: Vec<f32>,
+    pub(super) strata: HemisphereStrata,
+}
+
+/// The shared machinery of both cached integrators: levels, gathers, the leak guard.
+#[derive(Debug)]
+pub(super) struct Core<V: IcValue> {
+    pub(super) settings: IcSettings,
+    pub(super) levels: Vec<Level<V>>,
+    /// The scene's bounding-box diagonal (world units), set by `preprocess`.
+    pub(super) diagonal: f32,
+    /// The strata of the final pass's own gathers (where no record covers a shading point): a
+    /// quarter of the first level's in each direction, at least 4×8. Its estimate of E is as
+    /// unbiased as a record's, only noisier, and it is used for one sample, not interpolated.
+    pub(super) fallback_strata: HemisphereStrata,
+    pub(super) fallbacks: AtomicU64,
+}
+
+impl<V: IcValue> Core<V> {
+    pub(super) fn new(settings: IcSettings) -> Result<Self, IcSettingsError> {
+        settings.validate()?;
+        let levels = (0..settings.levels())
+            .map(|l| {
+                Ok(Level {
+                    cache: IrradianceCache::new(settings.metric_at(l)?),
+                    occluder: Vec::new(),
+                    strata: settings.strata_at(l)?,
+                })
+            })
+            .collect::<Result<Vec<_>, IcSettingsError>>()?;
+        Ok(Self {
+            fallback_strata: settings.strata_at(2)?,
+            settings,
+            levels,
+            diagonal: 1.0,
+            fallbacks: AtomicU64::new(0),
+        })
+    }
+
+    pub(super) fn set_scene(&mut self, scene: &Scene) {
+        let (lo, hi) = scene.geometry().bounds();
+        let d = (hi - lo).length();
+        self.diagonal = if d.is_finite() && d > 0.0 { d } else { 1.0 };
+    }
+
+    /// Follows `level` cosine bounces from the camera ray's first hit; the shading point there
+    /// and the distance of the last segment (the camera's for level 0).
+    pub(super) fn walk(
+        &self,
+        scene: &Scene,
+        level: u32,
+        ray: &Ray,
+        key: SampleKey,
+        rays: &mut RayCounter,
+    ) -> Option<(ShadingPoint, f32)> {
+        rays.closest += 1;
+        let hit = scene.geometry().intersect(ray)?;
+        let surface = scene.geometry().surface(ray, &hit);
+        let mut t = (surface.position - ray.origin).length();
+        let mut x = ShadingPoint::new(&surface, -ray.direction.normalize());
+        for bounce in 0..level {
+            let w = Frame::from_normal(x.ns)
+                .to_world(sample_cosine_hemisphere(key.uniform_2d(1 + bounce)));
+            if w.dot(x.ng) <= 0.0 {
+                return None;
+            }
+            let r = Ray::spawn(x.position, x.ng, w);
+            rays.closest += 1;
+            let hit = scene.geometry().intersect(&r)?;
+            let surface = scene.geometry().surface(&r, &hit);
+            t = (surface.position - x.position).length();
+            x = ShadingPoint::new(&surface, -w);
+        }
+        Some((x, t))
+    }
+
+    /// See [`CacheBuilder::select`].
+    pub(super) fn select(&self, probes: Vec<Probe>) -> Vec<Probe> {
+        let mut chosen: Vec<Probe> = Vec::new();
+        let mut planned: Option<IrradianceCache<f32, IcMetric>> = None;
+        for probe in probes {
+            let Some(level) = self.levels.get(probe.level as usize) else {
+                continue;
+            };
+            let plan = planned.get_or_insert_with(|| IrradianceCache::new(*level.cache.metric()));
+            if plan.covers(probe.x.position, probe.x.ns) {
+                continue;
+            }
+            if plan
+                .insert(Record::new(
+                    probe.x.position,
+                    probe.x.ns,
+                    probe.predicted_radius,
+                    0.0,
+                ))
+                .is_ok()
+            {
+                chosen.push(probe);
+            }
+        }
+        chosen
+    }
+
+    /// Commits candidates in order (see [`CacheBuilder::commit`]).
+    pub(super) fn commit(&mut self, scene: &Scene, candidates: Vec<Candidate>) -> CommitStats {
+        let mut stats = CommitStats::default();
+        for c in candidates {
+            let level = c.level as usize;
+            if level >= self.levels.len() {
+                stats.refused += 1;
+                continue;
+            }
+            let record = convert_record::<V>(&c.record);
+            let mut guard = 0;
+            if self.covers(scene, level, record.position, record.normal, &mut guard) {
+                stats.dropped += 1;
+                stats.dropped_rays += c.rays.total();
+                stats.guard_rays += guard;
+                continue;
+            }
+            stats.guard_rays += guard;
+            let l = &mut self.levels[level];
+            match l.cache.insert_with_radius(record, &c.inputs) {
+                Ok((id, _)) => {
+                    debug_assert_eq!(id as usize, l.occluder.len());
+                    l.occluder.push(c.occluder);
+                    stats.inserted += 1;
+                }
+                Err(InsertError::Full) | Err(_) => stats.refused += 1,
+            }
+        }
+        stats
+    }
+}
+
+pub(super) fn display<V: IcValue>(core: &Core<V>) -> Vec<(Vec3, Vec3, f32)> {
+    core.levels.first().map_or_else(Vec::new, |l| {
+        l.cache
+            .records()
+            .iter()
+            .map(|r| {
+                (
+                    r.position,
+                    r.normal,
+                    l.cache.metric().influence_radius(r.radius),
+                )
+            })
+            .collect()
+    })
+}

@@ -1,0 +1,349 @@
+//! The irradiance-cache integrator (Ward, Rubinstein & Clear 1988; Ward & Heckbert 1992;
+//! Tabellion & Lamorlette 2004; Křivánek et al. 2006), and ambient occlusion through the same
+//! cache.
+//!
+//! # What each part of a pixel carries
+//! The radiance leaving the first surface x₀ towards the camera is split exactly as
+//! [`crate::PathTracer::li_split`] splits it (see [`crate::path`]):
+//! - `emitted`: Le(x₀), or the background B when the camera ray leaves the scene: paths `L E`
+//!   and `L B`;
+//! - `direct`: next-event estimation at x₀ ([`IcSettings::direct_samples`] light samples), paths
+//!   `L D E`. NEE alone covers every such path (the light sampler reaches every point of every
+//!   emitting triangle, and every punctual light), so no BSDF-sampled emitter hit is needed;
+//! - `indirect`: (ρ(x₀)/π)·E_ind(x₀), paths `L D D+ E` and `L D+ B`, with E_ind interpolated
+//!   from the cache. **The background's light that reflects is here**, as in the path tracer:
+//!   the cache stores the irradiance due to the background as well as to reflected light
+//!   (Radiance, likewise, computes its sky's diffuse light in the ambient calculation), so a
+//!   gather ray that leaves the scene brings back B.
+//!
+//! A record's gather at x traces one cosine-distributed ray per cell of an M×N
+//! [`HemisphereStrata`]; the radiance a ray brings back from the point x₁ it hits is what x₁
+//! *reflects* towards x (its emission excluded: that is x's `direct`): NEE at x₁ plus x₁'s own
+//! indirect part, either path-traced ([`BounceMode::PathTraced`], `PathTracer::reflected`) or
+//! looked up in the cache of the next bounce level ([`BounceMode::Cached`], Radiance's `-ab`).
+//! A ray that hits nothing brings back the background B. Punctual lights reach the gathers
+//! through the NEE at x₁ (`sample_light`, shared with the path tracer).
+//! The deepest cached level's gathers always path-trace the rest, so no bounce is cut off and
+//! the image converges to the path tracer's as the error parameter tightens.
+//!
+//! Files: `settings` (the options), `builder` (the interface construction runs through),
+//! `levels` (the cache levels, walks, selection, commits), `gather` (a record's hemisphere
+//! gather), `radius` (limits and predicted radii), `lookup` and `guard` (interpolation and the
+//! leak guard), `value` (the cached value types), `ao` (cached ambient occlusion).
+
+pub use ao::CachedAmbientOcclusion;
+pub use builder::{CacheBuilder, Candidate, CommitStats, PROBE_M, PROBE_N, Probe};
+pub use radius::HORIZON_CUT_COS;
+pub use settings::{
+    BounceMode, GradientMode, IcMetric, IcSettings, IcSettingsError, LeakGuard, MetricKind,
+};
+pub use value::IcValue;
+
+use crate::integrator::{Integrator, RayCounter};
+use crate::path::{PathTracer, Radiance, ShadingPoint, first_surface, sample_light};
+use crate::scene::Scene;
+use builder::forward_to_core;
+use gather::Traced;
+use glam::Vec3;
+use irr_cache::{IrradianceCache, Rgb};
+use irr_geometry::{Ray, SurfacePoint};
+use irr_gradients::GatherSamples;
+use irr_sampling::SampleKey;
+use irr_sampling::rng::Dimensions;
+use levels::{Core, display};
+use settings::setting_error;
+use std::f32::consts::FRAC_1_PI;
+use std::sync::atomic::Ordering;
+
+mod ao;
+mod builder;
+mod gather;
+mod guard;
+mod levels;
+mod lookup;
+mod radius;
+mod settings;
+mod value;
+
+/// The stream of the final pass's own gathers (see `SampleKey::new`).
+const FALLBACK_STREAM: u64 = 0x1c_fa11;
+
+/// Direct light at `x` by next-event estimation alone: the mean of `samples` light samples of
+/// f·Le·cos θ / pdf (unbiased: the light sampler reaches every point of every emitting triangle
+/// and every punctual light; the background's light is not direct, see the module docs).
+pub fn direct_nee(
+    scene: &Scene,
+    x: &ShadingPoint,
+    samples: u32,
+    dims: &mut Dimensions,
+    rays: &mut RayCounter,
+) -> Vec3 {
+    let albedo = scene.albedo(x.triangle, x.b1, x.b2);
+    if albedo == Vec3::ZERO || scene.lights().is_empty() {
+        return Vec3::ZERO;
+    }
+    let f = albedo * FRAC_1_PI;
+    let mut sum = Vec3::ZERO;
+    for _ in 0..samples {
+        if let Some(nee) = sample_light(scene, x, dims, rays) {
+            sum += f * nee.le * (nee.cos_surface / nee.pdf);
+        }
+    }
+    sum / samples as f32
+}
+
+/// The irradiance-cache integrator: emission + direct light (NEE) + (ρ/π)·E_ind from the cache.
+/// See the module docs for what each part carries and how the cache is built.
+#[derive(Debug)]
+pub struct IrradianceCacheIntegrator {
+    core: Core<Rgb>,
+    path: PathTracer,
+}
+
+impl IrradianceCacheIntegrator {
+    /// An integrator with an empty cache; refuses settings out of range.
+    pub fn new(settings: IcSettings) -> Result<Self, IcSettingsError> {
+        Ok(Self {
+            path: PathTracer::new(settings.path),
+            core: Core::new(settings)?,
+        })
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &IcSettings {
+        &self.core.settings
+    }
+
+    /// The cache of level `level` (0: the camera's), if it exists.
+    pub fn cache(&self, level: usize) -> Option<&IrradianceCache<Rgb, IcMetric>> {
+        self.core.levels.get(level).map(|l| &l.cache)
+    }
+
+    /// Replaces the first level's cache with `records` (a persistent cache read back), each
+    /// with the leak-guard distance given beside it; the deeper levels are emptied.
+    pub fn load_records(
+        &mut self,
+        cache: IrradianceCache<Rgb, IcMetric>,
+        occluders: Vec<f32>,
+    ) -> Result<(), IcSettingsError> {
+        if occluders.len() != cache.len() {
+            return Err(setting_error(
+                "--cache",
+                format!(
+                    "{} records but {} leak-guard distances",
+                    cache.len(),
+                    occluders.len()
+                ),
+            ));
+        }
+        if let Some(l) = self.core.levels.first_mut() {
+            l.cache = cache;
+            l.occluder = occluders;
+        }
+        Ok(())
+    }
+
+    /// The leak-guard distances of the first level's records, by record id.
+    pub fn occluder_distances(&self) -> &[f32] {
+        self.core.levels.first().map_or(&[], |l| &l.occluder)
+    }
+
+    /// The radiance along `ray` split as [`PathTracer::li_split`] splits it: `emitted` (Le of
+    /// the first surface x₀), `direct` (NEE at x₀) and `indirect` ((ρ/π)·E_ind(x₀) from the
+    /// cache, or from a gather of its own where no record covers x₀: not stored, the final pass
+    /// only reads). Each part estimates the same light paths as the path tracer's part of the
+    /// same name (module docs).
+    pub fn li_split(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        dims: &mut Dimensions,
+        rays: &mut RayCounter,
+    ) -> Radiance {
+        let (surface, wo, emitted) = match first_surface(scene, ray, rays) {
+            Ok(first) => first,
+            Err(background) => return background,
+        };
+        let x = ShadingPoint::new(&surface, wo);
+        // Direct light: NEE at x₀.
+        let direct = direct_nee(scene, &x, self.core.settings.direct_samples, dims, rays);
+        // The cache holds irradiance, so the (textured) albedo of x₀ itself multiplies it,
+        // never a record's.
+        let albedo = scene.albedo(x.triangle, x.b1, x.b2);
+        if albedo == Vec3::ZERO {
+            return Radiance {
+                emitted,
+                direct,
+                indirect: Vec3::ZERO,
+            };
+        }
+        let e = match self.core.lookup(scene, 0, x.position, x.ns, rays) {
+            Some(e) => e.to_gathered(),
+            None => {
+                // The fallback gather's own key: a hash of this sample's key and the cursor's
+                // position, so it depends only on the sample (the pixel, the index, the seed).
+                let key = SampleKey::new(dims.key().bits(dims.position()), FALLBACK_STREAM, 0);
+                self.core.fallbacks.fetch_add(1, Ordering::Relaxed);
+                self.gather_irradiance(scene, 0, &x, key, rays)
+                    .map(|g| g.irradiance())
+                    .unwrap_or(Vec3::ZERO)
+            }
+        };
+        Radiance {
+            emitted,
+            direct,
+            indirect: albedo * FRAC_1_PI * e,
+        }
+    }
+
+    /// What the gather rays of `level` bring back ([`IrradianceCacheIntegrator::gather_radiance`]
+    /// for each); where the geometry streams (`Geometry::streams`), path-traced continuations
+    /// (`BounceMode::PathTraced`, and on the deepest level) all at once, with
+    /// `PathTracer::reflected_many`.
+    fn gather_radiances(
+        &self,
+        scene: &Scene,
+        level: usize,
+        traced: &[Traced],
+        rays: &mut RayCounter,
+    ) -> Vec<Vec3> {
+        if !(self.path_traced(level) && scene.geometry().streams()) {
+            return traced
+                .iter()
+                .map(|(hit, w, k)| self.gather_radiance(scene, level, hit.as_ref(), *w, *k, rays))
+                .collect();
+        }
+        // The same dimensions `gather_radiance` gives each continuation.
+        let (starts, mut dims): (Vec<(SurfacePoint, Vec3)>, Vec<Dimensions>) = traced
+            .iter()
+            .filter_map(|(hit, w, k)| hit.map(|s| ((s, -*w), Dimensions::starting_at(*k, 1))))
+            .unzip();
+        let mut reflected = vec![Radiance::default(); starts.len()];
+        self.path
+            .reflected_many(scene, &starts, &mut dims, &mut reflected, rays);
+        let mut reflected = reflected.into_iter();
+        traced
+            .iter()
+            .map(|(hit, _, _)| match hit {
+                // (`reflected` has one entry per hit, so `next` always has one here.)
+                Some(_) => reflected
+                    .next()
+                    .map_or(Vec3::ZERO, |r| r.direct + r.indirect),
+                // The ray left the scene: the background's light belongs to `indirect`.
+                None => scene.background(),
+            })
+            .collect()
+    }
+
+    /// Whether a gather ray of `level` continues as a path-traced path (`BounceMode::PathTraced`,
+    /// and on the deepest level) rather than through the next level's cache.
+    fn path_traced(&self, level: usize) -> bool {
+        self.core.settings.bounce_mode == BounceMode::PathTraced
+            || level + 1 >= self.core.levels.len()
+    }
+
+    /// What a gather ray of `level` brings back from `hit` travelling against `w`: what the
+    /// hit point reflects (its emission excluded), or the background if the ray hit nothing.
+    fn gather_radiance(
+        &self,
+        scene: &Scene,
+        level: usize,
+        hit: Option<&SurfacePoint>,
+        w: Vec3,
+        key: SampleKey,
+        rays: &mut RayCounter,
+    ) -> Vec3 {
+        let Some(surface) = hit else {
+            // The ray left the scene: the background's light belongs to `indirect`.
+            return scene.background();
+        };
+        let mut dims = Dimensions::starting_at(key, 1);
+        if self.path_traced(level) {
+            let r = self.path.reflected(scene, surface, -w, &mut dims, rays);
+            return r.direct + r.indirect;
+        }
+        // Cached: NEE at the hit plus its indirect light from the next level's cache; where
+        // that cache has no record, a path-traced continuation (unbiased) instead.
+        let x = ShadingPoint::new(surface, -w);
+        let direct = direct_nee(scene, &x, 1, &mut dims, rays);
+        let albedo = scene.albedo(x.triangle, x.b1, x.b2);
+        if albedo == Vec3::ZERO {
+            return direct;
+        }
+        match self.core.lookup(scene, level + 1, x.position, x.ns, rays) {
+            Some(e) => direct + albedo * FRAC_1_PI * e.to_gathered(),
+            None => {
+                let r = self.path.reflected(scene, surface, -w, &mut dims, rays);
+                direct + r.indirect
+            }
+        }
+    }
+
+    /// E_ind at x for `level` by a gather of its own (the fallback of the final pass).
+    fn gather_irradiance(
+        &self,
+        scene: &Scene,
+        level: usize,
+        x: &ShadingPoint,
+        key: SampleKey,
+        rays: &mut RayCounter,
+    ) -> Option<GatherSamples<Vec3>> {
+        self.core
+            .gather(
+                scene,
+                self.core.fallback_strata,
+                x,
+                key,
+                rays,
+                |traced, rays| self.gather_radiances(scene, level, traced, rays),
+            )
+            .map(|(g, _)| g)
+    }
+}
+
+impl Integrator for IrradianceCacheIntegrator {
+    fn name(&self) -> &'static str {
+        "ic"
+    }
+
+    fn preprocess(&mut self, scene: &Scene) {
+        self.core.set_scene(scene);
+    }
+
+    fn li(&self, scene: &Scene, ray: &Ray, dims: &mut Dimensions, rays: &mut RayCounter) -> Vec3 {
+        self.li_split(scene, ray, dims, rays).total()
+    }
+
+    fn li_split(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        dims: &mut Dimensions,
+        rays: &mut RayCounter,
+    ) -> Radiance {
+        IrradianceCacheIntegrator::li_split(self, scene, ray, dims, rays)
+    }
+}
+
+impl CacheBuilder for IrradianceCacheIntegrator {
+    fn levels(&self) -> u32 {
+        self.core.levels.len() as u32
+    }
+
+    fn complete(&self, scene: &Scene, probe: &Probe, rays: &mut RayCounter) -> Option<Candidate> {
+        let li = probe.level as usize;
+        let mut spent = RayCounter::default();
+        let (samples, frame) = self.core.gather(
+            scene,
+            self.core.levels[li].strata,
+            &probe.x,
+            probe.key,
+            &mut spent,
+            |traced, r| self.gather_radiances(scene, li, traced, r),
+        )?;
+        *rays += spent;
+        Some(self.core.candidate(probe, &samples, &frame, spent))
+    }
+
+    forward_to_core!();
+}

@@ -1,0 +1,382 @@
+//! The cache integrators' settings: the metric, the gathers, the radius limits, the bounce mode
+//! and the leak guard, each with its range (`IcSettings::validate`).
+
+use crate::path::PathSettings;
+use irr_cache::{ErrorMetric, MetricError, PixelRange, RadiusLimits, TabellionLamorlette, Ward};
+use irr_sampling::HemisphereStrata;
+use thiserror::Error;
+
+/// Which weighting the cache uses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MetricKind {
+    /// Tabellion & Lamorlette 2004; the error parameter is κ (larger is stricter).
+    #[default]
+    TabellionLamorlette,
+    /// Ward et al. 1988; the error parameter is a (smaller is stricter).
+    Ward,
+}
+
+/// The cache's metric as one concrete type, so one cache type serves both.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum IcMetric {
+    /// See [`TabellionLamorlette`].
+    TabellionLamorlette(TabellionLamorlette),
+    /// See [`Ward`].
+    Ward(Ward),
+}
+
+impl ErrorMetric for IcMetric {
+    #[inline]
+    fn influence_radius(&self, record_radius: f32) -> f32 {
+        match self {
+            Self::TabellionLamorlette(m) => m.influence_radius(record_radius),
+            Self::Ward(m) => m.influence_radius(record_radius),
+        }
+    }
+    #[inline]
+    fn weight(&self, candidate: &irr_cache::Candidate) -> f64 {
+        match self {
+            Self::TabellionLamorlette(m) => m.weight(candidate),
+            Self::Ward(m) => m.weight(candidate),
+        }
+    }
+    fn radius_limits(&self, pixel_spacing: f32) -> RadiusLimits {
+        match self {
+            Self::TabellionLamorlette(m) => m.radius_limits(pixel_spacing),
+            Self::Ward(m) => m.radius_limits(pixel_spacing),
+        }
+    }
+}
+
+/// Which translation gradient records carry (the rotation gradient comes with either).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum GradientMode {
+    /// No gradients: records are interpolated as constants.
+    Off,
+    /// Ward & Heckbert 1992 (Radiance).
+    #[default]
+    WardHeckbert,
+    /// Křivánek et al. 2005 in Křivánek & Gautron's form (Mitsuba 0.6).
+    KrivanekGautron,
+}
+
+/// What a gather ray brings back beyond the direct light at its hit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BounceMode {
+    /// The hit point's own indirect light by a path-traced continuation (unbiased).
+    #[default]
+    PathTraced,
+    /// The hit point's indirect light from the cache of the next bounce level (Radiance's
+    /// `-ab`); the deepest level path-traces the rest.
+    Cached,
+}
+
+/// How records are kept from lighting points they cannot see.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LeakGuard {
+    /// No test beyond the metric's.
+    Off,
+    /// A shadow ray between query and record when the query is farther than half the record's
+    /// nearest gather hit (see the module docs).
+    #[default]
+    Visibility,
+}
+
+/// Settings of [`IrradianceCacheIntegrator`] and [`CachedAmbientOcclusion`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IcSettings {
+    /// The metric. Default: Tabellion & Lamorlette.
+    pub metric: MetricKind,
+    /// The error parameter: κ for Tabellion & Lamorlette (larger is stricter; default 1, range
+    /// (0, ∞)), or a for Ward (smaller is stricter; typical 0.1–0.3).
+    pub error: f32,
+    /// M, strata along θ of a first-level gather. Default: 12. Range: ≥ 1 (M·N ≤ 2²⁰).
+    ///
+    /// The defaults (κ = 1, 12×48, with 64 camera samples per pixel in `cargo xtask render`)
+    /// were chosen by `cargo xtask compare` on the Cornell box at 128×128 against a 4096-spp
+    /// path-traced reference: relMSE 3.2e-4 in 5.2 s (2 loaded cores), where 8×32 gave 4.8e-4
+    /// in 3.7 s, and the path tracer needs about 670 spp (≈ 22 s) for 3.2e-4. See the closing
+    /// note of the integrator issue and docs/compare.md.
+    pub strata_m: u32,
+    /// N, strata along φ. Default: 48. Range: ≥ 1.
+    pub strata_n: u32,
+    /// Smallest record radius scale on screen, in pixels (see irr-cache's `PixelRange`).
+    /// Default: 1.5. Range: (0, `pixel_max`].
+    pub pixel_min: f32,
+    /// Largest record radius scale on screen, in pixels. Default: 10. Range: ≥ `pixel_min`.
+    pub pixel_max: f32,
+    /// Largest record radius in world units, as a fraction of the scene's bounding-box diagonal
+    /// (also the radius of a record whose gather hit nothing). Default: 0.25. Range: (0, ∞).
+    pub world_max: f32,
+    /// Smallest record radius in world units, as a fraction of the diagonal (bounds the number
+    /// of records near contact edges). Default: 1e-4. Range: [0, `world_max`].
+    pub world_min: f32,
+    /// The translation gradient. Default: Ward & Heckbert.
+    pub gradients: GradientMode,
+    /// Neighbour clamping (Křivánek et al. 2006). Default: on.
+    pub neighbour_clamping: bool,
+    /// The leak guard. Default: visibility.
+    pub leak_guard: LeakGuard,
+    /// What a gather ray brings back. Default: path-traced.
+    pub bounce_mode: BounceMode,
+    /// With [`BounceMode::Cached`]: how many cache levels below the first (≥ 1). Default: 1.
+    pub cached_bounces: u32,
+    /// With [`BounceMode::Cached`]: each deeper level's error parameter is loosened by this
+    /// factor (κ divided, a multiplied) and its strata halved in each direction (at least 4×8),
+    /// as Radiance loosens its accuracy per bounce. Default: 2. Range: ≥ 1.
+    pub level_loosening: f32,
+    /// Light samples (NEE) per camera hit for the direct light. Default: 1. Range: ≥ 1.
+    pub direct_samples: u32,
+    /// Construction also checks every camera sample's own hit (not only pixel centres), so the
+    /// final pass almost never gathers for itself. Default: off. Measured on the Cornell box at
+    /// 128×128, 64 spp: 4.25 s and relMSE 3.24e-4 with it (1988 records), 3.77 s and 3.28e-4
+    /// without (1015 records), the final pass's own gathers (1 % of samples, at a quarter of the
+    /// strata each way) costing less than checking every sample during construction.
+    pub fill_samples: bool,
+    /// The path tracer of continuations and of the fallback.
+    pub path: PathSettings,
+}
+
+impl Default for IcSettings {
+    fn default() -> Self {
+        Self {
+            metric: MetricKind::TabellionLamorlette,
+            error: 1.0,
+            strata_m: 12,
+            strata_n: 48,
+            pixel_min: 1.5,
+            pixel_max: 10.0,
+            world_max: 0.25,
+            world_min: 1e-4,
+            gradients: GradientMode::WardHeckbert,
+            neighbour_clamping: true,
+            leak_guard: LeakGuard::Visibility,
+            bounce_mode: BounceMode::PathTraced,
+            cached_bounces: 1,
+            level_loosening: 2.0,
+            direct_samples: 1,
+            fill_samples: false,
+            path: PathSettings::default(),
+        }
+    }
+}
+
+/// Settings that cannot be used, each naming the option.
+#[derive(Clone, Debug, PartialEq, Error)]
+#[error("{option}: {problem}")]
+pub struct IcSettingsError {
+    /// The option (CLI spelling).
+    pub option: &'static str,
+    /// What is wrong.
+    pub problem: String,
+}
+
+pub(super) fn setting_error(option: &'static str, problem: impl Into<String>) -> IcSettingsError {
+    IcSettingsError {
+        option,
+        problem: problem.into(),
+    }
+}
+
+impl IcSettings {
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<(), IcSettingsError> {
+        self.metric_at(0)?;
+        HemisphereStrata::new(self.strata_m, self.strata_n).map_err(|e| {
+            setting_error(
+                "--strata",
+                format!("{e} (got {}x{})", self.strata_m, self.strata_n),
+            )
+        })?;
+        PixelRange::new(self.pixel_min, self.pixel_max)
+            .map_err(|e| setting_error("--pixel-spacing", e.to_string()))?;
+        if !(self.world_max.is_finite() && self.world_max > 0.0) {
+            return Err(setting_error(
+                "--world-max",
+                format!("must be positive and finite, got {}", self.world_max),
+            ));
+        }
+        if !(self.world_min.is_finite()
+            && self.world_min >= 0.0
+            && self.world_min <= self.world_max)
+        {
+            return Err(setting_error(
+                "--world-min",
+                format!(
+                    "must lie in [0, world max = {}], got {}",
+                    self.world_max, self.world_min
+                ),
+            ));
+        }
+        if self.bounce_mode == BounceMode::Cached && !(1..=8).contains(&self.cached_bounces) {
+            return Err(setting_error(
+                "--bounces",
+                format!("must lie in 1..=8, got {}", self.cached_bounces),
+            ));
+        }
+        if !(self.level_loosening.is_finite() && self.level_loosening >= 1.0) {
+            return Err(setting_error(
+                "--level-loosening",
+                format!("must be finite and >= 1, got {}", self.level_loosening),
+            ));
+        }
+        if self.direct_samples == 0 {
+            return Err(setting_error("--direct-samples", "must be at least 1"));
+        }
+        Ok(())
+    }
+
+    /// The number of cache levels: 1, plus `cached_bounces` in cached mode.
+    pub fn levels(&self) -> u32 {
+        match self.bounce_mode {
+            BounceMode::PathTraced => 1,
+            BounceMode::Cached => 1 + self.cached_bounces,
+        }
+    }
+
+    /// The metric of level `level` (0: the camera's), loosened per level.
+    pub fn metric_at(&self, level: u32) -> Result<IcMetric, IcSettingsError> {
+        let loosen = self.level_loosening.powi(level as i32);
+        let pixels = PixelRange::new(self.pixel_min, self.pixel_max)
+            .map_err(|e| setting_error("--pixel-spacing", e.to_string()))?;
+        let bad = |e: MetricError| setting_error("--error", e.to_string());
+        Ok(match self.metric {
+            MetricKind::TabellionLamorlette => IcMetric::TabellionLamorlette(
+                TabellionLamorlette::new(self.error / loosen)
+                    .map_err(bad)?
+                    .with_pixel_range(pixels),
+            ),
+            MetricKind::Ward => IcMetric::Ward(
+                Ward::new(self.error * loosen)
+                    .map_err(bad)?
+                    .with_pixel_range(pixels),
+            ),
+        })
+    }
+
+    /// The strata of level `level`: halved in each direction per level, at least 4×8 (or the
+    /// first level's, if smaller).
+    pub fn strata_at(&self, level: u32) -> Result<HemisphereStrata, IcSettingsError> {
+        let m = (self.strata_m >> level.min(31)).max(self.strata_m.min(4));
+        let n = (self.strata_n >> level.min(31)).max(self.strata_n.min(8));
+        HemisphereStrata::new(m, n)
+            .map_err(|e| setting_error("--strata", format!("{e} (got {m}x{n})")))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ic::IrradianceCacheIntegrator;
+
+    /// Nonsense settings are refused with an error naming the option.
+    #[test]
+    fn nonsense_settings_name_the_option() {
+        let base = IcSettings::default();
+        assert!(base.validate().is_ok());
+        let cases: [(IcSettings, &str); 10] = [
+            (IcSettings { error: 0.0, ..base }, "--error"),
+            (
+                IcSettings {
+                    error: -1.0,
+                    ..base
+                },
+                "--error",
+            ),
+            (
+                IcSettings {
+                    error: f32::NAN,
+                    ..base
+                },
+                "--error",
+            ),
+            (
+                IcSettings {
+                    strata_m: 0,
+                    ..base
+                },
+                "--strata",
+            ),
+            (
+                IcSettings {
+                    strata_n: 0,
+                    ..base
+                },
+                "--strata",
+            ),
+            (
+                IcSettings {
+                    strata_m: 2048,
+                    strata_n: 2048,
+                    ..base
+                },
+                "--strata",
+            ),
+            (
+                IcSettings {
+                    pixel_min: 5.0,
+                    pixel_max: 1.0,
+                    ..base
+                },
+                "--pixel-spacing",
+            ),
+            (
+                IcSettings {
+                    world_max: f32::INFINITY,
+                    ..base
+                },
+                "--world-max",
+            ),
+            (
+                IcSettings {
+                    world_min: 1.0,
+                    world_max: 0.5,
+                    ..base
+                },
+                "--world-min",
+            ),
+            (
+                IcSettings {
+                    direct_samples: 0,
+                    ..base
+                },
+                "--direct-samples",
+            ),
+        ];
+        for (s, option) in cases {
+            let e = s
+                .validate()
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default();
+            assert!(e.starts_with(option), "{option}: {e}");
+        }
+        let cached = IcSettings {
+            bounce_mode: BounceMode::Cached,
+            cached_bounces: 0,
+            ..base
+        };
+        assert!(cached.validate().is_err());
+        assert!(IrradianceCacheIntegrator::new(IcSettings { error: 0.0, ..base }).is_err());
+    }
+
+    /// The strata of deeper levels halve per level down to 4×8, and the metric loosens.
+    #[test]
+    fn levels_loosen() {
+        let s = IcSettings {
+            bounce_mode: BounceMode::Cached,
+            cached_bounces: 3,
+            ..IcSettings::default()
+        };
+        let sizes: Vec<(u32, u32)> = (0..4)
+            .map(|l| s.strata_at(l).map(|st| (st.m(), st.n())).unwrap_or((0, 0)))
+            .collect();
+        assert_eq!(sizes, vec![(12, 48), (6, 24), (4, 12), (4, 8)]);
+        match (s.metric_at(0), s.metric_at(2)) {
+            (Ok(IcMetric::TabellionLamorlette(a)), Ok(IcMetric::TabellionLamorlette(b))) => {
+                assert_eq!((a.kappa(), b.kappa()), (1.0, 0.25));
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}
