@@ -290,7 +290,7 @@ impl PreparedRay {
     /// [`PreparedRay::set_screen`]; ∞ screens nothing out), without the triangle test's part
     /// ([`PreparedRay::finish`] computes it). Separate from the check so that the hot callers
     /// build it in place: returned in an `Option`, it was copied once more per ray. (Where it is
-    /// called, before the run-time dispatch: see `Job`'s docs in `geometry.rs`.)
+    /// called, before the run-time dispatch: see `Job`'s docs in `layout.rs`.)
     #[inline(always)]
     pub(crate) fn prepare(ray: &Ray, coordinate_bound: f32) -> PreparedRay {
         let o = Vec3A::from(ray.origin);

@@ -90,14 +90,20 @@ mod build;
 mod error;
 mod geometry;
 mod intersect;
+mod layout;
 mod mesh;
 mod pages;
+mod query;
 mod ray;
+#[cfg(test)]
+mod test_meshes;
 mod wide;
 
 pub use error::GeometryError;
-pub use geometry::{BvhLayout, Geometry, Hit, MAX_TRIANGLES, SurfacePoint};
+pub use geometry::{Geometry, MAX_TRIANGLES};
+pub use layout::BvhLayout;
 pub use mesh::{BuildReport, Triangle, TriangleMesh};
+pub use query::{Hit, SurfacePoint};
 pub use ray::{
     POSITION_ERROR_FLOOR, POSITION_RELATIVE_ERROR, Ray, offset_ray_origin,
     offset_ray_origin_with_error, position_error,

@@ -1,7 +1,12 @@
-//! The input ([`TriangleMesh`]), the per-triangle view that queries hand back ([`Triangle`]), and
-//! the count of what the build dropped ([`BuildReport`]).
+//! The input ([`TriangleMesh`]) and its validation (typed errors for malformed meshes, bad
+//! triangles dropped and counted in a [`BuildReport`]), and the per-triangle view that queries
+//! hand back ([`Triangle`]).
+
+use std::borrow::Cow;
 
 use glam::{DVec3, Vec3};
+
+use crate::GeometryError;
 
 /// A triangle mesh in world space: the input of [`Geometry::build`](crate::Geometry::build).
 ///
@@ -91,4 +96,189 @@ pub struct BuildReport {
     pub dropped_degenerate: usize,
     /// Triangles dropped because a vertex coordinate is NaN or infinite.
     pub dropped_non_finite: usize,
+}
+
+/// Checks a mesh's indices and array lengths.
+pub(crate) fn validate_mesh(m: usize, mesh: &TriangleMesh) -> Result<(), GeometryError> {
+    if let Some(normals) = &mesh.normals
+        && normals.len() != mesh.positions.len()
+    {
+        return Err(GeometryError::NormalCountMismatch {
+            mesh: m,
+            normals: normals.len(),
+            positions: mesh.positions.len(),
+        });
+    }
+    if mesh.material_ids.len() != mesh.indices.len() {
+        return Err(GeometryError::MaterialCountMismatch {
+            mesh: m,
+            material_ids: mesh.material_ids.len(),
+            triangles: mesh.indices.len(),
+        });
+    }
+    for (t, idx) in mesh.indices.iter().enumerate() {
+        if let Some(&bad) = idx.iter().find(|&&i| i as usize >= mesh.positions.len()) {
+            return Err(GeometryError::IndexOutOfRange {
+                mesh: m,
+                triangle: t,
+                index: bad,
+                vertex_count: mesh.positions.len(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Drops (and counts) the triangles with a non-finite coordinate or zero area, keeping the
+/// others in order. A borrowed mesh is copied only if it loses a triangle.
+pub(crate) fn drop_bad_triangles(mesh: &mut Cow<'_, TriangleMesh>, report: &mut BuildReport) {
+    let n = mesh.indices.len();
+    let mut kept = 0;
+    for t in 0..n {
+        let idx = mesh.indices[t];
+        let p = idx.map(|i| mesh.positions[i as usize]);
+        // `Triangle::is_kept` is the one rule: callers that keep per-triangle data beside the
+        // meshes (texture coordinates) map ids with it.
+        if !Triangle::is_kept(&p) {
+            if p.iter().all(|v| v.is_finite()) {
+                report.dropped_degenerate += 1;
+            } else {
+                report.dropped_non_finite += 1;
+            }
+            continue;
+        }
+        if kept != t {
+            let m = mesh.to_mut();
+            m.indices[kept] = idx;
+            m.material_ids[kept] = m.material_ids[t];
+        }
+        kept += 1;
+    }
+    if kept != n {
+        let m = mesh.to_mut();
+        m.indices.truncate(kept);
+        m.material_ids.truncate(kept);
+        m.indices.shrink_to_fit();
+        m.material_ids.shrink_to_fit();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_meshes::quad;
+    use crate::{Geometry, GeometryError};
+
+    #[test]
+    fn empty_input_is_an_error_not_a_panic() {
+        let err = Geometry::build(&[]).err();
+        assert_eq!(
+            err,
+            Some(GeometryError::EmptyScene {
+                dropped_degenerate: 0,
+                dropped_non_finite: 0
+            })
+        );
+        let err = Geometry::build(&[TriangleMesh::default()]).err();
+        assert!(matches!(err, Some(GeometryError::EmptyScene { .. })));
+    }
+
+    #[test]
+    fn degenerate_and_non_finite_triangles_are_dropped_and_counted() {
+        let mut m = quad(0.0, 3);
+        m.positions.extend([
+            Vec3::new(f32::NAN, 0.0, 0.0),
+            Vec3::new(0.0, f32::INFINITY, 0.0),
+            Vec3::new(2.0, 2.0, 0.0), // collinear with vertices 0 and 2
+        ]);
+        m.indices.extend([
+            [0, 1, 4], // NaN
+            [5, 1, 2], // infinite
+            [0, 2, 6], // collinear: zero area
+            [1, 1, 2], // repeated vertex: zero area
+            [4, 5, 4], // non-finite and degenerate: counted once, as non-finite
+        ]);
+        m.material_ids.extend([3; 5]);
+        let g = Geometry::build(&[m]).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            *g.report(),
+            BuildReport {
+                kept: 2,
+                dropped_degenerate: 2,
+                dropped_non_finite: 3
+            }
+        );
+        assert_eq!(g.bounds(), (Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0)));
+        // Ids number the kept triangles in input order.
+        assert_eq!(
+            g.triangle(1).p,
+            [Vec3::ZERO, Vec3::ONE.with_z(0.0), Vec3::Y]
+        );
+        assert!(g.get_triangle(2).is_none());
+    }
+
+    #[test]
+    fn all_dropped_is_an_error_with_the_counts() {
+        let m = TriangleMesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::new(2.0, 0.0, 0.0), Vec3::NAN],
+            indices: vec![[0, 1, 2], [0, 1, 3]],
+            normals: None,
+            material_ids: vec![0, 0],
+        };
+        let err = Geometry::build(&[m]).err();
+        assert_eq!(
+            err,
+            Some(GeometryError::EmptyScene {
+                dropped_degenerate: 1,
+                dropped_non_finite: 1
+            })
+        );
+        assert_eq!(
+            err.map(|e| e.to_string()).unwrap_or_default(),
+            "no triangles left after dropping 1 degenerate and 1 non-finite"
+        );
+    }
+
+    #[test]
+    fn malformed_meshes_are_typed_errors_naming_mesh_and_triangle() {
+        let mut bad_index = quad(0.0, 0);
+        bad_index.indices[1] = [0, 2, 4];
+        let err = Geometry::build(&[quad(1.0, 0), bad_index]).err();
+        assert_eq!(
+            err,
+            Some(GeometryError::IndexOutOfRange {
+                mesh: 1,
+                triangle: 1,
+                index: 4,
+                vertex_count: 4
+            })
+        );
+        assert!(
+            err.map(|e| e.to_string())
+                .unwrap_or_default()
+                .starts_with("mesh 1, triangle 1: vertex index 4 is out of range")
+        );
+
+        let mut bad_normals = quad(0.0, 0);
+        bad_normals.normals = Some(vec![Vec3::Z; 3]);
+        assert_eq!(
+            Geometry::build(&[bad_normals]).err(),
+            Some(GeometryError::NormalCountMismatch {
+                mesh: 0,
+                normals: 3,
+                positions: 4
+            })
+        );
+
+        let mut bad_materials = quad(0.0, 0);
+        bad_materials.material_ids.push(1);
+        assert_eq!(
+            Geometry::build(&[bad_materials]).err(),
+            Some(GeometryError::MaterialCountMismatch {
+                mesh: 0,
+                material_ids: 3,
+                triangles: 2
+            })
+        );
+    }
 }

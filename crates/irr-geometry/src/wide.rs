@@ -451,7 +451,7 @@ impl<const G: usize> WideBvh<G> {
     /// [`PreparedRay::finish`]) and picks the next, from the stack unless a shortcut chose it.
     /// Returns whether the traversal is over, with the answer in `walk.best` as (packet, lane,
     /// hit): the stack ran out, or (`Q::ANY`) a packet was hit, which `walk.best` then holds with
-    /// lane 0 and no meaningful hit. `geometry.rs` runs one ray's steps in a loop, or
+    /// lane 0 and no meaningful hit. `query.rs` runs one ray's steps in a loop, or
     /// interleaves several rays' steps (its streams), or two walks' steps of one ray
     /// ([`WideBvh::two_walks`]).
     ///
