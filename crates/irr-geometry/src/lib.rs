@@ -2,31 +2,57 @@
 //! occlusion queries, and ray offsets that stay robust at every scene scale.
 //!
 //! # What it owns
-//! - [`TriangleMesh`] (input) and [`Geometry::build`] / [`Geometry::build_owned`]: validation
-//!   (typed [`GeometryError`]s naming the mesh and triangle), dropping and counting of zero-area
-//!   and non-finite triangles ([`BuildReport`]), and the BVH: obvhs PLOC + reinsertion for
-//!   small scenes, a lean top-down SAH build with leaves of four above, then by default an
-//!   8-wide tree with four-triangle SIMD leaves with exact float child boxes, its nodes tested
-//!   8 lanes at once where the CPU has AVX2 (detected at run time; any x86-64 CPU runs the
-//!   4-lane path); a subtree of two packets is one pair leaf, and trees above 1 MiB prefetch
-//!   the children they push ([`BvhLayout`] lists the layouts; docs/performance.md has their
-//!   measured cost). The leaves hold each triangle's vertices, once: about 80 bytes per
-//!   triangle in all ([`Geometry::heap_bytes`]).
+//! - [`TriangleMesh`] (input) and [`Geometry::build`] / [`Geometry::build_owned`] (`geometry.rs`):
+//!   validation (typed [`GeometryError`]s naming the mesh and triangle), dropping and counting of
+//!   zero-area and non-finite triangles ([`BuildReport`], `mesh.rs`), and the BVH: obvhs PLOC +
+//!   reinsertion up to 1024 triangles, above a lean top-down binned-SAH build with leaves of four
+//!   that splits coincident centroids by box size (`build.rs`), then the chosen [`BvhLayout`]
+//!   (`layout.rs`). The leaves hold each triangle's vertices, once, bit for bit as given: about
+//!   80 bytes per triangle in all ([`Geometry::heap_bytes`]); `build_owned` frees the meshes as
+//!   it goes.
 //! - [`Geometry::intersect`] (closest hit: distance, triangle id, barycentrics) and
 //!   [`Geometry::occluded`] (any hit), with a watertight triangle test (Woop et al. 2013) that
 //!   reports a hit only when its distance is provably inside `(0, t_max)`; and for batches:
 //!   a coherent one in one dispatch ([`Geometry::intersect_many`]), and incoherent ones
-//!   ([`Geometry::intersect_stream`], [`Geometry::occluded_stream`]), which on a tree larger
-//!   than the caches keep several rays in flight so that their waits for memory overlap (as
-//!   [`Geometry::occluded`] does there with two walks of its one ray).
-//! - [`Geometry::surface`]: the hit point computed from the barycentrics, the geometric normal
-//!   (from the winding, never flipped) and the shading normal.
-//! - [`Ray::spawn`], [`Ray::spawn_to`] and [`offset_ray_origin`]: origins offset by a few ulps of
-//!   the point's magnitude (Wächter & Binder, Ray Tracing Gems ch. 6), so secondary rays neither
-//!   re-hit their own surface nor tunnel through thin geometry, in tiny, huge or far-translated
-//!   scenes alike; and at least [`POSITION_ERROR_FLOOR`] (2⁻¹⁰⁰) off a plane through zero, so
-//!   that the triangle test's arithmetic on such a ray stays in normal floats (a subnormal
-//!   result costs a microcode assist on x86).
+//!   ([`Geometry::intersect_stream`], [`Geometry::occluded_stream`]); [`Geometry::streams`]
+//!   tells a caller whether batching pays (`query.rs`).
+//! - [`Geometry::surface`]: the hit point computed from the barycentrics in `f64`, the geometric
+//!   normal (from the winding, never flipped), the shading normal, and the barycentrics, with
+//!   which callers interpolate their own per-vertex data ([`Triangle::is_kept`] tells which
+//!   input triangles get ids).
+//! - [`Ray::spawn`], [`Ray::spawn_to`] and [`offset_ray_origin`] (`ray.rs`): origins offset by a
+//!   few ulps of the point's magnitude (Wächter & Binder, Ray Tracing Gems ch. 6, in pbrt-v4's
+//!   form with the final rounding's bound added to the error: no branch on the offset's sign), so
+//!   secondary rays neither re-hit their own surface nor tunnel through thin geometry, in tiny,
+//!   huge or far-translated scenes alike; and at least [`POSITION_ERROR_FLOOR`] (2⁻¹⁰⁰) off a
+//!   plane through zero, so that the triangle test's arithmetic on such a ray stays in normal
+//!   floats (a subnormal result costs a microcode assist on x86).
+//!
+//! # How a query runs
+//! - The default layout, [`BvhLayout::Wide8`], is an 8-wide tree of exact `f32` child boxes whose
+//!   leaves are packets of four triangles tested at once (`wide.rs`; the triangle and box tests
+//!   and their error bounds are in `intersect.rs`). `Wide4` is the 4-wide variant, `Bvh2` the
+//!   scalar traversal, kept as the oracle the wide ones are tested against.
+//! - The wide traversals run compiled for the CPU found at run time (pulp: AVX2 or the x86-64
+//!   baseline, no `unsafe` in irr), with the same bits either way; with AVX2 an 8-wide node's
+//!   children are tested in one 8-lane slab test. They share one traversal, generic over the
+//!   width, the node test and the query, written as one step at a time (`WideBvh::step`).
+//! - A ray is prepared once, before the dispatch; the triangle test's part of it (largest axis,
+//!   shear, and a screen that skips most of the work for packets the ray certainly misses)
+//!   waits for the ray's first packet.
+//! - A subtree of two packets is a *pair* leaf of its parent rather than a node of its own. A
+//!   small tree's nodes hold their children largest box first, so that any hit, which visits
+//!   the last one first, tries the smallest boxes (in a room, not the walls a shadow ray leaves).
+//! - On trees larger than 1 MiB the 8-lane traversal prefetches each child it pushes (pulp's
+//!   safe `_mm_prefetch`), and a hit packet's triangle ids, which the answer reads; on Linux,
+//!   node, packet and id arrays of 2 MiB and more live on transparent huge pages (`pages.rs`:
+//!   memmap2's safe `MADV_HUGEPAGE`, read through bytemuck).
+//! - On such a tree the streams keep eight rays in flight, each taking one traversal step in
+//!   turn, so that one ray's wait for memory overlaps the others' work; one ray's any-hit query
+//!   runs as two walks of its own that take steps in turn (`WideBvh::two_walks`). Every batched
+//!   answer is exactly the one-ray query's.
+//!
+//! Why each of these was chosen, with its measured cost, is in docs/performance.md.
 //!
 //! # Robustness, and its limits
 //! - Watertight: a ray through a shared edge or vertex hits at least one of the triangles
