@@ -215,7 +215,8 @@ pub struct RenderArgs {
     /// Seed of every random number (same seed, same image, bit for bit, for any thread count)
     #[arg(long, default_value_t = RenderSettings::default().seed, allow_negative_numbers = true)]
     pub seed: u64,
-    /// Maximum number of bounces of the path tracer (0: emitters seen directly only)
+    /// Maximum number of reflections a light path may make, for the path tracer and the
+    /// irradiance cache alike (0: emitters seen directly only; 1: plus the direct light)
     #[arg(long, default_value_t = PathSettings::default().max_depth)]
     pub max_depth: u32,
     /// Exposure of the PNG preview in stops: radiance × 2^exposure, clipped to [0, 1], sRGB

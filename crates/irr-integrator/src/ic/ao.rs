@@ -5,6 +5,7 @@ use super::builder::{CacheBuilder, Candidate, CommitStats, Probe, forward_to_cor
 use super::levels::{Core, display};
 use super::settings::{BounceMode, IcSettings, IcSettingsError, setting_error};
 use crate::integrator::{Integrator, RayCounter};
+use crate::path::PathSettings;
 use crate::path::ShadingPoint;
 use crate::scene::Scene;
 use glam::Vec3;
@@ -26,7 +27,8 @@ pub struct CachedAmbientOcclusion {
 
 impl CachedAmbientOcclusion {
     /// AO through a cache; `max_distance` as [`crate::AoSettings::max_distance`]. Cached bounce
-    /// levels do not apply to AO: the settings' bounce mode is ignored (one level).
+    /// levels and the path depth do not apply to AO: the settings' bounce mode and path settings
+    /// are ignored (one level).
     pub fn new(settings: IcSettings, max_distance: f32) -> Result<Self, IcSettingsError> {
         if max_distance.is_nan() || max_distance <= 0.0 {
             return Err(setting_error(
@@ -34,8 +36,10 @@ impl CachedAmbientOcclusion {
                 format!("must be positive, got {max_distance}"),
             ));
         }
+        // Occlusion is not light: no bounce levels, and the path depth does not apply.
         let settings = IcSettings {
             bounce_mode: BounceMode::PathTraced,
+            path: PathSettings::default(),
             ..settings
         };
         Ok(Self {

@@ -40,7 +40,7 @@ pub use settings::{
 pub use value::IcValue;
 
 use crate::integrator::{Integrator, RayCounter};
-use crate::path::{PathTracer, Radiance, ShadingPoint, first_surface, sample_light};
+use crate::path::{PathSettings, PathTracer, Radiance, ShadingPoint, first_surface, sample_light};
 use crate::scene::Scene;
 use builder::forward_to_core;
 use gather::Traced;
@@ -97,14 +97,12 @@ pub fn direct_nee(
 #[derive(Debug)]
 pub struct IrradianceCacheIntegrator {
     core: Core<Rgb>,
-    path: PathTracer,
 }
 
 impl IrradianceCacheIntegrator {
     /// An integrator with an empty cache; refuses settings out of range.
     pub fn new(settings: IcSettings) -> Result<Self, IcSettingsError> {
         Ok(Self {
-            path: PathTracer::new(settings.path),
             core: Core::new(settings)?,
         })
     }
@@ -164,13 +162,22 @@ impl IrradianceCacheIntegrator {
             Ok(first) => first,
             Err(background) => return background,
         };
+        // The depth counts reflections as the path tracer's does: none at depth 0, the direct
+        // light's one at depth 1, and the cache's indirect light (two or more) from depth 2 on,
+        // where the integrator has at least one cache level.
+        if self.core.settings.path.max_depth == 0 {
+            return Radiance {
+                emitted,
+                ..Radiance::default()
+            };
+        }
         let x = ShadingPoint::new(&surface, wo);
         // Direct light: NEE at x₀.
         let direct = direct_nee(scene, &x, self.core.settings.direct_samples, dims, rays);
         // The cache holds irradiance, so the (textured) albedo of x₀ itself multiplies it,
         // never a record's.
         let albedo = scene.albedo(x.triangle, x.b1, x.b2);
-        if albedo == Vec3::ZERO {
+        if albedo == Vec3::ZERO || self.core.levels.is_empty() {
             return Radiance {
                 emitted,
                 direct,
@@ -219,7 +226,7 @@ impl IrradianceCacheIntegrator {
             .filter_map(|(hit, w, k)| hit.map(|s| ((s, -*w), Dimensions::starting_at(*k, 1))))
             .unzip();
         let mut reflected = vec![Radiance::default(); starts.len()];
-        self.path
+        self.continuation(level)
             .reflected_many(scene, &starts, &mut dims, &mut reflected, rays);
         let mut reflected = reflected.into_iter();
         traced
@@ -233,6 +240,17 @@ impl IrradianceCacheIntegrator {
                 None => scene.background(),
             })
             .collect()
+    }
+
+    /// The path tracer of `level`'s continuations. What a gather ray of level k brings back from
+    /// the point x_{k+1} it hits is light reflected there and before: the (k + 2)-th reflection
+    /// from the camera on, so its path may reflect at most `max_depth` − (k + 1) times.
+    fn continuation(&self, level: usize) -> PathTracer {
+        let path = self.core.settings.path;
+        PathTracer::new(PathSettings {
+            max_depth: path.max_depth.saturating_sub(level as u32 + 1),
+            ..path
+        })
     }
 
     /// Whether a gather ray of `level` continues as a path-traced path (`BounceMode::PathTraced`,
@@ -258,23 +276,25 @@ impl IrradianceCacheIntegrator {
             return scene.background();
         };
         let mut dims = Dimensions::starting_at(key, 1);
-        if self.path_traced(level) {
-            let r = self.path.reflected(scene, surface, -w, &mut dims, rays);
-            return r.direct + r.indirect;
-        }
-        // Cached: NEE at the hit plus its indirect light from the next level's cache; where
-        // that cache has no record, a path-traced continuation (unbiased) instead.
         let x = ShadingPoint::new(surface, -w);
-        let direct = direct_nee(scene, &x, 1, &mut dims, rays);
         let albedo = scene.albedo(x.triangle, x.b1, x.b2);
-        if albedo == Vec3::ZERO {
-            return direct;
-        }
-        match self.core.lookup(scene, level + 1, x.position, x.ns, rays) {
-            Some(e) => direct + albedo * FRAC_1_PI * e.to_gathered(),
+        // Cached: NEE at the hit plus its indirect light from the next level's cache. Where that
+        // cache has no record (or on the deepest level), a path-traced continuation instead,
+        // which brings its own NEE: the light at the hit is sampled once either way.
+        let cached = if self.path_traced(level) || albedo == Vec3::ZERO {
+            None
+        } else {
+            self.core.lookup(scene, level + 1, x.position, x.ns, rays)
+        };
+        match cached {
+            Some(e) => {
+                direct_nee(scene, &x, 1, &mut dims, rays) + albedo * FRAC_1_PI * e.to_gathered()
+            }
             None => {
-                let r = self.path.reflected(scene, surface, -w, &mut dims, rays);
-                direct + r.indirect
+                let r = self
+                    .continuation(level)
+                    .reflected(scene, surface, -w, &mut dims, rays);
+                r.direct + r.indirect
             }
         }
     }
@@ -346,4 +366,54 @@ impl CacheBuilder for IrradianceCacheIntegrator {
     }
 
     forward_to_core!();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Material;
+    use crate::tests::{icosphere, polygon, scene};
+
+    /// In cached mode a gather ray whose hit the next level does not cover brings back a
+    /// path-traced continuation, whose own light sample is the hit's direct light: the light
+    /// there is sampled once, so the value and the rays are exactly the continuation's.
+    #[test]
+    fn a_cached_gather_ray_without_a_record_samples_the_light_once() {
+        // Inside a grey sphere (outward winding; reflection is two-sided), a light disk.
+        let scene = scene(
+            &[
+                icosphere(Vec3::ZERO, 2.0, 2, 0),
+                polygon(Vec3::new(0.0, 1.5, 0.0), 0.3, 16, -1.0, 1),
+            ],
+            vec![
+                Material::diffuse(Vec3::splat(0.6)),
+                Material::emitter(Vec3::splat(5.0)),
+            ],
+        );
+        let ic = IrradianceCacheIntegrator::new(IcSettings {
+            bounce_mode: BounceMode::Cached,
+            ..IcSettings::default()
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(ic.core.levels.len(), 2);
+        let ray = Ray::new(Vec3::ZERO, Vec3::new(0.3, -1.0, 0.2).normalize());
+        let hit = scene
+            .geometry()
+            .intersect(&ray)
+            .map(|h| scene.geometry().surface(&ray, &h))
+            .unwrap_or_else(|| panic!("the sphere surrounds the origin"));
+        for k in 0..64 {
+            let key = SampleKey::new(9, k, 0);
+            let mut gathered = RayCounter::default();
+            let value =
+                ic.gather_radiance(&scene, 0, Some(&hit), ray.direction, key, &mut gathered);
+            let mut traced = RayCounter::default();
+            let mut dims = Dimensions::starting_at(key, 1);
+            let r =
+                ic.continuation(0)
+                    .reflected(&scene, &hit, -ray.direction, &mut dims, &mut traced);
+            assert_eq!(value, r.direct + r.indirect, "sample {k}");
+            assert_eq!(gathered, traced, "sample {k}");
+        }
+    }
 }

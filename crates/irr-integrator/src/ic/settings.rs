@@ -226,12 +226,15 @@ impl IcSettings {
         Ok(())
     }
 
-    /// The number of cache levels: 1, plus `cached_bounces` in cached mode.
+    /// The number of cache levels: 1, plus `cached_bounces` in cached mode, and at most
+    /// `path.max_depth` − 1. Level k holds light that reflected at least k + 2 times before
+    /// reaching the camera, so a depth below 2 needs no cache at all.
     pub fn levels(&self) -> u32 {
-        match self.bounce_mode {
+        let wanted = match self.bounce_mode {
             BounceMode::PathTraced => 1,
             BounceMode::Cached => 1 + self.cached_bounces,
-        }
+        };
+        wanted.min(self.path.max_depth.saturating_sub(1))
     }
 
     /// The metric of level `level` (0: the camera's), loosened per level.
