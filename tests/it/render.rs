@@ -263,23 +263,27 @@ fn ambient_occlusion_of_an_open_plane_is_one() {
 }
 
 /// Same seed, same image, bit for bit, for 1, 2 and 8 threads; another seed, another image.
+/// The image is 3 × 2 tiles (`TILE_SIZE` 16, the last row and column partial), so that the
+/// threads share the work.
 #[test]
 fn same_seed_same_image_for_any_thread_count() {
     let loaded = load("cornell-box.gltf");
     let pt = path_tracer(64);
-    let camera = loaded.camera_for(16, 16);
+    let (w, h) = (40, 24);
+    assert!(w > 2 * irr_render::TILE_SIZE && h > irr_render::TILE_SIZE);
+    let camera = loaded.camera_for(w, h);
     let bits = |threads: usize, seed: u64| -> Vec<u32> {
         let s = RenderSettings {
-            width: 16,
-            height: 16,
-            spp: 4,
+            width: w,
+            height: h,
+            spp: 2,
             seed,
             threads,
         };
         let out = render(&loaded.scene, &camera, &pt, &s, false).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(out.stats.threads, threads);
         assert!(
-            out.stats.rays.total() >= 16 * 16 * 4,
+            out.stats.rays.total() >= u64::from(w * h * 2),
             "every sample traces a camera ray"
         );
         out.image
@@ -374,13 +378,14 @@ fn a_streaming_scene_renders_each_samples_li() {
     let camera =
         Camera::look_at(eye, target, Vec3::Y, 1.0).unwrap_or_else(|| panic!("a valid camera"));
     let pt = path_tracer(64);
+    // 3 × 2 tiles, so that two threads share the work.
     let s = |threads: usize| RenderSettings {
         threads,
-        ..settings(16, 16, 2)
+        ..settings(40, 24, 2)
     };
     let image = render_image(&scene, &camera, &pt, &s(1));
     assert_eq!(image, render_image(&scene, &camera, &pt, &s(2)));
-    for (x, y) in (0..16).flat_map(|y| (0..16).map(move |x| (x, y))) {
+    for (x, y) in (0..24).flat_map(|y| (0..40).map(move |x| (x, y))) {
         let samples =
             pixel_samples(&scene, &camera, &pt, &s(1), x, y).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(

@@ -701,11 +701,12 @@ mod tests {
         (scene, camera)
     }
 
+    /// 3 × 2 tiles, so that several threads share the work.
     fn small(threads: usize) -> RenderSettings {
         RenderSettings {
-            width: 9,
-            height: 7,
-            spp: 5,
+            width: 2 * TILE_SIZE + 3,
+            height: TILE_SIZE + 4,
+            spp: 3,
             seed: 3,
             threads,
         }
