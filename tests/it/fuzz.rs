@@ -1,6 +1,9 @@
-//! Structured mutation fuzzing of the two readers of untrusted files: the glTF/GLB loader
-//! (`irr_render::load_scene`, BVH build included) and the irradiance-cache file reader
-//! (`IrradianceCache::read_from`). Issue 12 asks that no file make either panic or hang.
+//! Structured mutation fuzzing of the two readers of untrusted files, as the `irr` command uses
+//! them: the glTF/GLB loader (`irr_render::load_scene`, BVH build included), followed by a tiny
+//! render of every scene that loads (path tracer and irradiance cache, 4×4 pixels, 1 sample),
+//! and the persistent cache file reader (`irr_render::read_cache_file`, which reads
+//! irr-cache's format inside), followed by a render from every cache it accepts. No file may
+//! make either panic or hang.
 //!
 //! Each case is made from a seed (irr's assets and small generated files) by a few mutations
 //! drawn from a counter-based generator: byte flips, interesting bytes, truncations, splices
@@ -15,10 +18,12 @@
 //!   regression inputs).
 //! - `IRR_FUZZ_ITERS=200000 IRR_FUZZ_SEED=7 cargo test --release -p irr-tests --test it fuzz`:
 //!   a longer run (see docs/fuzzing.md); it prints the number of executions.
-//! - `IRR_FUZZ_REPLAY=path` replays one file (a `.gltf`/`.glb` scene or an `.irrcache`);
+//! - `IRR_FUZZ_REPLAY=path` replays one file (a `.gltf`/`.glb` scene or an `.irrc` cache file);
 //!   `IRR_FUZZ_DEBUG=1` prints every refusal (to tune the mutations).
 
-use irr_cache::{IrradianceCache, Record, Rgb, TabellionLamorlette};
+use irr_render::{
+    IcSettings, IrradianceCacheIntegrator, PathTracer, RenderSettings, build_cache, render,
+};
 use serde_json::{Value, json};
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
@@ -607,15 +612,50 @@ struct Outcome {
     took: Duration,
 }
 
-/// Loads `bytes` as a scene (with the Cornell box's .bin beside it, for URIs that name it)
-/// inside `catch_unwind`.
+/// The tiny render a fuzzed scene or cache gets: 4×4 pixels, 1 sample, one thread.
+const TINY: RenderSettings = RenderSettings {
+    width: 4,
+    height: 4,
+    spp: 1,
+    seed: 1,
+    threads: 1,
+};
+
+/// The irradiance cache's settings for a tiny render: the smallest gathers.
+fn tiny_cache() -> IcSettings {
+    IcSettings {
+        strata_m: 2,
+        strata_n: 4,
+        ..IcSettings::default()
+    }
+}
+
+/// Renders a loaded scene as `irr` would, tiny, with the path tracer and with the irradiance
+/// cache (its construction passes included). Panics are the caller's to catch.
+fn render_tiny(loaded: &irr_render::LoadedScene) {
+    let camera = loaded.camera_for(TINY.width, TINY.height);
+    let path = PathTracer::new(irr_render::PathSettings::default());
+    let _ = render(&loaded.scene, &camera, &path, &TINY, false);
+    if let Ok(mut ic) = IrradianceCacheIntegrator::new(tiny_cache()) {
+        irr_render::Integrator::preprocess(&mut ic, &loaded.scene);
+        if build_cache(&loaded.scene, &camera, &mut ic, &TINY, false, false).is_ok() {
+            let _ = render(&loaded.scene, &camera, &ic, &TINY, false);
+        }
+    }
+}
+
+/// Loads `bytes` as a scene (with the Cornell box's .bin beside it, for URIs that name it) and
+/// renders what loads ([`render_tiny`]), inside `catch_unwind`.
 fn run_gltf(dir: &Path, bytes: &[u8], glb: bool) -> Outcome {
     let path = dir.join(if glb { "case.glb" } else { "case.gltf" });
     std::fs::write(&path, bytes).unwrap_or_else(|e| panic!("{e}"));
     let started = Instant::now();
     let result = std::panic::catch_unwind(AssertUnwindSafe(|| {
         match irr_render::load_scene(&path) {
-            Ok(_) => None,
+            Ok(loaded) => {
+                render_tiny(&loaded);
+                None
+            }
             Err(e) => {
                 // Every refusal is one printable line that names the file.
                 let m = e.to_string();
@@ -742,53 +782,56 @@ fn gltf_loader_survives_mutated_files() {
 // ---------------------------------------------------------------------------------------------
 // The cache reader.
 
-/// A cache file written by `write_to`: a few records with gradients.
-fn cache_seed(records: usize) -> Vec<u8> {
-    let metric = TabellionLamorlette::default();
-    let mut cache: IrradianceCache<Rgb> = IrradianceCache::new(metric);
-    for i in 0..records {
-        let t = i as f32;
-        let record = Record::new(
-            glam::Vec3::new(t, 0.5 * t, -t),
-            glam::Vec3::new(0.0, 0.0, 1.0),
-            0.1 + 0.01 * t,
-            Rgb([1.0, 0.5, 0.25]),
-        )
-        .with_gradients(
-            [
-                Rgb([0.1, 0.0, 0.0]),
-                Rgb([0.0, 0.1, 0.0]),
-                Rgb([0.0, 0.0, 0.1]),
-            ],
-            [
-                Rgb([0.01, 0.0, 0.0]),
-                Rgb([0.0, 0.01, 0.0]),
-                Rgb([0.0, 0.0, 0.01]),
-            ],
-        );
-        if cache.insert(record).is_err() {
-            panic!("seed record {i} refused");
-        }
-    }
-    let mut out = Vec::new();
-    cache.write_to(&mut out).unwrap_or_else(|e| panic!("{e}"));
-    out
+/// The fingerprint the cache fuzzer's files carry (and its reader expects).
+const FINGERPRINT: u64 = 42;
+
+/// A cache file as `irr --cache` writes it: the Cornell box's records at `size`² pixels.
+fn cache_seed(cornell: &irr_render::LoadedScene, size: u32) -> Vec<u8> {
+    let settings = RenderSettings {
+        width: size,
+        height: size,
+        ..TINY
+    };
+    let camera = cornell.camera_for(size, size);
+    let mut ic = IrradianceCacheIntegrator::new(tiny_cache()).unwrap_or_else(|e| panic!("{e}"));
+    irr_render::Integrator::preprocess(&mut ic, &cornell.scene);
+    build_cache(&cornell.scene, &camera, &mut ic, &settings, false, false)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let dir = scratch();
+    let path = dir.path().join("seed.irrc");
+    irr_render::write_cache_file(&path, FINGERPRINT, &ic).unwrap_or_else(|e| panic!("{e}"));
+    read(&path)
 }
 
-/// FNV-1a 64 (the cache file's checksum, its last 8 bytes).
+/// FNV-1a 64 (irr-cache's checksum, the last 8 bytes of its part).
 fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
         (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
     })
 }
 
+/// Where irr-cache's part of a cache file lies (after the 24-byte header and 16 bytes per
+/// record), if the record count still fits.
+fn inner_part(bytes: &[u8]) -> Option<std::ops::Range<usize>> {
+    let n = u64::from_le_bytes(bytes.get(16..24)?.try_into().ok()?);
+    let start = usize::try_from(n.checked_mul(16)?.checked_add(24)?).ok()?;
+    (start + 28 + 8 <= bytes.len().checked_sub(8)?).then(|| start..bytes.len() - 8)
+}
+
 fn cache_case(seeds: &[Vec<u8>], seed: u64, k: u64) -> Vec<u8> {
     let mut rng = Rng::new(seed ^ 0xCAC4E, k);
     let mut bytes = rng.pick(seeds).clone();
     for _ in 0..rng.below(4) + 1 {
-        if rng.below(3) == 0 && bytes.len() >= 28 {
-            // The record count (bytes 20..28): a huge, zero or off-by-one value.
-            let count = u64::from_le_bytes(bytes[20..28].try_into().unwrap_or([0; 8]));
+        let inner = inner_part(&bytes);
+        let choice = rng.below(4);
+        if choice == 0 && bytes.len() >= 24 {
+            // The record count, of the file (bytes 16..24) or of irr-cache's part: a huge, zero
+            // or off-by-one value.
+            let at = match (&inner, rng.below(2)) {
+                (Some(r), 0) => r.start + 20,
+                _ => 16,
+            };
+            let count = u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap_or([0; 8]));
             let v = *rng.pick(&[
                 0,
                 1,
@@ -798,29 +841,59 @@ fn cache_case(seeds: &[Vec<u8>], seed: u64, k: u64) -> Vec<u8> {
                 1 << 40,
                 1 << 20,
             ]);
-            bytes[20..28].copy_from_slice(&v.to_le_bytes());
-        } else if rng.below(2) == 0 && bytes.len() > 36 {
-            // A float of a record: NaN, infinity, negative, huge, zero.
-            let at = 28 + 4 * rng.below((bytes.len() - 36) / 4);
+            bytes[at..at + 8].copy_from_slice(&v.to_le_bytes());
+        } else if choice == 1 && bytes.len() > 40 {
+            // A float of a leak-guard entry or a record: NaN, infinity, negative, huge, zero.
+            let at = 24 + 4 * rng.below((bytes.len() - 40) / 4);
             let v: f32 = *rng.pick(&[f32::NAN, f32::INFINITY, -1.0, 0.0, 1e38, -1e-40, f32::MAX]);
             bytes[at..at + 4].copy_from_slice(&v.to_le_bytes());
         } else {
             mutate_bytes(&mut bytes, &mut rng);
         }
     }
-    // Usually recompute the checksum, so the mutation reaches the decoder behind it.
-    if rng.below(4) != 0 && bytes.len() >= 8 {
-        let n = bytes.len() - 8;
-        let h = fnv1a(&bytes[..n]);
-        bytes[n..].copy_from_slice(&h.to_le_bytes());
+    // Usually recompute the checksums (irr-cache's, then the whole file's), so the mutation
+    // reaches the decoders behind them.
+    if rng.below(4) != 0 {
+        if let Some(r) = inner_part(&bytes) {
+            let n = r.end - 8;
+            let h = fnv1a(&bytes[r.start..n]);
+            bytes[n..r.end].copy_from_slice(&h.to_le_bytes());
+        }
+        if bytes.len() >= 8 {
+            let n = bytes.len() - 8;
+            let h = irr_render::fingerprint(&[&bytes[..n]]);
+            bytes[n..].copy_from_slice(&h.to_le_bytes());
+        }
     }
     bytes
 }
 
-fn run_cache(bytes: &[u8]) -> (Option<String>, bool, Duration) {
+/// Reads `bytes` as `irr --cache` reads a cache file, and renders the Cornell box from every
+/// cache it accepts, inside `catch_unwind`: the panic message, whether it was accepted, and the
+/// time.
+fn run_cache(
+    cornell: &irr_render::LoadedScene,
+    dir: &Path,
+    bytes: &[u8],
+) -> (Option<String>, bool, Duration) {
+    let path = dir.join("case.irrc");
+    std::fs::write(&path, bytes).unwrap_or_else(|e| panic!("{e}"));
     let started = Instant::now();
     let result = std::panic::catch_unwind(AssertUnwindSafe(|| {
-        IrradianceCache::<Rgb>::read_from(bytes, TabellionLamorlette::default()).is_ok()
+        let settings = tiny_cache();
+        let metric = settings.metric_at(0).unwrap_or_else(|e| panic!("{e}"));
+        let Ok((cache, guard)) = irr_render::read_cache_file(&path, FINGERPRINT, metric, 1 << 24)
+        else {
+            return false;
+        };
+        let mut ic = IrradianceCacheIntegrator::new(settings).unwrap_or_else(|e| panic!("{e}"));
+        irr_render::Integrator::preprocess(&mut ic, &cornell.scene);
+        if ic.load_records(cache, guard).is_err() {
+            return false;
+        }
+        let camera = cornell.camera_for(TINY.width, TINY.height);
+        let _ = render(&cornell.scene, &camera, &ic, &TINY, false);
+        true
     }));
     let took = started.elapsed();
     match result {
@@ -829,14 +902,24 @@ fn run_cache(bytes: &[u8]) -> (Option<String>, bool, Duration) {
     }
 }
 
+fn cornell() -> irr_render::LoadedScene {
+    irr_render::load_scene(&workspace().join("assets/cornell-box.gltf"))
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
 #[test]
 fn cache_reader_survives_mutated_files() {
-    let seeds: Vec<Vec<u8>> = [0, 1, 3, 20].into_iter().map(cache_seed).collect();
+    let cornell = cornell();
+    let dir = scratch();
+    let seeds: Vec<Vec<u8>> = [1, 3, 8]
+        .into_iter()
+        .map(|size| cache_seed(&cornell, size))
+        .collect();
     // The seeds themselves read back.
     for s in &seeds {
         assert!(
-            run_cache(s).1,
-            "a cache written by write_to does not read back"
+            run_cache(&cornell, dir.path(), s).1,
+            "a cache file written by write_cache_file does not read back"
         );
     }
     let (seed, iters) = (base_seed(), 4 * iterations());
@@ -845,19 +928,19 @@ fn cache_reader_survives_mutated_files() {
     let started = Instant::now();
     for k in 0..iters {
         let bytes = cache_case(&seeds, seed, k);
-        let (panic, ok, took) = run_cache(&bytes);
+        let (panic, ok, took) = run_cache(&cornell, dir.path(), &bytes);
         accepted += u64::from(ok);
         if let Some(p) = panic {
             failures.push(keep(
                 "cache",
-                "irrcache",
+                "irrc",
                 &bytes,
                 &format!("case {k} panicked: {p}"),
             ));
         } else if took > SLOW {
             failures.push(keep(
                 "cache",
-                "irrcache",
+                "irrc",
                 &bytes,
                 &format!("case {k} took {took:?}"),
             ));
@@ -889,6 +972,7 @@ fn corpus_files(kind: &str) -> Vec<PathBuf> {
 #[test]
 fn kept_corpus_replays_without_panics() {
     let dir = scratch();
+    let cornell = cornell();
     let mut failures = Vec::new();
     let mut files = corpus_files("gltf");
     if let Ok(one) = std::env::var("IRR_FUZZ_REPLAY") {
@@ -900,7 +984,7 @@ fn kept_corpus_replays_without_panics() {
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
         replayed += 1;
         let failure = match ext {
-            "irrcache" => run_cache(&bytes).0,
+            "irrc" => run_cache(&cornell, dir.path(), &bytes).0,
             "gltf" | "glb" => {
                 let o = run_gltf(dir.path(), &bytes, ext == "glb");
                 o.panic
@@ -914,7 +998,7 @@ fn kept_corpus_replays_without_panics() {
     }
     for path in corpus_files("cache") {
         replayed += 1;
-        if let Some(f) = run_cache(&read(&path)).0 {
+        if let Some(f) = run_cache(&cornell, dir.path(), &read(&path)).0 {
             failures.push(format!("{}: {f}", path.display()));
         }
     }
