@@ -479,13 +479,13 @@ fn a_cache_file_round_trips_and_refuses_strangers() {
     irr_render::write_cache_file(&path, 42, &first).unwrap_or_else(|e| panic!("{e}"));
 
     let metric = ic.metric_at(0).unwrap_or_else(|e| panic!("{e}"));
-    let (cache, occluders) =
+    let (cache, guard) =
         irr_render::read_cache_file(&path, 42, metric, 1 << 30).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(cache.len(), first.cache(0).map_or(0, |c| c.len()));
     let mut second = IrradianceCacheIntegrator::new(ic).unwrap_or_else(|e| panic!("{e}"));
     second.preprocess(&loaded.scene);
     second
-        .load_records(cache, occluders)
+        .load_records(cache, guard)
         .unwrap_or_else(|e| panic!("{e}"));
     let stats = build_cache(&loaded.scene, &camera, &mut second, &settings, false, false)
         .unwrap_or_else(|e| panic!("{e}"));

@@ -10,9 +10,9 @@ use irr_render::{
     AmbientOcclusion, AoSettings, Aov, BounceMode, CacheBuilder, CachedAmbientOcclusion, Camera,
     ExrMetadata, GradientMode, IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard,
     LoadOptions, MetricKind, PathSettings, PathTracer, RenderSettings, build_cache, check_exposure,
-    check_output, fingerprint, load_scene_with, mark_records, mean_of_samples, pixel_samples,
-    read_cache_file, remove_partial_outputs_on_signals, render_with_aovs, write_cache_file,
-    write_exr_and_png, write_render,
+    check_output, check_output_file, fingerprint, load_scene_with, mark_records, mean_of_samples,
+    pixel_samples, read_cache_file, remove_partial_outputs_on_signals, render_with_aovs,
+    write_cache_file, write_exr_and_png, write_render,
 };
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -233,7 +233,7 @@ pub struct RenderArgs {
     pub background: [f32; 3],
     /// Render only pixel X,Y (0,0 is the top-left) and print each sample's radiance; writes
     /// nothing
-    #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel, allow_hyphen_values = true)]
     pub debug_pixel: Option<(u32, u32)>,
     /// The irradiance cache's options
     #[command(flatten)]
@@ -272,9 +272,15 @@ fn parse_pixel(text: &str) -> Result<(u32, u32), String> {
         .split_once(',')
         .ok_or_else(|| format!("expected X,Y, got '{text}'"))?;
     let parse = |s: &str| {
-        s.trim()
-            .parse::<u32>()
-            .map_err(|e| format!("'{s}' in '{text}': {e}"))
+        let s = s.trim();
+        match s.parse::<i64>() {
+            Ok(v) if v < 0 => Err(format!(
+                "'{s}' in '{text}': pixel coordinates start at 0 (the top-left pixel is 0,0)"
+            )),
+            _ => s
+                .parse::<u32>()
+                .map_err(|e| format!("'{s}' in '{text}': {e}")),
+        }
     };
     Ok((parse(x)?, parse(y)?))
 }
@@ -304,6 +310,35 @@ fn parse_background(text: &str) -> Result<[f32; 3], String> {
     Ok([parse(r)?, parse(g)?, parse(b)?])
 }
 
+/// What a persistent cache's records depend on, hashed: every byte the scene was read from
+/// (`digest`, the scene file and the buffers and images it names), the camera and the image
+/// size, the cache's settings (their Debug text: every field, floats to the last bit), the
+/// background (the cache stores its light too) and the seed (every gather's random numbers);
+/// with `fill_samples`, the samples per pixel as well (its candidates are the camera samples).
+pub fn cache_fingerprint(
+    digest: u64,
+    camera: &Camera,
+    settings: &RenderSettings,
+    ic: &IcSettings,
+    background: [f32; 3],
+) -> u64 {
+    let view = format!("{camera:?} {}x{}", settings.width, settings.height);
+    let spp = if ic.fill_samples { settings.spp } else { 0 };
+    let rest = format!(
+        "{ic:?} background {background:?} seed {} spp {spp}",
+        settings.seed
+    );
+    fingerprint(&[&digest.to_le_bytes(), view.as_bytes(), rest.as_bytes()])
+}
+
+/// The debug view's output (`--show-records`): `<out stem>-records.exr`, beside `out`.
+fn records_output(out: &Path) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
+    out.with_file_name(format!("{stem}-records.exr"))
+}
+
 /// Renders `scene_path` to `out` (OpenEXR, with the PNG preview beside it); the error is one
 /// line naming the file or option and the problem.
 pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String> {
@@ -319,11 +354,20 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
         IntegratorChoice::Ic | IntegratorChoice::IcAo => Some(args.ic.settings(args.max_depth)?),
         _ => None,
     };
+    if args.ic.cache.is_some() && args.integrator != IntegratorChoice::Ic {
+        return Err("--cache: a persistent cache works with --integrator ic only".into());
+    }
     let scene_path = scene_path.to_path_buf();
     let out = out.to_path_buf();
     if args.debug_pixel.is_none() {
-        // Before spending minutes: is there somewhere to put the result?
+        // Before spending minutes: is there somewhere to put every result?
         check_output(&out).map_err(|e| e.to_string())?;
+        if args.ic.show_records {
+            check_output(&records_output(&out)).map_err(|e| e.to_string())?;
+        }
+        if let Some(path) = &args.ic.cache {
+            check_output_file(path).map_err(|e| format!("--cache: {e}"))?;
+        }
     }
     let options = LoadOptions {
         asset_root: args.asset_root.clone(),
@@ -368,6 +412,13 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
     let settings =
         RenderSettings::from_options(width.into(), height.into(), spp, args.seed, args.threads)
             .map_err(|e| e.to_string())?;
+    if let Some((x, y)) = args.debug_pixel
+        && (x >= width || y >= height)
+    {
+        return Err(format!(
+            "--debug-pixel: pixel ({x}, {y}) is outside the {width}×{height} image"
+        ));
+    }
     if let Some(note) = file_camera.and_then(|c| loaded.aspect_note(&c, width, height)) {
         eprintln!("warning: {note}");
     }
@@ -398,38 +449,27 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
             )
         }
     };
-    if args.ic.cache.is_some() && args.integrator != IntegratorChoice::Ic {
-        return Err("--cache: a persistent cache works with --integrator ic only".into());
-    }
-    // What a persistent cache must match: the scene file's bytes, the image, the camera and
-    // the cache's settings (their Debug text: every field, floats to the last bit).
     let cache_fingerprint = match (&args.ic.cache, ic_settings) {
-        (Some(_), Some(s)) => {
-            let scene_bytes = std::fs::read(&scene_path)
-                .map_err(|e| format!("{}: cannot read: {e}", scene_path.display()))?;
-            let camera_text = format!("{camera:?} {}x{}", settings.width, settings.height);
-            // The cache stores the background's light too: another background, another cache.
-            let settings_text = format!("{s:?} background {:?}", args.background);
-            Some(fingerprint(&[
-                &scene_bytes,
-                camera_text.as_bytes(),
-                settings_text.as_bytes(),
-            ]))
-        }
+        (Some(_), Some(s)) => Some(cache_fingerprint(
+            loaded.digest,
+            &camera,
+            &settings,
+            &s,
+            args.background,
+        )),
         _ => None,
     };
     let mut ic_integrator = match (args.integrator, ic_settings) {
         (IntegratorChoice::Ic, Some(s)) => {
             let mut ic = IrradianceCacheIntegrator::new(s).map_err(|e| e.to_string())?;
             if let (Some(path), Some(fp)) = (&args.ic.cache, cache_fingerprint)
-                && path.exists()
+                && std::fs::symlink_metadata(path).is_ok()
             {
                 let metric = s.metric_at(0).map_err(|e| e.to_string())?;
-                let (cache, occluders) = read_cache_file(path, fp, metric, MAX_CACHE_FILE_BYTES)
+                let (cache, guard) = read_cache_file(path, fp, metric, MAX_CACHE_FILE_BYTES)
                     .map_err(|e| e.to_string())?;
                 eprintln!("read {} records from {}", cache.len(), path.display());
-                ic.load_records(cache, occluders)
-                    .map_err(|e| e.to_string())?;
+                ic.load_records(cache, guard).map_err(|e| e.to_string())?;
             }
             Some(ic)
         }
@@ -551,12 +591,8 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
     println!("wrote {} and {}", exr.display(), png.display());
     if let (true, Some(b)) = (args.ic.show_records, builder) {
         let view = mark_records(&output.image, &camera, &b.records_for_display());
-        let stem = out
-            .file_stem()
-            .map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
-        let path = out.with_file_name(format!("{stem}-records.exr"));
-        let (exr, png) =
-            write_exr_and_png(&view, &path, args.exposure).map_err(|e| e.to_string())?;
+        let (exr, png) = write_exr_and_png(&view, &records_output(&out), args.exposure)
+            .map_err(|e| e.to_string())?;
         println!(
             "wrote {} and {} (records marked)",
             exr.display(),

@@ -358,7 +358,7 @@ fn bad_options_are_clear_errors() {
     );
     let one = one.to_string_lossy().into_owned();
     let work = temp();
-    let cases: [(&[&str], &str); 4] = [
+    let cases: [(&[&str], &str); 8] = [
         (
             &["--aov", "albedo,foo"],
             "unknown AOV 'foo'; the valid ones are albedo, normal, depth, emitted, direct, indirect",
@@ -372,6 +372,22 @@ fn bad_options_are_clear_errors() {
             "error: --width: must be between 1 and 16384, got 0",
         ),
         (&["--camera", "-1"], "invalid value '-1' for '--camera <N>'"),
+        (
+            &["--debug-pixel", "-1,0"],
+            "invalid value '-1,0' for '--debug-pixel <X,Y>': '-1' in '-1,0': pixel coordinates start at 0",
+        ),
+        (
+            &["--debug-pixel", "3,-2", "--width", "8"],
+            "'-2' in '3,-2': pixel coordinates start at 0",
+        ),
+        (
+            &["--debug-pixel", "8,0", "--width", "8", "--height", "8"],
+            "error: --debug-pixel: pixel (8, 0) is outside the 8×8 image",
+        ),
+        (
+            &["--cache", "c.irrc", "--integrator", "path"],
+            "error: --cache: a persistent cache works with --integrator ic only",
+        ),
     ];
     for (options, expected) in cases {
         let mut args = vec![one.as_str(), "--spp", "1"];
@@ -393,4 +409,157 @@ fn bad_options_are_clear_errors() {
         stderr.contains("has 1 perspective camera, numbered from 0 (0: node 1 \"cam\")"),
         "{stderr}"
     );
+}
+
+/// Runs `irr args…` in `cwd` and returns its output, or panics if it runs for longer than a
+/// minute (a hang: the process is killed).
+fn irr_within_a_minute(cwd: &Path, args: &[&str]) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_irr"))
+        .args(args)
+        .current_dir(cwd)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot run irr: {e}"));
+    let start = std::time::Instant::now();
+    while child.try_wait().ok().flatten().is_none() {
+        if start.elapsed() > std::time::Duration::from_secs(60) {
+            let _ = child.kill();
+            panic!("irr {args:?} hung");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child
+        .wait_with_output()
+        .unwrap_or_else(|e| panic!("cannot read irr's output: {e}"))
+}
+
+/// `--cache FILE` keeps the cache for the next render of the same scene, camera, size, settings
+/// and seed: read back, the image is the same bit for bit and nothing is rebuilt. Any other
+/// scene (another byte in its buffer file), camera, size, setting, background or seed is
+/// refused with an error naming the file, before any image is written; so is a corrupt file.
+#[test]
+fn a_cache_file_serves_only_the_render_it_was_made_for() {
+    let scenes = temp();
+    let scene = two_camera_plane(scenes.path());
+    let scene = scene.to_string_lossy().into_owned();
+    let work = temp();
+    let base = [
+        ("--width", "16"),
+        ("--height", "12"),
+        ("--spp", "1"),
+        ("--strata", "4x8"),
+        ("--background", "1,1,1"),
+        ("--cache", "plane.irrc"),
+    ];
+    // The base options, each replaced by the one of the same name in `extra` if there is one.
+    let run = |extra: &[&str], out: &str| {
+        let mut args = vec![scene.as_str()];
+        for (option, value) in base {
+            if !extra.contains(&option) {
+                args.extend([option, value]);
+            }
+        }
+        args.extend(extra);
+        args.extend(["-o", out]);
+        irr_within_a_minute(work.path(), &args)
+    };
+    let first = run(&[], "a.exr");
+    let stderr = String::from_utf8_lossy(&first.stderr);
+    assert!(first.status.success(), "{stderr}");
+    assert!(work.path().join("plane.irrc").is_file());
+    let second = run(&[], "b.exr");
+    let stderr = String::from_utf8_lossy(&second.stderr);
+    assert!(second.status.success(), "{stderr}");
+    assert!(stderr.contains("records from plane.irrc"), "{stderr}");
+    assert!(stderr.contains("cache: 0 records"), "rebuilt: {stderr}");
+    let (a, b) = (
+        Exr::read(&work.path().join("a.exr")),
+        Exr::read(&work.path().join("b.exr")),
+    );
+    for c in ["R", "G", "B"] {
+        let bits = |e: &Exr| e.channel(c).iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&a), bits(&b), "channel {c}");
+    }
+    let refused = |extra: &[&str], why: &str| {
+        let out = run(extra, "refused.exr");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{extra:?} was accepted");
+        assert!(
+            stderr.contains("plane.irrc") && stderr.contains(why),
+            "{extra:?}: {stderr}"
+        );
+        assert!(
+            !work.path().join("refused.exr").exists(),
+            "{extra:?} wrote an image"
+        );
+    };
+    let stranger = "another scene, camera, image size, cache setting or seed";
+    refused(&["--camera", "1"], stranger);
+    refused(&["--width", "20"], stranger);
+    refused(&["--error", "2"], stranger);
+    refused(&["--strata", "4x12"], stranger);
+    refused(&["--background", "1,1,0.5"], stranger);
+    refused(&["--seed", "1"], stranger);
+    // Another scene: the same .gltf, one byte of its buffer file changed (a vertex moved).
+    let bin = scenes.path().join("plane.bin");
+    let original = std::fs::read(&bin).unwrap_or_else(|e| panic!("{e}"));
+    let mut moved = original.clone();
+    moved[0] ^= 1;
+    std::fs::write(&bin, &moved).unwrap_or_else(|e| panic!("{e}"));
+    refused(&[], stranger);
+    std::fs::write(&bin, &original).unwrap_or_else(|e| panic!("{e}"));
+    // A corrupt file: one bit of a leak-guard entry (just after the 24-byte header) flipped,
+    // which the checksum over the whole file catches.
+    let file = work.path().join("plane.irrc");
+    let mut bytes = std::fs::read(&file).unwrap_or_else(|e| panic!("{e}"));
+    bytes[24 + 3] ^= 0x40;
+    std::fs::write(&file, &bytes).unwrap_or_else(|e| panic!("{e}"));
+    refused(&[], "checksum mismatch");
+}
+
+/// A `--cache` that names a FIFO is refused at once, never waited on; one in a folder that
+/// cannot exist (under a regular file) is refused before rendering, naming the option.
+#[test]
+fn a_cache_path_that_cannot_be_used_is_refused_before_rendering() {
+    let work = temp();
+    let cornell = cornell();
+    let cornell = cornell.to_string_lossy().into_owned();
+    let small = [
+        cornell.as_str(),
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--spp",
+        "1",
+    ];
+    let made = Command::new("mkfifo")
+        .arg(work.path().join("fifo"))
+        .status()
+        .is_ok_and(|s| s.success());
+    if made {
+        let mut args = small.to_vec();
+        args.extend(["--cache", "fifo", "-o", "a.exr"]);
+        let out = irr_within_a_minute(work.path(), &args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{stderr}");
+        assert!(
+            stderr.contains("fifo") && stderr.contains("FIFO"),
+            "{stderr}"
+        );
+        assert!(!work.path().join("a.exr").exists());
+    }
+    std::fs::write(work.path().join("file"), b"x").unwrap_or_else(|e| panic!("{e}"));
+    let mut args = small.to_vec();
+    args.extend(["--cache", "file/cache.irrc", "-o", "b.exr"]);
+    let out = irr_within_a_minute(work.path(), &args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("--cache") && stderr.contains("file/cache.irrc"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("rendered"), "it rendered first: {stderr}");
+    assert!(!work.path().join("b.exr").exists());
 }

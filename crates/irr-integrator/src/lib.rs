@@ -69,7 +69,8 @@ mod texture;
 pub use ao::{AmbientOcclusion, AoSettings};
 pub use ic::{
     BounceMode, CacheBuilder, CachedAmbientOcclusion, Candidate, CommitStats, GradientMode,
-    IcMetric, IcSettings, IcSettingsError, IrradianceCacheIntegrator, LeakGuard, MetricKind, Probe,
+    GuardRecord, IcMetric, IcSettings, IcSettingsError, IrradianceCacheIntegrator, LeakGuard,
+    MetricKind, Probe,
 };
 pub use integrator::{FirstHit, Integrator, RayCounter, first_hit};
 pub use light::{LightSample, LightSampler};

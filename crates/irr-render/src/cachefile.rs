@@ -5,40 +5,47 @@
 //!
 //! | offset | size | content |
 //! |---|---|---|
-//! | 0 | 8 | magic `IRRICSC1` |
-//! | 8 | 8 | fingerprint: FNV-1a of the scene file's bytes, the image size, the camera and the cache settings |
-//! | 16 | 8 | n, the number of leak-guard distances (one per record) |
-//! | 24 | 4·n | the leak-guard distances, `f32` |
-//! | 24 + 4n | … | the records, in irr-cache's versioned, checksummed format (`IrradianceCache::write_to`) |
+//! | 0 | 8 | magic `IRRICSC2` (the last byte is the version of this layout) |
+//! | 8 | 8 | fingerprint: FNV-1a of what the render's records depend on (the caller's: irr-cli hashes the scene file's bytes, the image size, the camera, the cache settings, the background and the seed) |
+//! | 16 | 8 | n, the number of records |
+//! | 24 | 16·n | what the leak guard keeps of each record: the nearest hit distance of its gather (`f32`, finite, ≥ 0), then its geometric normal (3 `f32`, finite, not zero) |
+//! | 24 + 16n | … | the records, in irr-cache's versioned, checksummed format (`IrradianceCache::write_to`) |
+//! | end − 8 | 8 | FNV-1a of every byte before it ([`fingerprint`] of them) |
 //!
-//! A file made for another scene, camera, image size or settings has another fingerprint and is
-//! refused with an error naming the file: never a wrong image. A file of another irr-cache format
-//! version is refused by irr-cache's own check. The file is written to a temporary file in the same
-//! folder and renamed into place, so an interrupted write never leaves half a file.
+//! The checksum covers the whole file, so a changed byte anywhere is refused as corrupt rather
+//! than read as a different distance or normal (a distance of +∞ would switch the leak guard off
+//! for its record). A file made for another scene, camera, image size, setting or seed has
+//! another fingerprint and is refused with an error naming the file: never a wrong image. The
+//! file is opened only if it is a regular file, without blocking (a FIFO is refused, never
+//! waited on), and written to a temporary file in the same folder and renamed into place, so an
+//! interrupted write never leaves half a file.
 
+use crate::digest::Fnv;
 use crate::error::RenderError;
+use crate::files::{open_regular, read_prefix};
+use crate::output::write_file_atomically;
+use glam::Vec3;
 use irr_cache::IrradianceCache;
-use irr_integrator::IrradianceCacheIntegrator;
 use irr_integrator::ic::IcMetric;
-use std::io::{Read, Write};
+use irr_integrator::{GuardRecord, IrradianceCacheIntegrator};
 use std::path::Path;
 
 /// The first eight bytes of a cache file.
-pub const MAGIC: [u8; 8] = *b"IRRICSC1";
+pub const MAGIC: [u8; 8] = *b"IRRICSC2";
+
+/// The bytes of one record's leak-guard entry.
+const GUARD_BYTES: usize = 16;
+
+/// The header: magic, fingerprint, record count.
+const HEADER_BYTES: usize = 24;
 
 /// FNV-1a over `parts`, each prefixed by its length (so parts cannot run into each other).
 pub fn fingerprint(parts: &[&[u8]]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let mut eat = |bytes: &[u8]| {
-        for &b in bytes {
-            h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
-        }
-    };
+    let mut h = Fnv::default();
     for p in parts {
-        eat(&(p.len() as u64).to_le_bytes());
-        eat(p);
+        h.update_part(p);
     }
-    h
+    h.finish()
 }
 
 /// Writes the first level's records of `integrator` to `path` with `fingerprint`.
@@ -50,90 +57,115 @@ pub fn write_cache_file(
     let cache = integrator
         .cache(0)
         .ok_or_else(|| RenderError::write(path, "the integrator has no cache"))?;
-    let occluders = integrator.occluder_distances();
-    let mut bytes = Vec::with_capacity(24 + 4 * occluders.len() + 128 * cache.len());
+    let guard = integrator.guard_records();
+    let mut bytes =
+        Vec::with_capacity(HEADER_BYTES + GUARD_BYTES * guard.len() + 128 * cache.len() + 8);
     bytes.extend_from_slice(&MAGIC);
     bytes.extend_from_slice(&fingerprint.to_le_bytes());
-    bytes.extend_from_slice(&(occluders.len() as u64).to_le_bytes());
-    for o in occluders {
-        bytes.extend_from_slice(&o.to_le_bytes());
+    bytes.extend_from_slice(&(guard.len() as u64).to_le_bytes());
+    for g in guard {
+        bytes.extend_from_slice(&g.nearest_hit.to_le_bytes());
+        for c in g.geometric_normal.to_array() {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
     }
     cache
         .write_to(&mut bytes)
         .map_err(|e| RenderError::write(path, e.to_string()))?;
-    let folder = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let mut temp = tempfile::Builder::new()
-        .prefix(".irr-")
-        .suffix(".tmp")
-        .tempfile_in(folder)
-        .map_err(|e| RenderError::write(path, format!("cannot create a temporary file: {e}")))?;
-    temp.write_all(&bytes)
-        .and_then(|()| temp.as_file().sync_all())
-        .map_err(|e| RenderError::write(path, e.to_string()))?;
-    temp.persist(path)
-        .map_err(|e| RenderError::write(path, e.error.to_string()))?;
-    Ok(())
+    let checksum = self::fingerprint(&[&bytes]);
+    bytes.extend_from_slice(&checksum.to_le_bytes());
+    write_file_atomically(path, &bytes)
 }
 
 /// Reads a cache file written by [`write_cache_file`] for `fingerprint`, filing its records with
-/// `metric`; returns the cache and the leak-guard distances. At most `max_bytes` are read.
+/// `metric`; returns the cache and the leak guard's entries. A file larger than `max_bytes` is
+/// refused before it is read.
 pub fn read_cache_file(
     path: &Path,
     fingerprint: u64,
     metric: IcMetric,
     max_bytes: u64,
-) -> Result<(IrradianceCache<irr_cache::Rgb, IcMetric>, Vec<f32>), RenderError> {
+) -> Result<(IrradianceCache<irr_cache::Rgb, IcMetric>, Vec<GuardRecord>), RenderError> {
     let bad = |problem: String| RenderError::CacheFile {
         path: path.to_path_buf(),
         problem,
     };
-    let file = std::fs::File::open(path).map_err(|e| bad(format!("cannot open: {e}")))?;
-    if !file.metadata().map(|m| m.is_file()).unwrap_or(false) {
-        return Err(bad("not a regular file".into()));
+    let (file, len) = open_regular(path).map_err(|e| bad(format!("cannot open: {e}")))?;
+    if len > max_bytes {
+        return Err(bad(format!(
+            "the file has {len} bytes, more than irr reads ({max_bytes})"
+        )));
     }
-    let mut bytes = Vec::new();
-    file.take(max_bytes)
-        .read_to_end(&mut bytes)
-        .map_err(|e| bad(format!("cannot read: {e}")))?;
-    if bytes.len() < 24 || bytes[..8] != MAGIC {
+    let bytes = read_prefix(file, len).map_err(|e| bad(format!("cannot read: {e}")))?;
+    if bytes.len() < HEADER_BYTES + 8 || bytes[..7] != MAGIC[..7] {
         return Err(bad("not an irr cache file (bad magic bytes)".into()));
     }
-    let word = |at: usize| {
-        let mut b = [0u8; 8];
-        b.copy_from_slice(&bytes[at..at + 8]);
-        u64::from_le_bytes(b)
+    if bytes[7] != MAGIC[7] {
+        return Err(bad(format!(
+            "written in another version of irr's cache file layout ({}; this build reads {}); delete it or choose another file",
+            char::from(bytes[7]).escape_default(),
+            char::from(MAGIC[7])
+        )));
+    }
+    let (body, sum) = bytes.split_at(bytes.len() - 8);
+    let word = |b: &[u8]| {
+        let mut w = [0u8; 8];
+        w.copy_from_slice(&b[..8]);
+        u64::from_le_bytes(w)
     };
-    let found = word(8);
+    if word(sum) != self::fingerprint(&[body]) {
+        return Err(bad("checksum mismatch (corrupt file)".into()));
+    }
+    let found = word(&body[8..16]);
     if found != fingerprint {
         return Err(bad(format!(
-            "this cache was made for another scene, camera, image size or cache settings \
+            "this cache was made for another scene, camera, image size, cache setting or seed \
              (fingerprint {found:016x}, this render's is {fingerprint:016x}); delete it or choose another file"
         )));
     }
-    let n = word(16);
+    let n = word(&body[16..24]);
     let end = n
-        .checked_mul(4)
-        .and_then(|b| b.checked_add(24))
-        .filter(|&e| e <= bytes.len() as u64)
-        .ok_or_else(|| bad("truncated (leak-guard distances)".into()))? as usize;
-    let occluders: Vec<f32> = bytes[24..end]
-        .chunks_exact(4)
-        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect();
-    if occluders.iter().any(|o| o.is_nan() || *o < 0.0) {
-        return Err(bad("a leak-guard distance is negative or NaN".into()));
+        .checked_mul(GUARD_BYTES as u64)
+        .and_then(|b| b.checked_add(HEADER_BYTES as u64))
+        .filter(|&e| e <= body.len() as u64)
+        .ok_or_else(|| bad("truncated (leak-guard entries)".into()))? as usize;
+    let float = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+    let mut guard = Vec::new();
+    guard
+        .try_reserve_exact(n as usize)
+        .map_err(|_| bad(format!("cannot allocate {n} leak-guard entries")))?;
+    for (i, entry) in body[HEADER_BYTES..end]
+        .chunks_exact(GUARD_BYTES)
+        .enumerate()
+    {
+        let nearest_hit = float(&entry[0..4]);
+        let normal = Vec3::new(
+            float(&entry[4..8]),
+            float(&entry[8..12]),
+            float(&entry[12..16]),
+        );
+        if !(nearest_hit.is_finite() && nearest_hit >= 0.0) {
+            return Err(bad(format!(
+                "record {i}: the leak guard's distance {nearest_hit} is not finite and non-negative"
+            )));
+        }
+        if !(normal.is_finite() && normal.length_squared() > 0.0) {
+            return Err(bad(format!(
+                "record {i}: the leak guard's geometric normal is not finite and non-zero"
+            )));
+        }
+        guard.push(GuardRecord {
+            nearest_hit,
+            geometric_normal: normal,
+        });
     }
-    let cache =
-        IrradianceCache::read_from(&bytes[end..], metric).map_err(|e| bad(e.to_string()))?;
-    if cache.len() != occluders.len() {
+    let cache = IrradianceCache::read_from(&body[end..], metric).map_err(|e| bad(e.to_string()))?;
+    if cache.len() != guard.len() {
         return Err(bad(format!(
-            "{} records but {} leak-guard distances",
+            "{} records but {} leak-guard entries",
             cache.len(),
-            occluders.len()
+            guard.len()
         )));
     }
-    Ok((cache, occluders))
+    Ok((cache, guard))
 }

@@ -17,6 +17,8 @@
 //!
 //! Error messages never quote a file's bytes, and give sizes only of files inside the root.
 
+use crate::digest::Fnv;
+use std::cell::Cell;
 use std::fs::File;
 use std::io::Read;
 use std::path::{Component, Path, PathBuf};
@@ -74,7 +76,7 @@ fn not_regular(meta: &std::fs::Metadata) -> String {
 
 /// Reads exactly `len` bytes from the start of `file` (whose size is at least `len`), reserving
 /// the memory fallibly.
-fn read_prefix(file: File, len: u64) -> Result<Vec<u8>, String> {
+pub(crate) fn read_prefix(file: File, len: u64) -> Result<Vec<u8>, String> {
     let capacity = usize::try_from(len).map_err(|_| format!("{len} bytes do not fit in memory"))?;
     let mut bytes = Vec::new();
     bytes
@@ -117,6 +119,8 @@ fn folder_of(path: &Path) -> &Path {
 pub(crate) struct Confinement {
     root: PathBuf,
     folder: PathBuf,
+    /// The digest of every byte read through it, in the order read.
+    digest: Cell<Fnv>,
 }
 
 impl Confinement {
@@ -133,7 +137,11 @@ impl Confinement {
                 .canonicalize()
                 .map_err(|e| format!("cannot resolve the asset root {}: {e}", root.display()))?,
         };
-        Ok(Self { root, folder })
+        Ok(Self {
+            root,
+            folder,
+            digest: Cell::new(Fnv::default()),
+        })
     }
 
     /// Reads the first `len` bytes of the file that the (percent-decoded) relative reference
@@ -147,7 +155,10 @@ impl Confinement {
                 real.display()
             ));
         }
-        read_prefix(file, len).map_err(|e| format!("cannot be read: {}: {e}", real.display()))
+        let bytes = read_prefix(file, len)
+            .map_err(|e| format!("cannot be read: {}: {e}", real.display()))?;
+        self.digest_part(&bytes);
+        Ok(bytes)
     }
 
     /// Reads the whole file that the (percent-decoded) relative reference `name` names (an
@@ -161,7 +172,22 @@ impl Confinement {
                 real.display()
             ));
         }
-        read_prefix(file, size).map_err(|e| format!("cannot be read: {}: {e}", real.display()))
+        let bytes = read_prefix(file, size)
+            .map_err(|e| format!("cannot be read: {}: {e}", real.display()))?;
+        self.digest_part(&bytes);
+        Ok(bytes)
+    }
+
+    /// Adds `bytes` (one file's, the scene file's or one it names) to the digest.
+    pub(crate) fn digest_part(&self, bytes: &[u8]) {
+        let mut d = self.digest.get();
+        d.update_part(bytes);
+        self.digest.set(d);
+    }
+
+    /// The digest of every file read so far, in the order read.
+    pub(crate) fn digest(&self) -> u64 {
+        self.digest.get().finish()
     }
 
     /// Opens the regular file that `name` names inside the root (`kind`: what names it, for

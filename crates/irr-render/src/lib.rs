@@ -59,6 +59,7 @@ mod accessor;
 mod aov;
 mod cachefile;
 mod camera;
+mod digest;
 mod error;
 mod files;
 mod glb;
@@ -79,13 +80,14 @@ pub use files::{LoadOptions, MAX_JSON_BYTES, MAX_SCENE_BYTES};
 pub use image::Image;
 pub use irr_integrator::{
     AmbientOcclusion, AoSettings, BounceMode, CacheBuilder, CachedAmbientOcclusion, GradientMode,
-    IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard, Material, MetricKind,
-    PathSettings, PathTracer, PunctualLight, RayCounter, Scene,
+    GuardRecord, IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard, Material,
+    MetricKind, PathSettings, PathTracer, PunctualLight, RayCounter, Scene,
 };
 pub use load::{MAX_COORDINATE, MAX_IMAGE_SIDE, SceneData, Warning, load_gltf, load_gltf_with};
 pub use output::{
-    ExrMetadata, check_exposure, check_output, png_path_for, remove_partial_outputs,
-    remove_partial_outputs_on_signals, tone_map, write_exr_and_png, write_render,
+    ExrMetadata, check_exposure, check_output, check_output_file, png_path_for,
+    remove_partial_outputs, remove_partial_outputs_on_signals, tone_map, write_exr_and_png,
+    write_render,
 };
 pub use passes::{CacheBuildStats, PassStats, build_cache, mark_records, pixel_spread};
 pub use render::{
@@ -116,6 +118,8 @@ pub struct LoadedScene {
     pub warnings: Vec<Warning>,
     /// The bounds of the scene's triangles.
     pub bounds: (Vec3, Vec3),
+    /// The digest of every byte the scene was read from ([`SceneData::digest`]).
+    pub digest: u64,
 }
 
 impl LoadedScene {
@@ -206,6 +210,7 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
         cameras,
         lights,
         mut warnings,
+        digest,
         ..
     } = load_gltf_with(path, options)?;
     // Texture coordinates by geometry id, before the meshes are consumed (degenerate triangles
@@ -244,5 +249,6 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
         cameras,
         warnings,
         bounds,
+        digest,
     })
 }

@@ -170,6 +170,36 @@ pub fn check_output(exr_path: &Path) -> Result<(), RenderError> {
     temp_in(folder, exr_path).map(drop)
 }
 
+/// Checks, before any rendering, that a file can be written at `path` (a cache file, a debug
+/// view): its folder exists (it is created if missing) and accepts new files, and `path` is not
+/// a folder. Leaves nothing behind.
+pub fn check_output_file(path: &Path) -> Result<(), RenderError> {
+    let folder = folder_of(path);
+    std::fs::create_dir_all(folder).map_err(|e| {
+        RenderError::write(
+            path,
+            format!("cannot create folder {}: {e}", folder.display()),
+        )
+    })?;
+    if path.is_dir() {
+        return Err(RenderError::write(path, "it is a folder"));
+    }
+    temp_in(folder, path).map(drop)
+}
+
+/// Writes `bytes` to `path` as [`write_exr_and_png`] writes its files: to a temporary file in
+/// the same folder, synced, then renamed over `path`, so a failed or interrupted write leaves
+/// any earlier file as it was.
+pub(crate) fn write_file_atomically(path: &Path, bytes: &[u8]) -> Result<(), RenderError> {
+    let temp = temp_in(folder_of(path), path)?;
+    let mut file = temp.as_file();
+    file.write_all(bytes)
+        .and_then(|()| file.sync_all())
+        .map_err(|e| RenderError::write(path, one_line(e)))?;
+    temp.persist(path)
+        .map_err(|e| RenderError::write(path, one_line(e)))
+}
+
 /// Creates a temporary file for `for_path` in `folder`, listed in the registry (created and
 /// listed under its lock, so a signal handler sees every file that exists).
 fn temp_in(folder: &Path, for_path: &Path) -> Result<TempOutput, RenderError> {

@@ -2,6 +2,7 @@
 
 use super::FALLBACK_STREAM;
 use super::builder::{CacheBuilder, Candidate, CommitStats, Probe, forward_to_core};
+use super::guard::Query;
 use super::levels::{Core, display};
 use super::settings::{BounceMode, IcSettings, IcSettingsError, setting_error};
 use crate::integrator::{Integrator, RayCounter};
@@ -83,7 +84,7 @@ impl Integrator for CachedAmbientOcclusion {
         };
         let surface = scene.geometry().surface(ray, &hit);
         let x = ShadingPoint::new(&surface, -ray.direction.normalize());
-        let a = match self.core.lookup(scene, 0, x.position, x.ns, rays) {
+        let a = match self.core.lookup(scene, 0, &Query::from(&x), rays) {
             Some(a) => a,
             None => {
                 self.core.fallbacks.fetch_add(1, Ordering::Relaxed);

@@ -15,6 +15,7 @@
 //! (rare: an edge pixel's jittered sample, or a record shrunk by neighbour clamping) gets a gather
 //! of its own, used and not stored.
 
+use super::guard::GuardRecord;
 use crate::integrator::{Integrator, RayCounter};
 use crate::path::ShadingPoint;
 use crate::scene::Scene;
@@ -29,7 +30,7 @@ pub struct Candidate {
     pub(super) level: u32,
     pub(super) record: Record<Rgb>,
     pub(super) inputs: RadiusInputs,
-    pub(super) occluder: f32,
+    pub(super) guard: GuardRecord,
     /// Gather rays (and their continuations) this candidate cost.
     pub rays: RayCounter,
 }

@@ -2,6 +2,7 @@
 //! with its gradients and radius inputs.
 
 use super::builder::{Candidate, Probe};
+use super::guard::GuardRecord;
 use super::levels::Core;
 use super::radius::HORIZON_CUT_COS;
 use super::settings::GradientMode;
@@ -128,7 +129,10 @@ impl<V: IcValue> Core<V> {
             limits: self.limits(level, spacing),
             neighbour_clamping: self.settings.neighbour_clamping,
         };
-        (record, inputs, samples.min_distance())
+        // A gather that hit nothing has its nearest hit at the scene's diagonal rather than +∞:
+        // finite (so a cache file can refuse any non-finite distance), and no query within half
+        // the diagonal needs a shadow ray, as no query at any distance did with +∞.
+        (record, inputs, samples.min_distance().min(self.diagonal))
     }
 
     /// The candidate of `probe` from its gather.
@@ -139,13 +143,16 @@ impl<V: IcValue> Core<V> {
         frame: &Frame,
         rays: RayCounter,
     ) -> Candidate {
-        let (record, inputs, occluder) =
+        let (record, inputs, nearest_hit) =
             self.record_from(probe.level, &probe.x, samples, frame, probe.spacing);
         Candidate {
             level: probe.level,
             record: to_rgb_record(&record),
             inputs,
-            occluder,
+            guard: GuardRecord {
+                nearest_hit,
+                geometric_normal: probe.x.ng,
+            },
             rays,
         }
     }

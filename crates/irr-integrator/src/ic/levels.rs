@@ -3,6 +3,7 @@
 
 use super::IcMetric;
 use super::builder::{Candidate, CommitStats, Probe};
+use super::guard::{GuardRecord, Query};
 use super::settings::{IcSettings, IcSettingsError};
 use super::value::{IcValue, convert_record};
 use crate::integrator::RayCounter;
@@ -14,12 +15,13 @@ use irr_geometry::Ray;
 use irr_sampling::{Frame, HemisphereStrata, SampleKey, sample_cosine_hemisphere};
 use std::sync::atomic::AtomicU64;
 
-/// One level of cache: the records, their leak-guard distances and the level's gather settings.
+/// One level of cache: the records, what the leak guard keeps of each and the level's gather
+/// settings.
 #[derive(Clone, Debug)]
 pub(super) struct Level<V: IcValue> {
     pub(super) cache: IrradianceCache<V, IcMetric>,
-    /// Per record (by id): the nearest hit distance of its whole gather (+∞ if none).
-    pub(super) occluder: Vec<f32>,
+    /// Per record (by id).
+    pub(super) guard: Vec<GuardRecord>,
     pub(super) strata: HemisphereStrata,
 }
 
@@ -44,7 +46,7 @@ impl<V: IcValue> Core<V> {
             .map(|l| {
                 Ok(Level {
                     cache: IrradianceCache::new(settings.metric_at(l)?),
-                    occluder: Vec::new(),
+                    guard: Vec::new(),
                     strata: settings.strata_at(l)?,
                 })
             })
@@ -133,7 +135,12 @@ impl<V: IcValue> Core<V> {
             }
             let record = convert_record::<V>(&c.record);
             let mut guard = 0;
-            if self.covers(scene, level, record.position, record.normal, &mut guard) {
+            let at = Query {
+                p: record.position,
+                ns: record.normal,
+                ng: c.guard.geometric_normal,
+            };
+            if self.covers(scene, level, &at, &mut guard) {
                 stats.dropped += 1;
                 stats.dropped_rays += c.rays.total();
                 stats.guard_rays += guard;
@@ -143,8 +150,8 @@ impl<V: IcValue> Core<V> {
             let l = &mut self.levels[level];
             match l.cache.insert_with_radius(record, &c.inputs) {
                 Ok((id, _)) => {
-                    debug_assert_eq!(id as usize, l.occluder.len());
-                    l.occluder.push(c.occluder);
+                    debug_assert_eq!(id as usize, l.guard.len());
+                    l.guard.push(c.guard);
                     stats.inserted += 1;
                 }
                 Err(InsertError::Full) | Err(_) => stats.refused += 1,

@@ -33,6 +33,7 @@
 
 pub use ao::CachedAmbientOcclusion;
 pub use builder::{CacheBuilder, Candidate, CommitStats, PROBE_M, PROBE_N, Probe};
+pub use guard::GuardRecord;
 pub use radius::HORIZON_CUT_COS;
 pub use settings::{
     BounceMode, GradientMode, IcMetric, IcSettings, IcSettingsError, LeakGuard, MetricKind,
@@ -45,6 +46,7 @@ use crate::scene::Scene;
 use builder::forward_to_core;
 use gather::Traced;
 use glam::Vec3;
+use guard::Query;
 use irr_cache::{IrradianceCache, Rgb};
 use irr_geometry::{Ray, SurfacePoint};
 use irr_gradients::GatherSamples;
@@ -117,33 +119,33 @@ impl IrradianceCacheIntegrator {
         self.core.levels.get(level).map(|l| &l.cache)
     }
 
-    /// Replaces the first level's cache with `records` (a persistent cache read back), each
-    /// with the leak-guard distance given beside it; the deeper levels are emptied.
+    /// Replaces the first level's cache with `cache` (a persistent cache read back), each
+    /// record with the leak guard's data given beside it (by record id).
     pub fn load_records(
         &mut self,
         cache: IrradianceCache<Rgb, IcMetric>,
-        occluders: Vec<f32>,
+        guard: Vec<GuardRecord>,
     ) -> Result<(), IcSettingsError> {
-        if occluders.len() != cache.len() {
+        if guard.len() != cache.len() {
             return Err(setting_error(
                 "--cache",
                 format!(
-                    "{} records but {} leak-guard distances",
+                    "{} records but {} leak-guard entries",
                     cache.len(),
-                    occluders.len()
+                    guard.len()
                 ),
             ));
         }
         if let Some(l) = self.core.levels.first_mut() {
             l.cache = cache;
-            l.occluder = occluders;
+            l.guard = guard;
         }
         Ok(())
     }
 
-    /// The leak-guard distances of the first level's records, by record id.
-    pub fn occluder_distances(&self) -> &[f32] {
-        self.core.levels.first().map_or(&[], |l| &l.occluder)
+    /// What the leak guard keeps of the first level's records, by record id.
+    pub fn guard_records(&self) -> &[GuardRecord] {
+        self.core.levels.first().map_or(&[], |l| &l.guard)
     }
 
     /// The radiance along `ray` split as [`PathTracer::li_split`] splits it: `emitted` (Le of
@@ -184,7 +186,7 @@ impl IrradianceCacheIntegrator {
                 indirect: Vec3::ZERO,
             };
         }
-        let e = match self.core.lookup(scene, 0, x.position, x.ns, rays) {
+        let e = match self.core.lookup(scene, 0, &Query::from(&x), rays) {
             Some(e) => e.to_gathered(),
             None => {
                 // The fallback gather's own key: a hash of this sample's key and the cursor's
@@ -284,7 +286,7 @@ impl IrradianceCacheIntegrator {
         let cached = if self.path_traced(level) || albedo == Vec3::ZERO {
             None
         } else {
-            self.core.lookup(scene, level + 1, x.position, x.ns, rays)
+            self.core.lookup(scene, level + 1, &Query::from(&x), rays)
         };
         match cached {
             Some(e) => {

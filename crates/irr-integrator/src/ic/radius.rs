@@ -2,6 +2,7 @@
 //! a coarse distance-only gather.
 
 use super::builder::{PROBE_M, PROBE_N, Probe};
+use super::guard::Query;
 use super::levels::Core;
 use super::value::IcValue;
 use crate::integrator::RayCounter;
@@ -51,7 +52,7 @@ impl<V: IcValue> Core<V> {
             return None;
         }
         let mut guard = 0;
-        let covered = self.covers(scene, li, x.position, x.ns, &mut guard);
+        let covered = self.covers(scene, li, &Query::from(&x), &mut guard);
         rays.shadow += guard;
         if covered {
             return None;

@@ -137,6 +137,10 @@ pub struct SceneData {
     pub emissive_triangles: usize,
     /// The bounds of every vertex, `None` for a scene without triangles.
     pub bounds: Option<(Vec3, Vec3)>,
+    /// An FNV-1a digest of every byte the scene was read from: the scene file, then each
+    /// buffer and image file it names, in the order read. Two loads of the same files give the
+    /// same digest; a changed byte in any of them gives another.
+    pub digest: u64,
 }
 
 /// Writes a warning's line from its final count.
@@ -220,6 +224,7 @@ pub fn load_gltf_with(path: &Path, options: &LoadOptions) -> Result<SceneData, R
     let mut bytes = read_scene_file(path).map_err(read_error)?;
     let file_bytes = bytes.len() as u64;
     let confinement = Confinement::new(path, options).map_err(read_error)?;
+    confinement.digest_part(&bytes);
     let (json_range, bin_range) = if glb::is_glb(&bytes) {
         let g = glb::parse(&bytes).map_err(|e| RenderError::parse(path, e))?;
         (g.json, g.bin)
@@ -429,6 +434,7 @@ impl<'a> Loader<'a> {
             warnings: self.warnings.finish(),
             emissive_triangles,
             bounds,
+            digest: self.confinement.digest(),
         })
     }
 }
