@@ -48,9 +48,9 @@ pub mod sobol;
 mod strata;
 pub mod warp;
 
-pub use cmj::correlated_multi_jitter;
+pub use cmj::{Cmj, correlated_multi_jitter};
 pub use frame::Frame;
-pub use rng::SampleKey;
+pub use rng::{PixelKeys, SampleKey};
 pub use strata::{Cell, HemisphereStrata, StrataError};
 pub use warp::{
     cosine_hemisphere_pdf, invert_cosine_hemisphere, invert_uniform_sphere,

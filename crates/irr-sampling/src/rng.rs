@@ -54,6 +54,27 @@ pub struct SampleKey {
     sequence: Option<(u64, u32)>,
 }
 
+/// The keys of one pixel's samples, hashed once ([`SampleKey::pixel_keys`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelKeys {
+    /// The hash state after (seed, stream): `hash_keys` of those two keys.
+    prefix: u64,
+    /// The seed of the pixel's sequence.
+    sequence_seed: u64,
+}
+
+impl PixelKeys {
+    /// Sample `index`'s key: [`SampleKey::pixel`]`(seed, x, y, index)`.
+    #[inline]
+    pub fn sample(&self, index: u64) -> SampleKey {
+        SampleKey {
+            // hash_keys(&[seed, stream, index]): one more key into the prefix's state.
+            hashed: mix64(self.prefix.wrapping_add(GAMMA) ^ index),
+            sequence: Some((self.sequence_seed, (index as u32).reverse_bits())),
+        }
+    }
+}
+
 /// Mixed into a pixel's key to seed its low-discrepancy sequence, so the sequence's seeds are
 /// unrelated to the independent values' hashes.
 const SEQUENCE_TAG: u64 = 0x50b0_1000_0000_0001;
@@ -87,6 +108,18 @@ impl SampleKey {
                 (index as u32).reverse_bits(),
             )),
             ..Self::new(seed, stream, index)
+        }
+    }
+
+    /// What every sample of pixel (x, y) under `seed` shares, so that each sample's key
+    /// ([`PixelKeys::sample`]) costs one mix rather than a hash of all its keys: the same keys
+    /// as [`SampleKey::pixel`], bit for bit.
+    #[inline]
+    pub fn pixel_keys(seed: u64, x: u32, y: u32) -> PixelKeys {
+        let stream = (u64::from(y) << 32) | u64::from(x);
+        PixelKeys {
+            prefix: hash_keys(&[seed, stream]),
+            sequence_seed: hash_keys(&[seed, stream, SEQUENCE_TAG]),
         }
     }
 
@@ -189,6 +222,14 @@ impl Dimensions {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    proptest! {
+        /// A pixel's keys hashed once give every sample's key bit for bit.
+        #[test]
+        fn pixel_keys_give_the_pixels_sample_keys(seed: u64, x: u32, y: u32, index: u64) {
+            prop_assert_eq!(SampleKey::pixel_keys(seed, x, y).sample(index), SampleKey::pixel(seed, x, y, index));
+        }
+    }
 
     #[test]
     fn unit_float_range_is_half_open() {
