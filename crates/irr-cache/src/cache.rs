@@ -253,50 +253,80 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         if !p.is_finite() {
             return None;
         }
-        let pd = p.as_dvec3();
-        let mut sum = V::wide_zero();
-        let mut total_weight = 0.0;
-        let mut count = 0u32;
-        self.weighted(pd, nd, |index, record, candidate, w| {
-            if !accept(index, record) {
-                return;
+        let mut mean = WeightedMean::<V>::new();
+        self.weighted(p.as_dvec3(), nd, |index, record, candidate, w| {
+            if accept(index, record) {
+                mean.add(record, candidate, w);
             }
-            // The rotation: the first-order change of E when the normal turns from nᵢ to n.
-            let turn = candidate.record_normal.cross(nd);
-            // The translation: from pᵢ to p.
-            let step = candidate.offset;
-            let (e, tg, rg) = (
-                record.value.channels(),
-                &record.translation_gradient,
-                &record.rotation_gradient,
-            );
-            for (c, acc) in sum.as_mut().iter_mut().enumerate() {
-                let mut v = f64::from(e[c]);
-                for axis in 0..3 {
-                    v += turn[axis] * f64::from(rg[axis].channels()[c])
-                        + step[axis] * f64::from(tg[axis].channels()[c]);
-                }
-                if V::NON_NEGATIVE {
-                    v = v.max(0.0);
-                }
-                *acc += w * v;
-            }
-            total_weight += w;
-            count += 1;
         });
-        if count == 0 {
+        mean.finish()
+    }
+
+    /// The records whose sphere of influence may meet the box [`lo`, `hi`] (a superset of those
+    /// that contain some point of it), in index order, into `out` (cleared first). For a caller
+    /// that queries many points of a small region, as a renderer does a pixel's samples: one walk
+    /// of the octree for the region, then [`IrradianceCache::interpolate_among`] for each point.
+    pub fn records_meeting_box(&self, lo: Vec3, hi: Vec3, out: &mut Vec<NearbyRecord>) {
+        out.clear();
+        if !(lo.is_finite() && hi.is_finite()) {
+            return;
+        }
+        let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
+        self.octree.for_each_in_box(lo, hi, &mut |e: &Entry| {
+            // The sphere meets the box if its centre is within its radius of the box's nearest
+            // point; the pad of 2⁻⁴⁰ keeps every point `contains` accepts (see the octree).
+            let c = e.center.as_dvec3();
+            let r = f64::from(e.radius) * (1.0 + 2f64.powi(-40));
+            if (c.clamp(lo, hi) - c).length_squared() <= r * r {
+                out.push(NearbyRecord {
+                    id: e.index,
+                    center: e.center,
+                    influence: e.radius,
+                });
+            }
+        });
+        out.sort_unstable_by_key(|r| r.id);
+        out.dedup_by_key(|r| r.id);
+    }
+
+    /// [`IrradianceCache::interpolate_filtered`] over `nearby`, the records
+    /// [`IrradianceCache::records_meeting_box`] found for a box that holds `p`: the same records
+    /// weigh in as there (the same containment test, to the last bit) and the same value per
+    /// record, summed in index order. `accept` is asked about each record of positive weight,
+    /// once, in index order.
+    pub fn interpolate_among(
+        &self,
+        nearby: &[NearbyRecord],
+        p: Vec3,
+        n: Vec3,
+        mut accept: impl FnMut(RecordId, &Record<V>) -> bool,
+    ) -> Option<Interpolation<V>> {
+        let nd = unit_query_normal(n)?;
+        if !p.is_finite() {
             return None;
         }
-        let sum = sum.as_ref();
-        // Clamped to the finite f32 range: a mean of finite values, extrapolated by gradients,
-        // can exceed f32::MAX only when the values are near it; the result stays finite.
-        let max = f64::from(f32::MAX);
-        let value = V::from_fn(|c| (sum[c] / total_weight).clamp(-max, max) as f32);
-        Some(Interpolation {
-            value,
-            total_weight,
-            count,
-        })
+        let pd = p.as_dvec3();
+        let mut mean = WeightedMean::<V>::new();
+        for near in nearby {
+            let Some((offset, d2)) = contains_offset(near.center, near.influence, pd) else {
+                continue;
+            };
+            let Some(record) = self.records.get(near.id as usize) else {
+                continue;
+            };
+            let candidate = Candidate {
+                offset,
+                distance: d2.sqrt(),
+                query_normal: nd,
+                record_normal: record.normal.as_dvec3(),
+                record_radius: f64::from(record.radius),
+            };
+            let w = self.metric.weight(&candidate);
+            if w > 0.0 && w.is_finite() && accept(near.id, record) {
+                mean.add(record, &candidate, w);
+            }
+        }
+        mean.finish()
     }
 
     /// Whether any record has a positive weight at (`p`, `n`): the test [`IrradianceCache::interpolate`]
@@ -528,6 +558,78 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
     /// The number of non-empty octree cells and of entries (a record is filed in 1 to 8 cells).
     pub fn octree_counts(&self) -> (usize, usize) {
         self.octree.counts()
+    }
+}
+
+/// A record near a region ([`IrradianceCache::records_meeting_box`]): its id and its sphere of
+/// influence as the octree files it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NearbyRecord {
+    /// The record's id.
+    pub id: RecordId,
+    center: Vec3,
+    influence: f32,
+}
+
+/// The gradient-corrected weighted mean of records, summed in f64 (see
+/// [`IrradianceCache::interpolate`]).
+struct WeightedMean<V: CacheValue> {
+    sum: V::Wide,
+    total_weight: f64,
+    count: u32,
+}
+
+impl<V: CacheValue> WeightedMean<V> {
+    fn new() -> Self {
+        Self {
+            sum: V::wide_zero(),
+            total_weight: 0.0,
+            count: 0,
+        }
+    }
+
+    /// Adds `record`'s value, corrected to the query of `candidate`, with weight `w`.
+    #[inline]
+    fn add(&mut self, record: &Record<V>, candidate: &Candidate, w: f64) {
+        // The rotation: the first-order change of E when the normal turns from nᵢ to n.
+        let turn = candidate.record_normal.cross(candidate.query_normal);
+        // The translation: from pᵢ to p.
+        let step = candidate.offset;
+        let (e, tg, rg) = (
+            record.value.channels(),
+            &record.translation_gradient,
+            &record.rotation_gradient,
+        );
+        for (c, acc) in self.sum.as_mut().iter_mut().enumerate() {
+            let mut v = f64::from(e[c]);
+            for axis in 0..3 {
+                v += turn[axis] * f64::from(rg[axis].channels()[c])
+                    + step[axis] * f64::from(tg[axis].channels()[c]);
+            }
+            if V::NON_NEGATIVE {
+                v = v.max(0.0);
+            }
+            *acc += w * v;
+        }
+        self.total_weight += w;
+        self.count += 1;
+    }
+
+    fn finish(self) -> Option<Interpolation<V>> {
+        if self.count == 0 {
+            return None;
+        }
+        let sum = self.sum.as_ref();
+        // Clamped to the finite f32 range: a mean of finite values, extrapolated by gradients,
+        // can exceed f32::MAX only when the values are near it; the result stays finite.
+        let max = f64::from(f32::MAX);
+        let total = self.total_weight;
+        let value = V::from_fn(|c| (sum[c] / total).clamp(-max, max) as f32);
+        Some(Interpolation {
+            value,
+            total_weight: total,
+            count: self.count,
+        })
     }
 }
 

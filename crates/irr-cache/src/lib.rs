@@ -78,8 +78,8 @@ mod record;
 mod value;
 
 pub use cache::{
-    BatchError, Interpolation, IrradianceCache, MAX_SCALED_CHANNELS, Placement, RadiusInputs,
-    RecordId, within_influence,
+    BatchError, Interpolation, IrradianceCache, MAX_SCALED_CHANNELS, NearbyRecord, Placement,
+    RadiusInputs, RecordId, within_influence,
 };
 pub use io::CacheFileError;
 pub use metric::{

@@ -594,7 +594,7 @@ mod tests {
         );
     }
 
-    /// Issue 9, item 2: the pixel limits bound R the same for every κ, so the influence limits
+    /// The pixel limits bound R the same for every κ, so the influence limits
     /// in pixels are R⁻/κ and R⁺/κ (Tabellion & Lamorlette; Mitsuba 0.6): a smaller κ allows
     /// larger records, and κ keeps controlling density where the maximum binds. Before the fix
     /// the limits were [2κR⁻, 2κR⁺], so the influence in pixels was the same for every κ.

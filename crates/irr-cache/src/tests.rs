@@ -1,4 +1,4 @@
-//! Property tests of the cache as a whole: the invariants issue 5 names, each with the rounding
+//! Property tests of the cache as a whole: its invariants, each with the rounding
 //! bound it is checked against and that bound's derivation.
 //!
 //! Notation: u₃₂ = 2⁻²⁴ and u₆₄ = 2⁻⁵³ are the unit roundoffs of `f32` and `f64`.
@@ -443,7 +443,7 @@ proptest! {
                 prop_assert!(f64::from(r) <= (f64::from(other.radius) + d) * slack);
             }
             cache.clamp_neighbours(p, r);
-            // Every record, near or far (issue 9, item 1: not only those within r).
+            // Every record, near or far (not only those within r).
             for other in cache.records() {
                 let d = (p.as_dvec3() - other.position.as_dvec3()).length();
                 prop_assert!(f64::from(other.radius) <= (f64::from(r) + d) * slack);
@@ -965,9 +965,9 @@ fn scalar_and_coefficient_caches_round_trip() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Neighbour clamping and the radius pipeline (issue 9).
+// Neighbour clamping and the radius pipeline.
 
-/// Item 1: a large record whose centre lies farther than the new record's radius, but whose
+/// A large record whose centre lies farther than the new record's radius, but whose
 /// sphere reaches past it, must shrink. The new record (r = 0.1) at the origin; the neighbour at
 /// d = 1 with R = 5 > r + d = 1.1. The old search (records within r of the new one) never saw
 /// it: this test failed before the fix with R staying 5.
@@ -995,7 +995,7 @@ fn a_large_neighbour_beyond_the_new_radius_shrinks() {
     );
 }
 
-/// Item 1: on a line of records at spacing 1, each inserted with the pipeline and the same
+/// On a line of records at spacing 1, each inserted with the pipeline and the same
 /// large distance, one small record propagates its limit: after it, record k steps away holds
 /// g ≤ g_small + k (the triangle inequality in both directions).
 #[test]
@@ -1040,7 +1040,7 @@ fn a_small_record_propagates_its_limit_along_a_line() {
     assert_eq!(late.radius, 7.25);
 }
 
-/// Item 4: neighbour clamping propagates the unclamped radius plus d, not the pixel-clamped R,
+/// Neighbour clamping propagates the unclamped radius plus d, not the pixel-clamped R,
 /// and never pushes a record below its own minimum.
 #[test]
 fn clamping_propagates_the_geometric_radius_and_respects_minima() {
@@ -1097,7 +1097,7 @@ fn clamping_propagates_the_geometric_radius_and_respects_minima() {
     assert!(first.unclamped_radius <= 0.011 + 1e-6, "{first:?}");
 }
 
-/// Item 3: a record forced to a large R by the minimum never extrapolates, anywhere within R, above
+/// A record forced to a large R by the minimum never extrapolates, anywhere within R, above
 /// 2E or below 0: the pipeline scaled its gradient so ‖∇ₜE‖·R ≤ E. Without the cap (before the
 /// fix) the gradient 10 over R = 1 extrapolates E = 1 to 11.
 #[test]
@@ -1258,7 +1258,7 @@ fn covers_agrees_with_interpolate() {
 proptest! {
     #![proptest_config(config(48))]
 
-    /// Item 5: a cache built with neighbour clamping, written and read back, interpolates to the
+    /// A cache built with neighbour clamping, written and read back, interpolates to the
     /// same bits everywhere (cells stay in index order, so the sums run in the same order).
     /// Before the fix, refiled records went to the end of their cells and sums could reorder.
     #[test]
@@ -1284,6 +1284,65 @@ proptest! {
             prop_assert_eq!(a.map(|x| x.value.0.map(f32::to_bits)), b.map(|x| x.value.0.map(f32::to_bits)));
             prop_assert_eq!(a.map(|x| x.total_weight.to_bits()), b.map(|x| x.total_weight.to_bits()));
             prop_assert_eq!(tree_in_range(&cache, q), brute_in_range(&cache, q));
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Region queries.
+
+proptest! {
+    #![proptest_config(config(96))]
+
+    /// One walk of the octree for a box, then a query per point of it: `interpolate_among` uses
+    /// exactly the records `interpolate_filtered` uses (the same containment test and weights,
+    /// so the same ids, weights and count), and its value differs only by the order of the f64
+    /// sums. Each sum of k terms is within (k − 1)·u₆₄·Σ|terms| of the exact sum in either order,
+    /// so the two means differ by at most 2(k + 1)·u₆₄ relative to Σ wᵢ|Ẽᵢ| / Σ wᵢ, before both
+    /// are rounded to f32 (the same rounding unless the two f64 values straddle an f32 rounding
+    /// boundary: a difference of one f32 ulp, u₃₂ relative, which the bound allows).
+    #[test]
+    fn a_box_query_sees_what_each_point_query_sees(
+        records in prop::collection::vec(
+            (v3(-1.0..1.0), near(Vec3::Z, 8.0), 0.05f32..0.8, rgb())
+                .prop_map(|(p, n, r, e)| Record::new(p, n, r, e)),
+            1..60,
+        ),
+        size in 0.0f32..0.3,
+        points in prop::collection::vec((v3(0.0..1.0), near(Vec3::Z, 8.0)), 1..12),
+    ) {
+        let cache = cache_of(tl(), &records);
+        // A box around the first record, so that its own position (a query it weighs 1) is in
+        // every case's points.
+        let lo = records[0].position - Vec3::splat(0.5 * size);
+        let hi = lo + Vec3::splat(size);
+        let own = (Vec3::splat(0.5), records[0].normal);
+        let points = std::iter::once(own).chain(points);
+        let mut nearby = Vec::new();
+        cache.records_meeting_box(lo, hi, &mut nearby);
+        prop_assert!(nearby.windows(2).all(|w| w[0].id < w[1].id), "index order, once each");
+        for (i, (t, n)) in points.enumerate() {
+            let p = if i == 0 { records[0].position } else { lo + t * (hi - lo) };
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            let whole = cache.interpolate_filtered(p, n, |id, _| { a.push(id); true });
+            let among = cache.interpolate_among(&nearby, p, n, |id, _| { b.push(id); true });
+            a.sort_unstable();
+            prop_assert_eq!(&a, &b);
+            match (whole, among) {
+                (None, None) => {}
+                (Some(x), Some(y)) => {
+                    prop_assert_eq!(x.count, y.count);
+                    let k = f64::from(x.count);
+                    let w = (x.total_weight - y.total_weight).abs();
+                    prop_assert!(w <= 2.0 * (k + 1.0) * U64 * x.total_weight, "weights {} {}", x.total_weight, y.total_weight);
+                    for c in 0..3 {
+                        let scale = records.iter().map(|r| f64::from(r.value.0[c])).fold(0.0, f64::max);
+                        let d = (f64::from(x.value.0[c]) - f64::from(y.value.0[c])).abs();
+                        prop_assert!(d <= (2.0 * (k + 1.0) * U64 + 2.0 * U32) * scale, "channel {}: {:?} {:?}", c, x.value, y.value);
+                    }
+                }
+                (x, y) => prop_assert!(false, "{:?} vs {:?}", x, y),
+            }
         }
     }
 }
