@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the large hostile scenes of issue 12 into a folder, for measuring the loader's time and
+"""Writes the large hostile scenes into a folder, for measuring the loader's time and
 peak memory by hand (see docs/fuzzing.md). The regression tests generate their own, smaller,
 versions of these files; this script makes the full-size ones.
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes a glTF binary (.glb) with about N triangles for irr's huge-scene measurements (issue 15).
+"""Writes a glTF binary (.glb) with about N triangles for irr's huge-scene measurements.
 
 Usage: python3 docs/make-huge-scene.py N OUT.glb [room]
 
@@ -11,7 +11,7 @@ are shared (a grid of (k+1)² positions) the way an exporter writes a mesh, so t
 
 With `room`, the heightfield is the floor of a closed room (four walls and a ceiling, 10 more
 triangles, the heightfield's material) and the camera stands inside it: paths then bounce about
-ten times instead of escaping after one or two, as in an interior (issue 11's batched paths).
+ten times instead of escaping after one or two, as in an interior (the case the batched paths are for).
 
 Only the standard library is used; the output is deterministic.
 """

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Renders irr's Cornell box (assets/cornell-box.gltf) with Mitsuba 3's path tracer, for the
-efficiency comparison of issue 11: the same triangles, albedos, emitter, camera and box pixel
+efficiency comparison in docs/performance.md: the same triangles, albedos, emitter, camera and box pixel
 filter, so that both renderers converge to the same image.
 
 Usage: python3 docs/peers/mitsuba-cornell.py REFERENCE.exr [SPP] [THREADS] [VARIANT]

@@ -1,4 +1,4 @@
-//! Scenes at the extremes of geometry and light (issue 15): an emitter 0.1 mm from a wall,
+//! Scenes at the extremes of geometry and light: an emitter 0.1 mm from a wall,
 //! grazing camera rays, back faces, shading normals far from the geometric normal, light through
 //! a narrow gap, a scene lit only indirectly, and indirect light 10⁻⁶ and 10³ times the direct
 //! light. Each compares the irradiance cache with the path tracer (or a known answer).

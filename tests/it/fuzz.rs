@@ -810,12 +810,18 @@ fn fnv1a(bytes: &[u8]) -> u64 {
     })
 }
 
-/// Where irr-cache's part of a cache file lies (after the 24-byte header and 16 bytes per
-/// record), if the record count still fits.
+/// Where irr-cache's part of the first level lies in a cache file (after the 24-byte header,
+/// the level's record count, 16 bytes per record and the part's length), if the counts still
+/// fit.
 fn inner_part(bytes: &[u8]) -> Option<std::ops::Range<usize>> {
-    let n = u64::from_le_bytes(bytes.get(16..24)?.try_into().ok()?);
-    let start = usize::try_from(n.checked_mul(16)?.checked_add(24)?).ok()?;
-    (start + 28 + 8 <= bytes.len().checked_sub(8)?).then(|| start..bytes.len() - 8)
+    let word = |at: usize| -> Option<u64> {
+        Some(u64::from_le_bytes(bytes.get(at..at + 8)?.try_into().ok()?))
+    };
+    let n = word(24)?;
+    let size_at = usize::try_from(n.checked_mul(16)?.checked_add(32)?).ok()?;
+    let start = size_at.checked_add(8)?;
+    let end = start.checked_add(usize::try_from(word(size_at)?).ok()?)?;
+    (start + 28 + 8 <= end && end <= bytes.len().checked_sub(8)?).then_some(start..end)
 }
 
 fn cache_case(seeds: &[Vec<u8>], seed: u64, k: u64) -> Vec<u8> {
@@ -825,10 +831,11 @@ fn cache_case(seeds: &[Vec<u8>], seed: u64, k: u64) -> Vec<u8> {
         let inner = inner_part(&bytes);
         let choice = rng.below(4);
         if choice == 0 && bytes.len() >= 24 {
-            // The record count, of the file (bytes 16..24) or of irr-cache's part: a huge, zero
-            // or off-by-one value.
-            let at = match (&inner, rng.below(2)) {
+            // A count: of the file's levels (bytes 16..24), of the first level's records
+            // (24..32) or of irr-cache's part: a huge, zero or off-by-one value.
+            let at = match (&inner, rng.below(3)) {
                 (Some(r), 0) => r.start + 20,
+                (_, 1) => 24,
                 _ => 16,
             };
             let count = u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap_or([0; 8]));
@@ -881,14 +888,12 @@ fn run_cache(
     let started = Instant::now();
     let result = std::panic::catch_unwind(AssertUnwindSafe(|| {
         let settings = tiny_cache();
-        let metric = settings.metric_at(0).unwrap_or_else(|e| panic!("{e}"));
-        let Ok((cache, guard)) = irr_render::read_cache_file(&path, FINGERPRINT, metric, 1 << 24)
-        else {
+        let Ok(levels) = irr_render::read_cache_file(&path, FINGERPRINT, &settings, 1 << 24) else {
             return false;
         };
         let mut ic = IrradianceCacheIntegrator::new(settings).unwrap_or_else(|e| panic!("{e}"));
         irr_render::Integrator::preprocess(&mut ic, &cornell.scene);
-        if ic.load_records(cache, guard).is_err() {
+        if ic.load_levels(levels).is_err() {
             return false;
         }
         let camera = cornell.camera_for(TINY.width, TINY.height);

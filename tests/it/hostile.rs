@@ -1,4 +1,4 @@
-//! Issue 12: the scene loader as an attack surface. Each test is one of the hostile files or
+//! The scene loader as an attack surface. Each test is one of the hostile files or
 //! options that once read outside the scene's folder, read without bound, allocated without
 //! bound, panicked, or rendered wrong; every file is generated here.
 
@@ -80,7 +80,7 @@ fn load_error(path: &Path, options: &LoadOptions, needles: &[&str]) -> String {
     message
 }
 
-/// Item 1: a buffer URI that is absolute, climbs with `..` (plain or percent-encoded), or is a
+/// A buffer URI that is absolute, climbs with `..` (plain or percent-encoded), or is a
 /// symbolic link out of the folder is refused before the file is read or even looked at; the
 /// message quotes none of the file's bytes and not its size. `--asset-root` widens the folder.
 #[test]
@@ -148,7 +148,7 @@ fn buffer_uris_cannot_leave_the_scene_folder() {
     load_error(&path, &wide, &["outside the folder"]);
 }
 
-/// Item 1: errors inside the allowed folder never quote the file's bytes: an index past the
+/// Errors inside the allowed folder never quote the file's bytes: an index past the
 /// vertex count names the entry, not the index; a bad vertex names the vertex, not its value.
 #[test]
 fn errors_quote_no_bytes_of_a_file() {
@@ -172,7 +172,7 @@ fn errors_quote_no_bytes_of_a_file() {
     assert!(!e.contains("1.234"), "{e}");
 }
 
-/// Item 2: a FIFO, a device or a folder as the scene or as a buffer is refused at once (never
+/// A FIFO, a device or a folder as the scene or as a buffer is refused at once (never
 /// opened for a blocking read), and a buffer file far larger than its `byteLength` is read only
 /// as far as `byteLength` says.
 #[test]
@@ -252,7 +252,7 @@ fn one_accessor_scene(dir: &Path, name: &str, accessor: Value, extra: Value) -> 
     path
 }
 
-/// Item 3: counts stated freely by a small file (an accessor without a buffer view, with or
+/// Counts stated freely by a small file (an accessor without a buffer view, with or
 /// without a sparse block) cannot make the loader allocate more than its budget: each is refused
 /// with a message naming the accessor and the budget, instead of taking gigabytes or aborting.
 #[test]
@@ -291,7 +291,7 @@ fn allocation_bombs_are_refused() {
     load_gltf(&path).unwrap_or_else(|e| panic!("{e}"));
 }
 
-/// Item 3: a long chain of nodes (each the only child of the one before) loads: the walk keeps
+/// A long chain of nodes (each the only child of the one before) loads: the walk keeps
 /// no recursion and no per-level copy.
 #[test]
 fn a_long_chain_of_nodes_loads() {
@@ -312,7 +312,7 @@ fn a_long_chain_of_nodes_loads() {
     assert_eq!(data.meshes.len(), 1);
 }
 
-/// Item 4: a camera whose `type` names the other projection's object (which made the gltf crate
+/// A camera whose `type` names the other projection's object (which made the gltf crate
 /// panic), sparse indices of a float type (an `unreachable!` in the gltf crate), and a POSITION
 /// accessor index past the end (indexed unchecked by its schema check) are refused with errors.
 #[test]
@@ -362,7 +362,7 @@ fn inputs_that_panicked_inside_the_gltf_crate_are_refused() {
     );
 }
 
-/// Item 6: a camera under a parent translated by 3·10⁶ m and turned 17° renders the scene
+/// A camera under a parent translated by 3·10⁶ m and turned 17° renders the scene
 /// where it is: a square straight ahead of the camera lands in the middle of a 64×64 image.
 /// The f32 `look_at` it replaced put it 3.3 px off (its direction was rebuilt from two points
 /// rounded to f32's 0.25 m spacing at 3·10⁶ m).
@@ -480,7 +480,7 @@ fn a_far_away_camera_renders_the_scene_where_it_is() {
     assert_eq!(c.forward, Vec3::NEG_Z);
 }
 
-/// Item 7: `extras` of any JSON type and attribute names beginning with `_` are valid glTF and
+/// `extras` of any JSON type and attribute names beginning with `_` are valid glTF and
 /// load; names from the file reach messages and warnings with control characters escaped.
 #[test]
 fn extras_and_underscore_attributes_load_and_names_are_escaped() {

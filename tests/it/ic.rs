@@ -453,7 +453,7 @@ fn the_cache_converges_to_the_path_tracer() {
 }
 
 /// A persistent cache: written after one render and read back for another, the image is the same
-/// bit for bit and nothing is rebuilt; a file for another scene or setting (another fingerprint),
+/// bit for bit without a construction pass; a file for another scene or setting (another fingerprint),
 /// or a corrupt one, is refused with an error naming the file.
 #[test]
 fn a_cache_file_round_trips_and_refuses_strangers() {
@@ -478,22 +478,17 @@ fn a_cache_file_round_trips_and_refuses_strangers() {
     let path = dir.path().join("cornell.irrc");
     irr_render::write_cache_file(&path, 42, &first).unwrap_or_else(|e| panic!("{e}"));
 
-    let metric = ic.metric_at(0).unwrap_or_else(|e| panic!("{e}"));
-    let (cache, guard) =
-        irr_render::read_cache_file(&path, 42, metric, 1 << 30).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(cache.len(), first.cache(0).map_or(0, |c| c.len()));
+    let levels =
+        irr_render::read_cache_file(&path, 42, &ic, 1 << 30).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(levels.len(), ic.levels() as usize);
+    for (l, read) in levels.iter().enumerate() {
+        assert_eq!(read.cache.len(), first.cache(l).map_or(0, |c| c.len()));
+    }
     let mut second = IrradianceCacheIntegrator::new(ic).unwrap_or_else(|e| panic!("{e}"));
     second.preprocess(&loaded.scene);
-    second
-        .load_records(cache, guard)
-        .unwrap_or_else(|e| panic!("{e}"));
-    let stats = build_cache(&loaded.scene, &camera, &mut second, &settings, false, false)
-        .unwrap_or_else(|e| panic!("{e}"));
-    let inserted: u64 = stats.passes.iter().map(|p| p.commit.inserted).sum();
-    assert_eq!(
-        inserted, 0,
-        "a complete cache read back needs no new record"
-    );
+    // Every level comes back, so the irr command runs no construction pass on a cache it read:
+    // the final pass alone must give the same image.
+    second.load_levels(levels).unwrap_or_else(|e| panic!("{e}"));
     let b = render(&loaded.scene, &camera, &second, &settings, false)
         .unwrap_or_else(|e| panic!("{e}"))
         .image;
@@ -504,7 +499,7 @@ fn a_cache_file_round_trips_and_refuses_strangers() {
             .all(|(x, y)| x.to_array().map(f32::to_bits) == y.to_array().map(f32::to_bits))
     );
 
-    let e = irr_render::read_cache_file(&path, 43, metric, 1 << 30)
+    let e = irr_render::read_cache_file(&path, 43, &ic, 1 << 30)
         .err()
         .map(|e| e.to_string())
         .unwrap_or_default();
@@ -516,7 +511,7 @@ fn a_cache_file_round_trips_and_refuses_strangers() {
     let last = bytes.len() - 20;
     bytes[last] ^= 0x40;
     std::fs::write(&path, &bytes).unwrap_or_else(|e| panic!("{e}"));
-    let e = irr_render::read_cache_file(&path, 42, metric, 1 << 30)
+    let e = irr_render::read_cache_file(&path, 42, &ic, 1 << 30)
         .err()
         .map(|e| e.to_string())
         .unwrap_or_default();
@@ -698,4 +693,66 @@ fn the_cache_and_the_path_tracer_agree_below_two_reflections() {
             (va + vb).sqrt()
         );
     }
+}
+
+/// Records are sized by a pixel's footprint on the surface (√ of its area, as pbrt-v2 does), so
+/// they cover about the same screen area on a plane seen frontally and at 80° from its normal.
+/// An open plane under a uniform sky: every gather ray escapes, so every record takes the
+/// largest radius the pixel limits allow, and the number of records per pixel of the image
+/// measures the screen area each covers. With the footprint across the view instead (the
+/// spread·t of a frontal plane), a record's screen area shrinks by cos θ along the slope, and
+/// the 80° plane (θ from 75° to 85° across a 10° field of view) needs 1/cos θ ≈ 4–11 times as
+/// many; with the surface footprint, as many as the frontal one. The test asks for fewer than
+/// √(1/cos 80°) = 2.4 times as many: the geometric middle of the two answers.
+#[test]
+fn records_cover_the_same_screen_area_on_a_slanted_plane() {
+    let plane = quad(
+        [
+            Vec3::new(-1000.0, 0.0, -1000.0),
+            Vec3::new(1000.0, 0.0, -1000.0),
+            Vec3::new(1000.0, 0.0, 1000.0),
+            Vec3::new(-1000.0, 0.0, 1000.0),
+        ],
+        0,
+        Vec3::Y,
+    );
+    let geometry = Geometry::build(&[plane]).unwrap_or_else(|e| panic!("{e}"));
+    let scene = Scene::new(geometry, vec![Material::diffuse(Vec3::splat(0.5))])
+        .and_then(|s| s.with_background(Vec3::ONE))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let settings = RenderSettings {
+        width: 48,
+        height: 48,
+        spp: 1,
+        seed: 2,
+        threads: 0,
+    };
+    let ic = IcSettings {
+        strata_m: 2,
+        strata_n: 4,
+        ..IcSettings::default()
+    };
+    let records_per_pixel = |view_from_normal: f32| {
+        let (s, c) = view_from_normal.to_radians().sin_cos();
+        // 1 m above the plane, looking down at `view_from_normal` from its normal.
+        let eye = Vec3::new(0.0, 1.0, 0.0);
+        let camera = Camera::look_at(
+            eye,
+            eye + Vec3::new(0.0, -c, -s),
+            Vec3::Z,
+            10f32.to_radians(),
+        )
+        .unwrap_or_else(|| panic!("a valid camera"));
+        let integrator = built(&scene, &camera, ic, &settings);
+        let n = integrator.cache(0).map_or(0, |c| c.len());
+        n as f64 / f64::from(settings.width * settings.height)
+    };
+    let (frontal, slanted) = (records_per_pixel(0.0), records_per_pixel(80.0));
+    println!("records per pixel: frontal {frontal:.4}, at 80° {slanted:.4}");
+    assert!(frontal > 0.0, "no records");
+    let bound = (1.0 / 80f64.to_radians().cos()).sqrt();
+    assert!(
+        slanted < bound * frontal,
+        "at 80° {slanted:.4} records per pixel, frontal {frontal:.4} (bound {bound:.2}×)"
+    );
 }

@@ -1,4 +1,4 @@
-//! Issue 12, item 7: SIGINT or SIGTERM during the write of a render leaves no `.irr-*.tmp`
+//! SIGINT or SIGTERM during the write of a render leaves no `.irr-*.tmp`
 //! behind. The test runs a child copy of this test binary that writes a large image again and
 //! again with the handler `cargo xtask render` installs, signals it while a temporary file is
 //! being written, and looks at the folder afterwards.

@@ -9,10 +9,11 @@ use clap::{Args, ValueEnum};
 use irr_render::{
     AmbientOcclusion, AoSettings, Aov, BounceMode, CacheBuilder, CachedAmbientOcclusion, Camera,
     ExrMetadata, GradientMode, IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard,
-    LoadOptions, MetricKind, PathSettings, PathTracer, RenderSettings, build_cache, check_exposure,
-    check_output, check_output_file, fingerprint, load_scene_with, mark_records, mean_of_samples,
-    pixel_samples, read_cache_file, remove_partial_outputs_on_signals, render_with_aovs,
-    write_cache_file, write_exr_and_png, write_render,
+    LoadOptions, MetricKind, PathSettings, PathTracer, RadiusStatistic, RenderSettings,
+    build_cache, check_exposure, check_output, check_output_file, fingerprint, load_scene_with,
+    mark_records, mean_of_samples, pixel_samples, read_cache_file,
+    remove_partial_outputs_on_signals, render_with_aovs, write_cache_file, write_exr_and_png,
+    write_render,
 };
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -51,6 +52,15 @@ pub enum GradientChoice {
     KrivanekGautron,
 }
 
+/// The statistic of a gather's hit distances that sizes its record.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum RadiusChoice {
+    /// The harmonic mean (Ward et al. 1988; Radiance)
+    Harmonic,
+    /// The minimum (Tabellion & Lamorlette 2004; Mitsuba 0.6)
+    Minimum,
+}
+
 /// What a gather ray brings back beyond the direct light at its hit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum BounceChoice {
@@ -76,6 +86,9 @@ pub struct IcArgs {
     /// Record radius limits in pixels, MIN,MAX (the metric's distance scale on screen)
     #[arg(long, value_name = "MIN,MAX", default_value = "1.5,10", value_parser = parse_pair)]
     pub pixel_spacing: (f32, f32),
+    /// Smallest influence radius of a record on screen, in pixels (0: none)
+    #[arg(long, default_value_t = IcSettings::default().influence_floor, allow_negative_numbers = true)]
+    pub influence_floor: f32,
     /// Largest record radius, as a fraction of the scene's bounding-box diagonal
     #[arg(long, default_value_t = IcSettings::default().world_max, allow_negative_numbers = true)]
     pub world_max: f32,
@@ -85,6 +98,9 @@ pub struct IcArgs {
     /// The records' translation gradient
     #[arg(long, value_enum, default_value_t = GradientChoice::WardHeckbert)]
     pub gradients: GradientChoice,
+    /// The statistic of a gather's hit distances (above 10° of the horizon) that sizes its record
+    #[arg(long, value_enum, default_value_t = RadiusChoice::Harmonic)]
+    pub radius_statistic: RadiusChoice,
     /// Turn neighbour clamping (Křivánek et al. 2006) off
     #[arg(long)]
     pub no_neighbour_clamping: bool,
@@ -92,7 +108,7 @@ pub struct IcArgs {
     #[arg(long)]
     pub no_leak_guard: bool,
     /// What a gather ray brings back beyond the direct light at its hit
-    #[arg(long, value_enum, default_value_t = BounceChoice::PathTraced)]
+    #[arg(long, value_enum, default_value_t = BounceChoice::Cached)]
     pub bounce_mode: BounceChoice,
     /// With --bounce-mode cached: cache levels below the first (1 to 8)
     #[arg(long, default_value_t = IcSettings::default().cached_bounces)]
@@ -127,12 +143,17 @@ impl IcArgs {
             strata_n: self.strata.1,
             pixel_min: self.pixel_spacing.0,
             pixel_max: self.pixel_spacing.1,
+            influence_floor: self.influence_floor,
             world_max: self.world_max,
             world_min: self.world_min,
             gradients: match self.gradients {
                 GradientChoice::Off => GradientMode::Off,
                 GradientChoice::WardHeckbert => GradientMode::WardHeckbert,
                 GradientChoice::KrivanekGautron => GradientMode::KrivanekGautron,
+            },
+            radius_statistic: match self.radius_statistic {
+                RadiusChoice::Harmonic => RadiusStatistic::HarmonicMean,
+                RadiusChoice::Minimum => RadiusStatistic::Minimum,
             },
             neighbour_clamping: !self.no_neighbour_clamping,
             leak_guard: if self.no_leak_guard {
@@ -253,7 +274,7 @@ pub fn default_spp(choice: IntegratorChoice) -> i64 {
 pub const MAX_CACHE_FILE_BYTES: u64 = 4 << 30;
 
 /// Camera samples per pixel of the irradiance cache by default (see `default_spp`).
-pub const IC_DEFAULT_SPP: i64 = 64;
+pub const IC_DEFAULT_SPP: i64 = 36;
 
 fn parse_aov(text: &str) -> Result<Aov, String> {
     Aov::from_name(text)
@@ -459,17 +480,24 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
         )),
         _ => None,
     };
+    // A cache read from a file with the same fingerprint is what the same construction built,
+    // every level of it: the passes are not run again.
+    let mut cache_read = false;
     let mut ic_integrator = match (args.integrator, ic_settings) {
         (IntegratorChoice::Ic, Some(s)) => {
             let mut ic = IrradianceCacheIntegrator::new(s).map_err(|e| e.to_string())?;
             if let (Some(path), Some(fp)) = (&args.ic.cache, cache_fingerprint)
                 && std::fs::symlink_metadata(path).is_ok()
             {
-                let metric = s.metric_at(0).map_err(|e| e.to_string())?;
-                let (cache, guard) = read_cache_file(path, fp, metric, MAX_CACHE_FILE_BYTES)
+                let levels = read_cache_file(path, fp, &s, MAX_CACHE_FILE_BYTES)
                     .map_err(|e| e.to_string())?;
-                eprintln!("read {} records from {}", cache.len(), path.display());
-                ic.load_records(cache, guard).map_err(|e| e.to_string())?;
+                let records: usize = levels.iter().map(|l| l.cache.len()).sum();
+                eprintln!(
+                    "read {records} records from {}: no construction pass",
+                    path.display()
+                );
+                ic.load_levels(levels).map_err(|e| e.to_string())?;
+                cache_read = true;
             }
             Some(ic)
         }
@@ -499,6 +527,10 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
     };
     if let Some(b) = builder.as_deref_mut() {
         b.preprocess(&loaded.scene);
+    }
+    if let Some(b) = builder.as_deref_mut()
+        && !cache_read
+    {
         let stats = build_cache(
             &loaded.scene,
             &camera,
@@ -546,12 +578,16 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
     let mean = output.image.mean();
     eprintln!("image mean radiance: {} {} {}", mean.x, mean.y, mean.z);
     if let Some(b) = builder {
-        let misses = b.fallback_gathers();
+        let misses = b.final_pass_misses();
         let samples =
             u64::from(settings.width) * u64::from(settings.height) * u64::from(settings.spp);
+        let share = |n: u64| 100.0 * n as f64 / samples.max(1) as f64;
         eprintln!(
-            "cache queries: {:.2} % of camera samples found no record and gathered for themselves ({misses})",
-            100.0 * misses as f64 / samples.max(1) as f64
+            "cache queries: {:.3} % of camera samples found no record ({}); {} gathers for them ({:.3} % of samples)",
+            share(misses.samples),
+            misses.samples,
+            misses.gathers,
+            share(misses.gathers)
         );
     }
     if output.stats.non_finite_samples > 0 {
@@ -599,7 +635,9 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
             png.display()
         );
     }
-    if let (Some(path), Some(fp), Some(ic)) = (&args.ic.cache, cache_fingerprint, &ic_integrator) {
+    if let (Some(path), Some(fp), Some(ic)) = (&args.ic.cache, cache_fingerprint, &ic_integrator)
+        && !cache_read
+    {
         write_cache_file(path, fp, ic).map_err(|e| e.to_string())?;
         println!("wrote the cache's records to {}", path.display());
     }
@@ -650,7 +688,7 @@ mod tests {
         assert_eq!(e, "--width: must be between 1 and 16384, got -5");
     }
 
-    /// Issue 12, item 7: a bad exposure or seed is refused before anything is loaded or
+    /// A bad exposure or seed is refused before anything is loaded or
     /// rendered, naming the option.
     #[test]
     fn bad_exposure_and_seed_are_refused_up_front() {

@@ -350,7 +350,7 @@ mod tests {
         assert_eq!(sky.min_distance(), f32::INFINITY);
     }
 
-    /// Issue 9, item 6: the near-horizon cut is per sample direction, independent of M. At
+    /// The near-horizon cut is per sample direction, independent of M. At
     /// M = 8 the last row spans θ from 69.3° to 90° (cos 0.354 … 0): the old per-row test
     /// dropped the whole row, so it ignored hits up to 20.7° above the horizon; a hit at
     /// 15° above the horizon (cos θ = 0.259 > 0.174) must count, one at 5° must not, for every M.

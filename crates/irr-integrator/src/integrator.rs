@@ -32,6 +32,25 @@ impl AddAssign for RayCounter {
     }
 }
 
+/// How a renderer hands camera samples to an integrator's batched calls
+/// ([`Integrator::li_many`], [`Integrator::li_split_many`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Batching {
+    /// A tile's pixels, one sample index at a time: every answer is its ray's alone (`li`'s,
+    /// bit for bit). The path tracer traces such a batch's paths together.
+    #[default]
+    BySampleIndex,
+    /// One pixel's samples at a time, in index order, at most [`PIXEL_BATCH`] per call: the
+    /// integrator may share work between them (the irradiance cache looks its records up once
+    /// per pixel), so an answer depends on its pixel's other samples in the call, never on other
+    /// pixels'. A renderer that replays a pixel makes the same calls.
+    ByPixel,
+}
+
+/// The most samples of one pixel in one call, with [`Batching::ByPixel`] (a pixel with more
+/// samples takes several calls, each of consecutive indices).
+pub const PIXEL_BATCH: usize = 1024;
+
 /// Answers "what radiance arrives along this ray?" (pbrt-v4's `RayIntegrator::Li`).
 ///
 /// Tiles, threads, progress and output are the renderer's business, not the integrator's.
@@ -69,11 +88,17 @@ pub trait Integrator: Sync {
         }
     }
 
-    /// [`Integrator::li`] for many rays (a pixel's samples): `out[i]` and `dims[i]` come out
-    /// exactly as `li` leaves them for `rays[i]` and `dims[i]`, and `rays` counts the same
-    /// rays. An integrator overrides it to trace the rays' paths together (the path tracer
-    /// traces each bounce of all its paths as one batch); the default calls `li` for each ray
-    /// in turn.
+    /// How the renderer should batch camera samples for [`Integrator::li_many`] and
+    /// [`Integrator::li_split_many`]. The default: [`Batching::BySampleIndex`].
+    fn batching(&self) -> Batching {
+        Batching::BySampleIndex
+    }
+
+    /// [`Integrator::li`] for many rays, batched as [`Integrator::batching`] says. With
+    /// [`Batching::BySampleIndex`], `out[i]` and `dims[i]` come out exactly as `li` leaves them
+    /// for `rays[i]` and `dims[i]`, and `rays` counts the same rays. An integrator overrides it
+    /// to trace the rays' paths together (the path tracer traces each bounce of all its paths as
+    /// one batch); the default calls `li` for each ray in turn.
     ///
     /// # Panics
     /// If the three slices differ in length.
@@ -86,6 +111,29 @@ pub trait Integrator: Sync {
         rays: &mut RayCounter,
     ) {
         li_each(self, scene, camera_rays, dims, out, rays);
+    }
+
+    /// [`Integrator::li_split`] for many rays, batched as [`Integrator::batching`] says;
+    /// `li_split_many(…)[i].total()` is `li_many`'s `out[i]` bit for bit for the same batch, so a
+    /// renderer may take the colour from either. The default calls `li_split` for each ray.
+    ///
+    /// # Panics
+    /// If the three slices differ in length.
+    fn li_split_many(
+        &self,
+        scene: &Scene,
+        camera_rays: &[Ray],
+        dims: &mut [Dimensions],
+        out: &mut [Radiance],
+        rays: &mut RayCounter,
+    ) {
+        assert!(
+            camera_rays.len() == dims.len() && dims.len() == out.len(),
+            "one dimension stream and one answer per ray"
+        );
+        for ((ray, d), o) in camera_rays.iter().zip(dims).zip(out) {
+            *o = self.li_split(scene, ray, d, rays);
+        }
     }
 }
 

@@ -68,11 +68,11 @@ mod texture;
 
 pub use ao::{AmbientOcclusion, AoSettings};
 pub use ic::{
-    BounceMode, CacheBuilder, CachedAmbientOcclusion, Candidate, CommitStats, GradientMode,
-    GuardRecord, IcMetric, IcSettings, IcSettingsError, IrradianceCacheIntegrator, LeakGuard,
-    MetricKind, Probe,
+    BounceMode, CacheBuilder, CachedAmbientOcclusion, CachedLevel, Candidate, CommitStats,
+    GradientMode, GuardRecord, IcMetric, IcSettings, IcSettingsError, IrradianceCacheIntegrator,
+    LeakGuard, MetricKind, Probe, RadiusStatistic,
 };
-pub use integrator::{FirstHit, Integrator, RayCounter, first_hit};
+pub use integrator::{Batching, FirstHit, Integrator, PIXEL_BATCH, RayCounter, first_hit};
 pub use light::{LightSample, LightSampler};
 pub use path::{PathSettings, PathTracer, Radiance};
 pub use punctual::{Incidence, PunctualLight};

@@ -48,9 +48,7 @@ pub struct PathSettings {
     /// seen directly only; 1: plus direct lighting). Default: 64. Range: any `u32`.
     pub max_depth: u32,
     /// The bounce from which Russian roulette may end a path. Default: 5, as Mitsuba 3's
-    /// `rr_depth`: on the Cornell box (256², `cargo xtask compare --only path`) starting at 5
-    /// rather than 3 costs 1.22× the rays per sample and divides the relMSE at equal spp by
-    /// 1.47 (256 spp: 5.44e-4 → 3.70e-4), 1.2× the efficiency per ray. Range: any `u32`.
+    /// `rr_depth` (docs/performance.md, "Russian roulette"). Range: any `u32`.
     pub rr_start: u32,
 }
 

@@ -1,4 +1,4 @@
-//! Issue 12, item 5: the BVH build on a hostile scene, triangles nested about one centroid, each
+//! The BVH build on a hostile scene, triangles nested about one centroid, each
 //! 1.0001 times the one before (a 3.6 MB file at 10⁵). obvhs's PLOC merges one pair per pass on
 //! such input (every smaller box ties as a nearest neighbour), so the build is quadratic: about
 //! 5 s at 10⁴, 14 s at 2·10⁴ and 77 s at 4·10⁴ on the 2-core development machine. Run with

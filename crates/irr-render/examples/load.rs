@@ -1,7 +1,7 @@
 //! Loads a scene the way `cargo xtask render` does (glTF, then the BVH build) and prints what it
 //! holds and how long each part took, or the one-line error. For measuring the loader:
 //! `/usr/bin/time -v cargo run -p irr-render --example load -- scene.gltf [--asset-root DIR]`
-//! (see docs/fuzzing.md for the hostile files of issue 12).
+//! (see docs/fuzzing.md for the hostile files).
 
 use irr_render::{LoadOptions, load_gltf_with, load_scene_with};
 use std::process::ExitCode;

@@ -7,10 +7,18 @@
 //! |---|---|---|
 //! | 0 | 8 | magic `IRRICSC2` (the last byte is the version of this layout) |
 //! | 8 | 8 | fingerprint: FNV-1a of what the render's records depend on (the caller's: irr-cli hashes the scene file's bytes, the image size, the camera, the cache settings, the background and the seed) |
-//! | 16 | 8 | n, the number of records |
-//! | 24 | 16·n | what the leak guard keeps of each record: the nearest hit distance of its gather (`f32`, finite, ≥ 0), then its geometric normal (3 `f32`, finite, not zero) |
-//! | 24 + 16n | … | the records, in irr-cache's versioned, checksummed format (`IrradianceCache::write_to`) |
-//! | end − 8 | 8 | FNV-1a of every byte before it ([`fingerprint`] of them) |
+//! | 16 | 8 | L, the number of cache levels (the first, then each cached bounce level) |
+//!
+//! then, for each level in turn:
+//!
+//! | size | content |
+//! |---|---|
+//! | 8 | n, the level's number of records |
+//! | 16·n | what the leak guard keeps of each record: the nearest hit distance of its gather (`f32`, finite, ≥ 0), then its geometric normal (3 `f32`, finite, not zero) |
+//! | 8 | the byte length of the level's records |
+//! | … | the records, in irr-cache's versioned, checksummed format (`IrradianceCache::write_to`) |
+//!
+//! and last, 8 bytes: FNV-1a of every byte before them ([`fingerprint`] of them).
 //!
 //! The checksum covers the whole file, so a changed byte anywhere is refused as corrupt rather
 //! than read as a different distance or normal (a distance of +∞ would switch the leak guard off
@@ -26,8 +34,9 @@ use crate::files::{open_regular, read_prefix};
 use crate::output::write_file_atomically;
 use glam::Vec3;
 use irr_cache::IrradianceCache;
-use irr_integrator::ic::IcMetric;
-use irr_integrator::{GuardRecord, IrradianceCacheIntegrator};
+use irr_integrator::{
+    CacheBuilder, CachedLevel, GuardRecord, IcSettings, IrradianceCacheIntegrator,
+};
 use std::path::Path;
 
 /// The first eight bytes of a cache file.
@@ -35,9 +44,6 @@ pub const MAGIC: [u8; 8] = *b"IRRICSC2";
 
 /// The bytes of one record's leak-guard entry.
 const GUARD_BYTES: usize = 16;
-
-/// The header: magic, fingerprint, record count.
-const HEADER_BYTES: usize = 24;
 
 /// FNV-1a over `parts`, each prefixed by its length (so parts cannot run into each other).
 pub fn fingerprint(parts: &[&[u8]]) -> u64 {
@@ -48,44 +54,51 @@ pub fn fingerprint(parts: &[&[u8]]) -> u64 {
     h.finish()
 }
 
-/// Writes the first level's records of `integrator` to `path` with `fingerprint`.
+/// Writes every level of `integrator`'s cache to `path` with `fingerprint`.
 pub fn write_cache_file(
     path: &Path,
     fingerprint: u64,
     integrator: &IrradianceCacheIntegrator,
 ) -> Result<(), RenderError> {
-    let cache = integrator
-        .cache(0)
-        .ok_or_else(|| RenderError::write(path, "the integrator has no cache"))?;
-    let guard = integrator.guard_records();
-    let mut bytes =
-        Vec::with_capacity(HEADER_BYTES + GUARD_BYTES * guard.len() + 128 * cache.len() + 8);
+    let levels = integrator.levels() as usize;
+    let mut bytes = Vec::new();
     bytes.extend_from_slice(&MAGIC);
     bytes.extend_from_slice(&fingerprint.to_le_bytes());
-    bytes.extend_from_slice(&(guard.len() as u64).to_le_bytes());
-    for g in guard {
-        bytes.extend_from_slice(&g.nearest_hit.to_le_bytes());
-        for c in g.geometric_normal.to_array() {
-            bytes.extend_from_slice(&c.to_le_bytes());
+    bytes.extend_from_slice(&(levels as u64).to_le_bytes());
+    for level in 0..levels {
+        let cache = integrator.cache(level).ok_or_else(|| {
+            RenderError::write(path, format!("the integrator has no level {level}"))
+        })?;
+        let guard = integrator.guard_records(level);
+        bytes.extend_from_slice(&(guard.len() as u64).to_le_bytes());
+        for g in guard {
+            bytes.extend_from_slice(&g.nearest_hit.to_le_bytes());
+            for c in g.geometric_normal.to_array() {
+                bytes.extend_from_slice(&c.to_le_bytes());
+            }
         }
+        let mut records = Vec::with_capacity(128 * cache.len() + 36);
+        cache
+            .write_to(&mut records)
+            .map_err(|e| RenderError::write(path, e.to_string()))?;
+        bytes.extend_from_slice(&(records.len() as u64).to_le_bytes());
+        bytes.extend_from_slice(&records);
     }
-    cache
-        .write_to(&mut bytes)
-        .map_err(|e| RenderError::write(path, e.to_string()))?;
     let checksum = self::fingerprint(&[&bytes]);
     bytes.extend_from_slice(&checksum.to_le_bytes());
     write_file_atomically(path, &bytes)
 }
 
-/// Reads a cache file written by [`write_cache_file`] for `fingerprint`, filing its records with
-/// `metric`; returns the cache and the leak guard's entries. A file larger than `max_bytes` is
-/// refused before it is read.
+/// Reads a cache file written by [`write_cache_file`] for `fingerprint`, filing each level's
+/// records with `settings`' metric of that level; returns the levels, first to deepest, for
+/// `IrradianceCacheIntegrator::load_levels`. A file larger than `max_bytes` is refused before
+/// it is read.
 pub fn read_cache_file(
     path: &Path,
     fingerprint: u64,
-    metric: IcMetric,
+    settings: &IcSettings,
     max_bytes: u64,
-) -> Result<(IrradianceCache<irr_cache::Rgb, IcMetric>, Vec<GuardRecord>), RenderError> {
+) -> Result<Vec<CachedLevel>, RenderError> {
     let bad = |problem: String| RenderError::CacheFile {
         path: path.to_path_buf(),
         problem,
@@ -97,7 +110,7 @@ pub fn read_cache_file(
         )));
     }
     let bytes = read_prefix(file, len).map_err(|e| bad(format!("cannot read: {e}")))?;
-    if bytes.len() < HEADER_BYTES + 8 || bytes[..7] != MAGIC[..7] {
+    if bytes.len() < 24 + 8 || bytes[..7] != MAGIC[..7] {
         return Err(bad("not an irr cache file (bad magic bytes)".into()));
     }
     if bytes[7] != MAGIC[7] {
@@ -123,49 +136,75 @@ pub fn read_cache_file(
              (fingerprint {found:016x}, this render's is {fingerprint:016x}); delete it or choose another file"
         )));
     }
-    let n = word(&body[16..24]);
-    let end = n
-        .checked_mul(GUARD_BYTES as u64)
-        .and_then(|b| b.checked_add(HEADER_BYTES as u64))
-        .filter(|&e| e <= body.len() as u64)
-        .ok_or_else(|| bad("truncated (leak-guard entries)".into()))? as usize;
-    let float = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-    let mut guard = Vec::new();
-    guard
-        .try_reserve_exact(n as usize)
-        .map_err(|_| bad(format!("cannot allocate {n} leak-guard entries")))?;
-    for (i, entry) in body[HEADER_BYTES..end]
-        .chunks_exact(GUARD_BYTES)
-        .enumerate()
-    {
-        let nearest_hit = float(&entry[0..4]);
-        let normal = Vec3::new(
-            float(&entry[4..8]),
-            float(&entry[8..12]),
-            float(&entry[12..16]),
-        );
-        if !(nearest_hit.is_finite() && nearest_hit >= 0.0) {
-            return Err(bad(format!(
-                "record {i}: the leak guard's distance {nearest_hit} is not finite and non-negative"
-            )));
-        }
-        if !(normal.is_finite() && normal.length_squared() > 0.0) {
-            return Err(bad(format!(
-                "record {i}: the leak guard's geometric normal is not finite and non-zero"
-            )));
-        }
-        guard.push(GuardRecord {
-            nearest_hit,
-            geometric_normal: normal,
-        });
-    }
-    let cache = IrradianceCache::read_from(&body[end..], metric).map_err(|e| bad(e.to_string()))?;
-    if cache.len() != guard.len() {
+    let count = word(&body[16..24]);
+    if count != u64::from(settings.levels()) {
         return Err(bad(format!(
-            "{} records but {} leak-guard entries",
-            cache.len(),
-            guard.len()
+            "{count} cache levels, but these settings have {}",
+            settings.levels()
         )));
     }
-    Ok((cache, guard))
+    let mut at = 24usize;
+    // The next `n` bytes of the body, or an error naming what is cut short.
+    let mut take = |n: u64, what: &str| -> Result<&[u8], RenderError> {
+        let end = usize::try_from(n)
+            .ok()
+            .and_then(|n| at.checked_add(n))
+            .filter(|&e| e <= body.len())
+            .ok_or_else(|| bad(format!("truncated ({what})")))?;
+        let part = &body[at..end];
+        at = end;
+        Ok(part)
+    };
+    let float = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+    let mut levels = Vec::new();
+    for level in 0..settings.levels() {
+        let metric = settings.metric_at(level).map_err(|e| bad(e.to_string()))?;
+        let n = word(take(8, "record count")?);
+        let entries = take(
+            n.saturating_mul(GUARD_BYTES as u64),
+            "leak-guard entries",
+        )?;
+        let mut guard = Vec::with_capacity(entries.len() / GUARD_BYTES);
+        for (i, entry) in entries.chunks_exact(GUARD_BYTES).enumerate() {
+            let nearest_hit = float(&entry[0..4]);
+            let normal = Vec3::new(
+                float(&entry[4..8]),
+                float(&entry[8..12]),
+                float(&entry[12..16]),
+            );
+            if !(nearest_hit.is_finite() && nearest_hit >= 0.0) {
+                return Err(bad(format!(
+                    "level {level}, record {i}: the leak guard's distance {nearest_hit} is not finite and non-negative"
+                )));
+            }
+            if !(normal.is_finite() && normal.length_squared() > 0.0) {
+                return Err(bad(format!(
+                    "level {level}, record {i}: the leak guard's geometric normal is not finite and non-zero"
+                )));
+            }
+            guard.push(GuardRecord {
+                nearest_hit,
+                geometric_normal: normal,
+            });
+        }
+        let size = word(take(8, "records' length")?);
+        let records = take(size, "records")?;
+        let cache = IrradianceCache::read_from(records, metric)
+            .map_err(|e| bad(format!("level {level}: {e}")))?;
+        if cache.len() != guard.len() {
+            return Err(bad(format!(
+                "level {level}: {} records but {} leak-guard entries",
+                cache.len(),
+                guard.len()
+            )));
+        }
+        levels.push(CachedLevel { cache, guard });
+    }
+    if at != body.len() {
+        return Err(bad(format!(
+            "{} bytes after the last level",
+            body.len() - at
+        )));
+    }
+    Ok(levels)
 }

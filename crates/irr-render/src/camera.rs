@@ -148,27 +148,53 @@ impl Camera {
     /// The ray through raster point `raster` (pixels, y down, (0, 0) the top-left corner of the
     /// image) of a `width` × `height` image.
     pub fn ray(&self, raster: Vec2, width: u32, height: u32) -> CameraRay {
-        let (w, h) = (width as f32, height as f32);
+        self.projection(width, height).ray(raster)
+    }
+
+    /// The camera prepared for the rays of a `width` × `height` image (the field of view's
+    /// tangent computed once): [`Projection::ray`] is [`Camera::ray`], bit for bit.
+    pub fn projection(&self, width: u32, height: u32) -> Projection {
+        Projection {
+            camera: *self,
+            size: Vec2::new(width as f32, height as f32),
+            tan_half: (0.5 * self.yfov).tan(),
+        }
+    }
+}
+
+/// A [`Camera`] prepared for the rays of one image size ([`Camera::projection`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Projection {
+    camera: Camera,
+    size: Vec2,
+    tan_half: f32,
+}
+
+impl Projection {
+    /// The ray through raster point `raster` ([`Camera::ray`]).
+    #[inline]
+    pub fn ray(&self, raster: Vec2) -> CameraRay {
+        let (c, w, h, tan_half) = (&self.camera, self.size.x, self.size.y, self.tan_half);
         let ndc = Vec2::new(2.0 * raster.x / w - 1.0, 1.0 - 2.0 * raster.y / h);
-        let tan_half = (0.5 * self.yfov).tan();
         // Camera-space direction with z = −1: a point of the plane one unit in front.
-        let d =
-            self.right * (ndc.x * tan_half * (w / h)) + self.up * (ndc.y * tan_half) + self.forward;
+        let d = c.right * (ndc.x * tan_half * (w / h)) + c.up * (ndc.y * tan_half) + c.forward;
         let length = d.length();
         // The near plane is `znear` units along `forward`: the point znear·d, at distance
         // znear·|d| along the unit direction; the far plane likewise at zfar·|d|.
-        let t_max = match self.zfar {
-            Some(zfar) => (zfar - self.znear) * length,
+        let t_max = match c.zfar {
+            Some(zfar) => (zfar - c.znear) * length,
             None => f32::INFINITY,
         };
         CameraRay {
-            origin: self.position + d * self.znear,
+            origin: c.position + d * c.znear,
             direction: d / length,
             t_max,
-            origin_distance: self.znear * length,
+            origin_distance: c.znear * length,
         }
     }
+}
 
+impl Camera {
     /// OpenEXR's `worldToCamera` (see the module docs) as a matrix acting on column vectors:
     /// `p_camera = M · (p, 1)`, with p_camera = ((p − position)·right, (p − position)·up,
     /// (p − position)·forward). Computed in f64. OpenEXR stores the transpose (Imath multiplies
@@ -263,7 +289,7 @@ mod tests {
         assert!(left.direction.x > 0.0);
     }
 
-    /// Issue 12, item 6: a camera far from the origin keeps its exact view direction. A parent
+    /// A camera far from the origin keeps its exact view direction. A parent
     /// translated by 3·10⁶ m (and, second case, 10⁸ m), then a 17° turn about Y: the view
     /// direction is the turned −Z, (−sin 17°, 0, −cos 17°), to f32 rounding of the rotation
     /// matrix's entries (a few ulps of 1: 1e-6), not the 2.8° error of a direction recovered from

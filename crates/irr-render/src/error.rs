@@ -153,7 +153,7 @@ mod tests {
         assert!(!text.contains('\n'));
     }
 
-    /// Issue 12, item 7: names from a file reach the terminal without raw control characters.
+    /// Names from a file reach the terminal without raw control characters.
     #[test]
     fn control_characters_are_escaped() {
         let e = RenderError::scene(

@@ -74,14 +74,14 @@ mod uri;
 
 pub use aov::{Aov, AovImages, normalise_aovs};
 pub use cachefile::{fingerprint, read_cache_file, write_cache_file};
-pub use camera::{Camera, CameraRay, NamedCamera};
+pub use camera::{Camera, CameraRay, NamedCamera, Projection};
 pub use error::RenderError;
 pub use files::{LoadOptions, MAX_JSON_BYTES, MAX_SCENE_BYTES};
 pub use image::Image;
 pub use irr_integrator::{
     AmbientOcclusion, AoSettings, BounceMode, CacheBuilder, CachedAmbientOcclusion, GradientMode,
     GuardRecord, IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard, Material,
-    MetricKind, PathSettings, PathTracer, PunctualLight, RayCounter, Scene,
+    MetricKind, PathSettings, PathTracer, PunctualLight, RadiusStatistic, RayCounter, Scene,
 };
 pub use load::{MAX_COORDINATE, MAX_IMAGE_SIDE, SceneData, Warning, load_gltf, load_gltf_with};
 pub use output::{

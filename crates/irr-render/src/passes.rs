@@ -40,12 +40,47 @@ use std::time::Instant;
 /// The first stride of the pixel passes (pixels 16 apart).
 pub const FIRST_STRIDE: u32 = 16;
 
-/// The finest stride of the passes of levels below the first.
-pub const DEEP_LEVEL_STRIDE: u32 = 4;
+/// The side of the grid of image points a deeper level's walks start from (see `build_cache`).
+pub const DEEP_GRID: u32 = 64;
+
+/// A deeper level's repair passes stop when fewer than this share of a pass's walks end at a
+/// point no record covers (each walk is new, so some always may; an uncovered point costs the
+/// level above a path-traced continuation, not an error).
+pub const DEEP_UNCOVERED: f64 = 0.01;
+
+/// The walks of level `level` from the grid points `cells` of the DEEP_GRID² grid: camera rays
+/// through the cells' centres, each with its own key (`round` 0 for the coarse-to-fine passes,
+/// then one per repair pass, so each repair pass walks new paths).
+fn deep_jobs(
+    camera: &Camera,
+    settings: &RenderSettings,
+    level: u32,
+    round: u32,
+    cells: &[(u32, u32)],
+) -> Vec<(Ray, f32, SampleKey)> {
+    let scale = Vec2::new(
+        settings.width as f32 / DEEP_GRID as f32,
+        settings.height as f32 / DEEP_GRID as f32,
+    );
+    let stream = CACHE_STREAM + u64::from(level) + (u64::from(round) << 16);
+    cells
+        .iter()
+        .map(|&(i, j)| {
+            let raster = (Vec2::new(i as f32, j as f32) + Vec2::splat(0.5)) * scale;
+            let ray = camera_ray(camera, settings, raster);
+            let spread = pixel_spread(camera, settings.height, ray.direction);
+            let index = u64::from(j) * u64::from(DEEP_GRID) + u64::from(i);
+            (ray, spread, SampleKey::new(settings.seed, stream, index))
+        })
+        .collect()
+}
 
 /// The stream of the construction passes' keys: level L uses `CACHE_STREAM + L`, and the pass
 /// over every camera sample `CACHE_STREAM + 0xff`.
 pub const CACHE_STREAM: u64 = 0x1c_0000;
+
+/// The stream of the repair passes' keys.
+const REPAIR_STREAM: u64 = CACHE_STREAM + 0xfe;
 
 /// One construction pass.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -152,8 +187,51 @@ fn pass_lattices(width: u32, height: u32, stride: u32) -> Vec<Vec<(u32, u32)>> {
         .collect()
 }
 
-/// How many times the finest pass is repeated after construction (see `build_cache`).
-pub const REPAIR_PASSES: u32 = 3;
+/// The most repair passes after construction (see `build_cache`).
+pub const MAX_REPAIR_PASSES: u32 = 16;
+
+/// The finest lattice of the repair passes' probes: every quarter of a pixel.
+pub const MAX_COVERAGE_LATTICE: u32 = 4;
+
+/// How finely the repair passes probe (every 1/k of a pixel in x and y) for records whose
+/// influence radius is at least `smallest` pixels: every point of the image plane then lies
+/// within half the smallest influence radius of a probe (the farthest point of a lattice cell
+/// of side 1/k is √2/(2k) from its corners), so a point the probes saw covered has no gap
+/// between records around it that a camera sample could fall into; at most
+/// [`MAX_COVERAGE_LATTICE`].
+pub fn coverage_lattice(smallest: f32) -> u32 {
+    let k = (std::f32::consts::SQRT_2 / smallest).ceil();
+    if k.is_finite() && k >= 1.0 {
+        (k as u32).min(MAX_COVERAGE_LATTICE)
+    } else {
+        MAX_COVERAGE_LATTICE
+    }
+}
+
+/// The repair passes' probes: the camera rays through every point (i/k, j/k) of the image plane,
+/// 0 ≤ i ≤ k·width, 0 ≤ j ≤ k·height, row by row, each with its own key.
+fn repair_lattice(
+    camera: &Camera,
+    settings: &RenderSettings,
+    k: u32,
+) -> Vec<(Ray, f32, SampleKey)> {
+    let (w, h) = (settings.width * k + 1, settings.height * k + 1);
+    let mut jobs = Vec::with_capacity(w as usize * h as usize);
+    for j in 0..h {
+        for i in 0..w {
+            let raster = Vec2::new(i as f32 / k as f32, j as f32 / k as f32);
+            let ray = camera_ray(camera, settings, raster);
+            let spread = pixel_spread(camera, settings.height, ray.direction);
+            let index = u64::from(j) * u64::from(w) + u64::from(i);
+            jobs.push((
+                ray,
+                spread,
+                SampleKey::new(settings.seed, REPAIR_STREAM, index),
+            ));
+        }
+    }
+    jobs
+}
 
 /// A camera ray through raster point `raster`.
 fn camera_ray(camera: &Camera, settings: &RenderSettings, raster: Vec2) -> Ray {
@@ -265,14 +343,17 @@ pub fn build_cache(
                 })
                 .collect()
         };
-        for level in (0..levels).rev() {
-            let finest = if level == 0 { 1 } else { DEEP_LEVEL_STRIDE };
+        for level in (1..levels).rev() {
+            // A deeper level's records lie where the level above's gathers land, all over the
+            // scene rather than where the camera looks: its walks start on a DEEP_GRID² grid
+            // of the image whatever the image's size, coarse to fine as the pixel passes, then
+            // repeat from new keys until almost every walk ends covered.
             let mut stride = FIRST_STRIDE;
-            while stride >= finest {
-                for lattice in pass_lattices(w, h, stride) {
-                    let jobs = centre_jobs(level, &lattice);
+            while stride >= 1 {
+                for lattice in pass_lattices(DEEP_GRID, DEEP_GRID, stride) {
+                    let jobs = deep_jobs(camera, settings, level, 0, &lattice);
                     bar.set_message(format!(
-                        "building the irradiance cache: level {level}, stride {stride}, {} pixels",
+                        "building the irradiance cache: level {level}, stride {stride}, {} walks",
                         jobs.len()
                     ));
                     stats
@@ -281,6 +362,35 @@ pub fn build_cache(
                 }
                 stride /= 2;
             }
+            let grid: Vec<(u32, u32)> = (0..DEEP_GRID)
+                .flat_map(|y| (0..DEEP_GRID).map(move |x| (x, y)))
+                .collect();
+            for round in 1..=MAX_REPAIR_PASSES {
+                let jobs = deep_jobs(camera, settings, level, round, &grid);
+                bar.set_message(format!(
+                    "building the irradiance cache: level {level}, repair"
+                ));
+                let pass = run_pass(scene, builder, level, 1, &jobs);
+                let done = (pass.probes as f64) < DEEP_UNCOVERED * jobs.len() as f64;
+                stats.passes.push(pass);
+                if done {
+                    break;
+                }
+            }
+        }
+        let mut stride = FIRST_STRIDE;
+        while stride >= 1 {
+            for lattice in pass_lattices(w, h, stride) {
+                let jobs = centre_jobs(0, &lattice);
+                bar.set_message(format!(
+                    "building the irradiance cache: level 0, stride {stride}, {} pixels",
+                    jobs.len()
+                ));
+                stats
+                    .passes
+                    .push(run_pass(scene, builder, 0, stride, &jobs));
+            }
+            stride /= 2;
         }
         if fill_samples {
             // Every camera sample's own ray, as the final pass will trace it: one pass per
@@ -304,13 +414,15 @@ pub fn build_cache(
             }
         }
         // Neighbour clamping shrinks earlier records as later ones arrive, which can uncover
-        // pixels the earlier passes saw covered: repeat the finest pass until none is left (at
-        // most REPAIR_PASSES times; the final pass gathers for any point still uncovered).
-        let all: Vec<(u32, u32)> = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).collect();
-        for _ in 0..REPAIR_PASSES {
-            let jobs = centre_jobs(0, &all);
+        // points the earlier passes saw covered, and pixel centres say nothing of the rest of
+        // their pixels: repair passes probe a lattice of every 1/k of a pixel, k from the
+        // smallest record's influence (`coverage_lattice`), until none is uncovered, at most
+        // MAX_REPAIR_PASSES times; the final pass gathers for any point still uncovered.
+        let k = coverage_lattice(builder.smallest_influence_pixels());
+        let lattice = repair_lattice(camera, settings, k);
+        for _ in 0..MAX_REPAIR_PASSES {
             bar.set_message("building the irradiance cache: repair pass");
-            let pass = run_pass(scene, builder, 0, 1, &jobs);
+            let pass = run_pass(scene, builder, 0, 1, &lattice);
             let done = pass.probes == 0;
             stats.passes.push(pass);
             if done {

@@ -21,14 +21,14 @@
 //! are summed the same way, sample by sample beside the colour.
 
 use crate::aov::{Aov, AovImages, normalise_aovs};
-use crate::camera::Camera;
+use crate::camera::{Camera, Projection};
 use crate::error::RenderError;
 use crate::image::Image;
 use glam::{Vec2, Vec3};
 use irr_geometry::Ray;
-use irr_integrator::{FirstHit, Integrator, Radiance, RayCounter, Scene, first_hit};
+use irr_integrator::{Batching, Integrator, PIXEL_BATCH, Radiance, RayCounter, Scene, first_hit};
 use irr_sampling::rng::Dimensions;
-use irr_sampling::{SampleKey, correlated_multi_jitter};
+use irr_sampling::{Cmj, PixelKeys, SampleKey};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -230,48 +230,50 @@ pub struct RenderOutput {
 /// dimension 0 of the sample's key. Stratified, so pixels crossed by an edge converge faster than
 /// with independent positions, and still a function of (seed, pixel, index, spp) alone.
 pub fn raster_position(settings: &RenderSettings, x: u32, y: u32, index: u32) -> Vec2 {
-    let key = SampleKey::pixel(settings.seed, x, y, u64::from(index));
-    raster_of(settings, (x, y, index), key)
+    PixelSampler::new(settings, (x, y)).raster(index).0
 }
 
-/// [`raster_position`] of sample `index` of pixel (x, y), whose key is `key`.
-fn raster_of(settings: &RenderSettings, (x, y, index): (u32, u32, u32), key: SampleKey) -> Vec2 {
-    let pattern = SampleKey::pixel(settings.seed, x, y, u64::MAX).bits(0) as u32;
-    let u = correlated_multi_jitter(index, settings.spp, pattern, key.uniform_2d(0));
-    Vec2::new(x as f32, y as f32) + u
+/// What the samples of one pixel share: their keys' hash prefix and their jitter pattern, each
+/// computed once per pixel rather than once per sample (the same values, bit for bit).
+#[derive(Clone, Copy, Debug)]
+struct PixelSampler {
+    origin: Vec2,
+    keys: PixelKeys,
+    pattern: Cmj,
 }
 
-/// The camera ray of sample `index` of pixel (x, y), its distance from the centre of projection
-/// to its origin, and the sample's dimensions from 1 on, the integrator's (one key for both).
-fn camera_sample(
-    camera: &Camera,
-    settings: &RenderSettings,
-    (x, y, index): (u32, u32, u32),
-) -> (Ray, f32, Dimensions) {
-    let key = SampleKey::pixel(settings.seed, x, y, u64::from(index));
-    // Dimension 0: the point inside the pixel (box filter).
-    let raster = raster_of(settings, (x, y, index), key);
-    let r = camera.ray(raster, settings.width, settings.height);
-    let ray = Ray {
-        origin: r.origin,
-        direction: r.direction,
-        t_max: r.t_max,
-    };
-    (ray, r.origin_distance, Dimensions::starting_at(key, 1))
-}
+impl PixelSampler {
+    fn new(settings: &RenderSettings, (x, y): (u32, u32)) -> Self {
+        let pattern = SampleKey::pixel(settings.seed, x, y, u64::MAX).bits(0) as u32;
+        Self {
+            origin: Vec2::new(x as f32, y as f32),
+            keys: SampleKey::pixel_keys(settings.seed, x, y),
+            pattern: Cmj::new(settings.spp, pattern),
+        }
+    }
 
-/// One sample of one pixel: the radiance along the camera ray through a uniformly chosen point
-/// of the pixel. Non-finite results are returned as they are (the caller counts them).
-fn sample(
-    scene: &Scene,
-    camera: &Camera,
-    integrator: &dyn Integrator,
-    settings: &RenderSettings,
-    (x, y, index): (u32, u32, u32),
-    rays: &mut RayCounter,
-) -> Vec3 {
-    let (ray, _, mut dims) = camera_sample(camera, settings, (x, y, index));
-    integrator.li(scene, &ray, &mut dims, rays)
+    /// Sample `index`'s raster position ([`raster_position`]) and key.
+    #[inline]
+    fn raster(&self, index: u32) -> (Vec2, SampleKey) {
+        let key = self.keys.sample(u64::from(index));
+        // Dimension 0: the point inside the pixel (box filter).
+        let u = self.pattern.point(index, key.uniform_2d(0));
+        (self.origin + u, key)
+    }
+
+    /// The camera ray of sample `index`, its distance from the centre of projection to its
+    /// origin, and the sample's dimensions from 1 on, the integrator's (one key for both).
+    #[inline]
+    fn camera_sample(&self, projection: &Projection, index: u32) -> (Ray, f32, Dimensions) {
+        let (raster, key) = self.raster(index);
+        let r = projection.ray(raster);
+        let ray = Ray {
+            origin: r.origin,
+            direction: r.direction,
+            t_max: r.t_max,
+        };
+        (ray, r.origin_distance, Dimensions::starting_at(key, 1))
+    }
 }
 
 /// What the AOVs need of each sample.
@@ -292,37 +294,33 @@ impl Wants {
     }
 }
 
-/// One sample with what the AOVs need: the colour (`li`, or the split's total when the split is
-/// wanted: the same value bit for bit), the split, and the first hit with its distance from the
-/// centre of projection.
-fn sample_with_aovs(
-    scene: &Scene,
+/// The camera rays of samples `indices` of pixel (x, y), their distances from the centre of
+/// projection to their origins, and their dimensions from 1 on, into the three vectors
+/// (cleared first).
+fn pixel_batch(
     camera: &Camera,
-    integrator: &dyn Integrator,
     settings: &RenderSettings,
-    wants: Wants,
-    (x, y, index): (u32, u32, u32),
-    rays: &mut RayCounter,
-) -> (Radiance, Option<FirstHit>) {
-    let (ray, origin_distance, mut dims) = camera_sample(camera, settings, (x, y, index));
-    let radiance = if wants.split {
-        integrator.li_split(scene, &ray, &mut dims, rays)
-    } else {
-        Radiance {
-            emitted: integrator.li(scene, &ray, &mut dims, rays),
-            ..Radiance::default()
-        }
-    };
-    // The first hit draws no random numbers: the integrator's estimate is unchanged.
-    let hit = wants
-        .first_hit
-        .then(|| first_hit(scene, &ray, rays))
-        .flatten()
-        .map(|h| FirstHit {
-            distance: origin_distance + h.distance,
-            ..h
-        });
-    (radiance, hit)
+    (x, y): (u32, u32),
+    indices: std::ops::Range<u32>,
+    (rays, origins, dims): (&mut Vec<Ray>, &mut Vec<f32>, &mut Vec<Dimensions>),
+) {
+    rays.clear();
+    origins.clear();
+    dims.clear();
+    let sampler = PixelSampler::new(settings, (x, y));
+    let projection = camera.projection(settings.width, settings.height);
+    for i in indices {
+        let (ray, origin, d) = sampler.camera_sample(&projection, i);
+        rays.push(ray);
+        origins.push(origin);
+        dims.push(d);
+    }
+}
+
+/// The sample indices of a pixel in the chunks a [`Batching::ByPixel`] integrator is given.
+fn pixel_chunks(spp: u32) -> impl Iterator<Item = std::ops::Range<u32>> {
+    let step = PIXEL_BATCH as u32;
+    (0..spp.div_ceil(step)).map(move |k| k * step..(k * step + step).min(spp))
 }
 
 /// Per-channel sums in f64, added to in sample order.
@@ -362,15 +360,32 @@ fn tile_pixels(
     let pixels: Vec<(u32, u32)> = (tile.y0..tile.y1)
         .flat_map(|y| (tile.x0..tile.x1).map(move |x| (x, y)))
         .collect();
+    if integrator.batching() == Batching::ByPixel {
+        let mut bad = 0;
+        let values = pixels
+            .iter()
+            .map(|&pixel| {
+                let (value, b) = pixel_radiance(scene, camera, integrator, settings, pixel, rays);
+                bad += b;
+                value
+            })
+            .collect();
+        return (values, bad);
+    }
     let mut sums = vec![Sum3::default(); pixels.len()];
     let mut bad = 0;
     let (mut camera_rays, mut dims) = (Vec::new(), Vec::new());
     let mut out = vec![Vec3::ZERO; pixels.len()];
+    let samplers: Vec<PixelSampler> = pixels
+        .iter()
+        .map(|&p| PixelSampler::new(settings, p))
+        .collect();
+    let projection = camera.projection(settings.width, settings.height);
     for i in 0..settings.spp {
         camera_rays.clear();
         dims.clear();
-        for &(x, y) in &pixels {
-            let (ray, _, d) = camera_sample(camera, settings, (x, y, i));
+        for sampler in &samplers {
+            let (ray, _, d) = sampler.camera_sample(&projection, i);
             camera_rays.push(ray);
             dims.push(d);
         }
@@ -409,25 +424,54 @@ fn pixel_with_aovs(
     let (mut albedo, mut normal) = (Sum3::default(), Sum3::default());
     let (mut depth, mut hits) = (0.0f64, 0u32);
     let mut bad = 0;
-    for i in 0..settings.spp {
-        let (r, hit) =
-            sample_with_aovs(scene, camera, integrator, settings, wants, (x, y, i), rays);
-        let l = if wants.split { r.total() } else { r.emitted };
-        // A non-finite colour counts as black, in its parts too (if the sum is finite, so is
-        // every part: an infinite or NaN part makes the sum infinite or NaN).
-        if l.is_finite() {
-            colour.add(l);
-            emitted.add(r.emitted);
-            direct.add(r.direct);
-            indirect.add(r.indirect);
+    let (mut camera_rays, mut origins, mut dims) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut split, mut plain) = (Vec::new(), Vec::new());
+    for chunk in sample_chunks(integrator, settings.spp) {
+        pixel_batch(
+            camera,
+            settings,
+            (x, y),
+            chunk,
+            (&mut camera_rays, &mut origins, &mut dims),
+        );
+        // The colour from the split when the split is wanted (the same bits as `li_many`'s),
+        // from `li_many` otherwise.
+        split.clear();
+        if wants.split {
+            split.resize(camera_rays.len(), Radiance::default());
+            integrator.li_split_many(scene, &camera_rays, &mut dims, &mut split, rays);
         } else {
-            bad += 1;
+            plain.clear();
+            plain.resize(camera_rays.len(), Vec3::ZERO);
+            integrator.li_many(scene, &camera_rays, &mut dims, &mut plain, rays);
+            split.extend(plain.iter().map(|&l| Radiance {
+                emitted: l,
+                ..Radiance::default()
+            }));
         }
-        if let Some(h) = hit {
-            albedo.add(h.albedo);
-            normal.add(h.normal);
-            depth += f64::from(h.distance);
-            hits += 1;
+        for ((r, ray), origin) in split.iter().zip(&camera_rays).zip(&origins) {
+            let l = if wants.split { r.total() } else { r.emitted };
+            // A non-finite colour counts as black, in its parts too (if the sum is finite, so
+            // is every part: an infinite or NaN part makes the sum infinite or NaN).
+            if l.is_finite() {
+                colour.add(l);
+                emitted.add(r.emitted);
+                direct.add(r.direct);
+                indirect.add(r.indirect);
+            } else {
+                bad += 1;
+            }
+            // The first hit draws no random numbers: the integrator's estimate is unchanged.
+            if let Some(h) = wants
+                .first_hit
+                .then(|| first_hit(scene, ray, rays))
+                .flatten()
+            {
+                albedo.add(h.albedo);
+                normal.add(h.normal);
+                depth += f64::from(origin + h.distance);
+                hits += 1;
+            }
         }
     }
     let n = f64::from(settings.spp);
@@ -443,6 +487,70 @@ fn pixel_with_aovs(
         });
     }
     (colour.mean(n), bad)
+}
+
+/// How a pixel's sample indices are handed to `integrator` when its samples are computed pixel
+/// by pixel (with AOVs, or to replay one): in [`PIXEL_BATCH`] chunks for a
+/// [`Batching::ByPixel`] integrator, one at a time for the others (whose answers are each ray's
+/// alone, so the tiles' batches of one index give the same).
+fn sample_chunks(
+    integrator: &dyn Integrator,
+    spp: u32,
+) -> Box<dyn Iterator<Item = std::ops::Range<u32>>> {
+    match integrator.batching() {
+        Batching::ByPixel => Box::new(pixel_chunks(spp)),
+        Batching::BySampleIndex => Box::new((0..spp).map(|i| i..i + 1)),
+    }
+}
+
+/// Calls `f` with every sample's radiance of pixel (x, y), in index order, as the tiles
+/// compute it.
+fn for_each_sample(
+    scene: &Scene,
+    camera: &Camera,
+    integrator: &dyn Integrator,
+    settings: &RenderSettings,
+    pixel: (u32, u32),
+    rays: &mut RayCounter,
+    mut f: impl FnMut(Vec3),
+) {
+    let (mut camera_rays, mut origins, mut dims) = (Vec::new(), Vec::new(), Vec::new());
+    let mut out = Vec::new();
+    for chunk in sample_chunks(integrator, settings.spp) {
+        pixel_batch(
+            camera,
+            settings,
+            pixel,
+            chunk,
+            (&mut camera_rays, &mut origins, &mut dims),
+        );
+        out.clear();
+        out.resize(camera_rays.len(), Vec3::ZERO);
+        integrator.li_many(scene, &camera_rays, &mut dims, &mut out, rays);
+        out.iter().copied().for_each(&mut f);
+    }
+}
+
+/// A pixel's value from its samples (summed in index order in f64, non-finite ones counted and
+/// left out) and the number of non-finite samples.
+fn pixel_radiance(
+    scene: &Scene,
+    camera: &Camera,
+    integrator: &dyn Integrator,
+    settings: &RenderSettings,
+    pixel: (u32, u32),
+    rays: &mut RayCounter,
+) -> (Vec3, u64) {
+    let mut sum = Sum3::default();
+    let mut bad = 0;
+    for_each_sample(scene, camera, integrator, settings, pixel, rays, |l| {
+        if l.is_finite() {
+            sum.add(l);
+        } else {
+            bad += 1;
+        }
+    });
+    (sum.mean(f64::from(settings.spp)), bad)
 }
 
 /// A rectangle of pixels `[x0, x1) × [y0, y1)`.
@@ -635,9 +743,17 @@ pub fn pixel_samples(
         });
     }
     let mut rays = RayCounter::default();
-    Ok((0..settings.spp)
-        .map(|i| sample(scene, camera, integrator, settings, (x, y, i), &mut rays))
-        .collect())
+    let mut samples = Vec::new();
+    for_each_sample(
+        scene,
+        camera,
+        integrator,
+        settings,
+        (x, y),
+        &mut rays,
+        |l| samples.push(l),
+    );
+    Ok(samples)
 }
 
 /// The mean of samples as [`render`] forms a pixel: summed in index order in f64, non-finite

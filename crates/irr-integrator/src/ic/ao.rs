@@ -1,7 +1,9 @@
 //! Ambient occlusion through the irradiance cache's machinery (scalar records).
 
 use super::FALLBACK_STREAM;
-use super::builder::{CacheBuilder, Candidate, CommitStats, Probe, forward_to_core};
+use super::builder::{
+    CacheBuilder, Candidate, CommitStats, FinalPassMisses, Probe, forward_to_core,
+};
 use super::guard::Query;
 use super::levels::{Core, display};
 use super::settings::{BounceMode, IcSettings, IcSettingsError, setting_error};
@@ -87,6 +89,7 @@ impl Integrator for CachedAmbientOcclusion {
         let a = match self.core.lookup(scene, 0, &Query::from(&x), rays) {
             Some(a) => a,
             None => {
+                self.core.misses.fetch_add(1, Ordering::Relaxed);
                 self.core.fallbacks.fetch_add(1, Ordering::Relaxed);
                 let key = SampleKey::new(dims.key().bits(dims.position()), FALLBACK_STREAM, 0);
                 self.occlusion_gather(scene, self.core.fallback_strata, &x, key, rays)

@@ -77,6 +77,16 @@ pub const PROBE_M: u32 = 4;
 /// Strata of a probe's distance-only gather along φ.
 pub const PROBE_N: u32 = 8;
 
+/// The final pass's samples that no record of the cache covered, and the gathers made for them
+/// (the irradiance cache's samples share them within a pixel, so there may be fewer).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FinalPassMisses {
+    /// Samples that no record covered.
+    pub samples: u64,
+    /// Gathers made for them.
+    pub gathers: u64,
+}
+
 /// What one commit did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct CommitStats {
@@ -111,8 +121,9 @@ pub trait CacheBuilder: Integrator + Send {
     fn levels(&self) -> u32;
 
     /// The probe of level `level` for this camera ray, or `None` when the cache already covers
-    /// the point (or the ray hits nothing). Level 0 uses the camera ray's first hit, whose pixel
-    /// footprint is `spread`·t (`spread`: the pixel's size per unit distance along the ray);
+    /// the point (or the ray hits nothing). Level 0 uses the camera ray's first hit, where a
+    /// pixel spans `spread`·t across the view (`spread`: the pixel's size per unit distance
+    /// along the ray; the record's pixel limits take its footprint on the surface from it);
     /// level L ≥ 1 the point reached by L cosine-distributed bounces. Every random number comes
     /// from `key`. Read-only: many threads call it at once.
     fn probe(
@@ -139,11 +150,15 @@ pub trait CacheBuilder: Integrator + Send {
     /// Records per level.
     fn record_counts(&self) -> Vec<usize>;
 
-    /// The final pass's shading points that no record covered (each gathered for itself).
-    fn fallback_gathers(&self) -> u64;
+    /// What the final pass found that no record covered so far.
+    fn final_pass_misses(&self) -> FinalPassMisses;
 
     /// Every level-0 record's position, radius and influence radius (for the debug view).
     fn records_for_display(&self) -> Vec<(Vec3, Vec3, f32)>;
+
+    /// The smallest influence radius a level-0 record can have, in pixels (of the footprint on
+    /// its surface): what the renderer's coverage probes must resolve.
+    fn smallest_influence_pixels(&self) -> f32;
 }
 
 /// The parts of [`CacheBuilder`] both cached integrators share, forwarded to their `core`.
@@ -174,12 +189,19 @@ macro_rules! forward_to_core {
             self.core.levels.iter().map(|l| l.cache.len()).collect()
         }
 
-        fn fallback_gathers(&self) -> u64 {
-            self.core.fallbacks.load(Ordering::Relaxed)
+        fn final_pass_misses(&self) -> FinalPassMisses {
+            FinalPassMisses {
+                samples: self.core.misses.load(Ordering::Relaxed),
+                gathers: self.core.fallbacks.load(Ordering::Relaxed),
+            }
         }
 
         fn records_for_display(&self) -> Vec<(Vec3, Vec3, f32)> {
             display(&self.core)
+        }
+
+        fn smallest_influence_pixels(&self) -> f32 {
+            self.core.smallest_influence_pixels()
         }
     };
 }

@@ -4,7 +4,6 @@
 use super::builder::{Candidate, Probe};
 use super::guard::GuardRecord;
 use super::levels::Core;
-use super::radius::HORIZON_CUT_COS;
 use super::settings::GradientMode;
 use super::value::{IcValue, to_rgb_record};
 use crate::integrator::RayCounter;
@@ -47,10 +46,9 @@ impl<V: IcValue> Core<V> {
         let mut directions = Vec::with_capacity(cells);
         let mut batch = Vec::with_capacity(cells);
         for cell in strata.cells() {
-            // Independent numbers per cell. Cell k as sample k of a per-gather Sobol sequence
-            // (as a pixel's samples are) stratified the cells' continuations too: on the
-            // Cornell box (256², defaults, five seeds) relMSE 0.94× but time 1.11×: a 2D Sobol
-            // draw costs several times a hashed one (about 130 instructions against 20).
+            // Independent hashed numbers per cell: the strata already stratify the directions,
+            // and a per-gather Sobol sequence did not pay for its cost (docs/performance.md,
+            // "Sobol sampler").
             let cell_key = SampleKey::new(seed, u64::from(cell.index(&strata)), 0);
             let local = strata.sample(cell, cell_key.uniform_2d(0));
             let w = frame.to_world(local);
@@ -64,8 +62,7 @@ impl<V: IcValue> Core<V> {
         rays.closest += batch.len() as u64;
         // A gather's rays share their origin and neighbouring cells' rays cross the same nodes:
         // one at a time in cell order (`intersect_many`) rather than as a stream, which gained
-        // nothing here (cache construction, one core, 10⁶-triangle scenes of
-        // `docs/make-huge-scene.py`: closed room 1.01×, open heightfield 0.92×).
+        // nothing here (docs/performance.md, "Batched paths").
         let mut hits = vec![None; batch.len()];
         scene.geometry().intersect_many(&batch, &mut hits);
         let above = directions.iter().filter(|d| d.2);
@@ -111,21 +108,28 @@ impl<V: IcValue> Core<V> {
         spacing: f32,
     ) -> (Record<V>, RadiusInputs, f32) {
         let variant = match self.settings.gradients {
-            GradientMode::Off | GradientMode::WardHeckbert => TranslationGradient::WardHeckbert,
-            GradientMode::KrivanekGautron => TranslationGradient::KrivanekGautron,
+            // Without gradients only E is computed.
+            GradientMode::Off => None,
+            GradientMode::WardHeckbert => Some(TranslationGradient::WardHeckbert),
+            GradientMode::KrivanekGautron => Some(TranslationGradient::KrivanekGautron),
         };
-        let g: Gradients<V::Gathered> = samples.gradients(variant).in_world(frame);
-        let (translation, rotation) = match self.settings.gradients {
-            GradientMode::Off => ([V::zero(); 3], [V::zero(); 3]),
-            _ => (
-                g.translation.map(V::from_gathered),
-                g.rotation.map(V::from_gathered),
+        let record = match variant {
+            None => Record::new(
+                x.position,
+                x.ns,
+                1.0,
+                V::from_gathered(samples.irradiance()),
             ),
+            Some(variant) => {
+                let g: Gradients<V::Gathered> = samples.gradients(variant).in_world(frame);
+                Record::new(x.position, x.ns, 1.0, V::from_gathered(g.irradiance)).with_gradients(
+                    g.translation.map(V::from_gathered),
+                    g.rotation.map(V::from_gathered),
+                )
+            }
         };
-        let record = Record::new(x.position, x.ns, 1.0, V::from_gathered(g.irradiance))
-            .with_gradients(translation, rotation);
         let inputs = RadiusInputs {
-            distance: samples.harmonic_mean_distance_above(HORIZON_CUT_COS),
+            distance: self.settings.radius_statistic.of(samples),
             limits: self.limits(level, spacing),
             neighbour_clamping: self.settings.neighbour_clamping,
         };

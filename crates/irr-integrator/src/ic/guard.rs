@@ -49,8 +49,45 @@ impl From<&ShadingPoint> for Query {
     }
 }
 
+/// What the leak guard asks before record may be used at a point.
+pub(super) enum GuardTest {
+    /// Nothing can stand between them (or the guard is off): the record may be used.
+    Pass,
+    /// The record has no guard data: it may not be used.
+    Fail,
+    /// The record may be used if this shadow ray is unoccluded.
+    Ray(Ray),
+}
+
 impl<V: IcValue> Core<V> {
-    /// Whether record `id` of `level` may be used at `q`: the leak guard.
+    /// What the guard asks before record `id` of `level` may be used at `q`.
+    pub(super) fn guard_test(
+        &self,
+        level: &Level<V>,
+        id: RecordId,
+        record: &Record<V>,
+        q: &Query,
+    ) -> GuardTest {
+        if self.settings.leak_guard == LeakGuard::Off {
+            return GuardTest::Pass;
+        }
+        let Some(guard) = level.guard.get(id as usize) else {
+            return GuardTest::Fail;
+        };
+        let d = (q.p - record.position).length();
+        if d <= 0.5 * guard.nearest_hit {
+            return GuardTest::Pass;
+        }
+        GuardTest::Ray(Ray::spawn_to(
+            record.position,
+            guard.geometric_normal,
+            q.p,
+            q.ng,
+        ))
+    }
+
+    /// Whether record `id` of `level` may be used at `q`: the leak guard, its shadow ray (if it
+    /// needs one) traced and counted in `rays`.
     pub(super) fn visible(
         &self,
         scene: &Scene,
@@ -60,19 +97,14 @@ impl<V: IcValue> Core<V> {
         q: &Query,
         rays: &mut u64,
     ) -> bool {
-        if self.settings.leak_guard == LeakGuard::Off {
-            return true;
+        match self.guard_test(level, id, record, q) {
+            GuardTest::Pass => true,
+            GuardTest::Fail => false,
+            GuardTest::Ray(ray) => {
+                *rays += 1;
+                !scene.geometry().occluded(&ray)
+            }
         }
-        let Some(guard) = level.guard.get(id as usize) else {
-            return false;
-        };
-        let d = (q.p - record.position).length();
-        if d <= 0.5 * guard.nearest_hit {
-            return true;
-        }
-        *rays += 1;
-        let ray = Ray::spawn_to(record.position, guard.geometric_normal, q.p, q.ng);
-        !scene.geometry().occluded(&ray)
     }
 }
 

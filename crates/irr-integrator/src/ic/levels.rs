@@ -34,8 +34,11 @@ pub(super) struct Core<V: IcValue> {
     pub(super) diagonal: f32,
     /// The strata of the final pass's own gathers (where no record covers a shading point): a
     /// quarter of the first level's in each direction, at least 4×8. Its estimate of E is as
-    /// unbiased as a record's, only noisier, and it is used for one sample, not interpolated.
+    /// unbiased as a record's, only noisier, and it serves one pixel only.
     pub(super) fallback_strata: HemisphereStrata,
+    /// The final pass's samples that no record of the cache covered.
+    pub(super) misses: AtomicU64,
+    /// The final pass's own gathers for them.
     pub(super) fallbacks: AtomicU64,
 }
 
@@ -56,6 +59,7 @@ impl<V: IcValue> Core<V> {
             settings,
             levels,
             diagonal: 1.0,
+            misses: AtomicU64::new(0),
             fallbacks: AtomicU64::new(0),
         })
     }

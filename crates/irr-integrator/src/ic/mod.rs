@@ -32,16 +32,17 @@
 //! leak guard), `value` (the cached value types), `ao` (cached ambient occlusion).
 
 pub use ao::CachedAmbientOcclusion;
-pub use builder::{CacheBuilder, Candidate, CommitStats, PROBE_M, PROBE_N, Probe};
+pub use builder::{CacheBuilder, Candidate, CommitStats, FinalPassMisses, PROBE_M, PROBE_N, Probe};
 pub use guard::GuardRecord;
 pub use radius::HORIZON_CUT_COS;
 pub use settings::{
     BounceMode, GradientMode, IcMetric, IcSettings, IcSettingsError, LeakGuard, MetricKind,
+    RadiusStatistic,
 };
 pub use value::IcValue;
 
-use crate::integrator::{Integrator, RayCounter};
-use crate::path::{PathSettings, PathTracer, Radiance, ShadingPoint, first_surface, sample_light};
+use crate::integrator::{Batching, Integrator, RayCounter};
+use crate::path::{PathSettings, PathTracer, Radiance, ShadingPoint, sample_light};
 use crate::scene::Scene;
 use builder::forward_to_core;
 use gather::Traced;
@@ -49,7 +50,6 @@ use glam::Vec3;
 use guard::Query;
 use irr_cache::{IrradianceCache, Rgb};
 use irr_geometry::{Ray, SurfacePoint};
-use irr_gradients::GatherSamples;
 use irr_sampling::SampleKey;
 use irr_sampling::rng::Dimensions;
 use levels::{Core, display};
@@ -63,9 +63,20 @@ mod gather;
 mod guard;
 mod levels;
 mod lookup;
+mod pixel;
 mod radius;
 mod settings;
 mod value;
+
+/// One level of a cache read back ([`IrradianceCacheIntegrator::load_levels`]): the records and,
+/// by record id, what the leak guard keeps of each.
+#[derive(Clone, Debug)]
+pub struct CachedLevel {
+    /// The records.
+    pub cache: IrradianceCache<Rgb, IcMetric>,
+    /// The leak guard's data, one entry per record.
+    pub guard: Vec<GuardRecord>,
+}
 
 /// The stream of the final pass's own gathers (see `SampleKey::new`).
 const FALLBACK_STREAM: u64 = 0x1c_fa11;
@@ -119,40 +130,53 @@ impl IrradianceCacheIntegrator {
         self.core.levels.get(level).map(|l| &l.cache)
     }
 
-    /// Replaces the first level's cache with `cache` (a persistent cache read back), each
-    /// record with the leak guard's data given beside it (by record id).
-    pub fn load_records(
-        &mut self,
-        cache: IrradianceCache<Rgb, IcMetric>,
-        guard: Vec<GuardRecord>,
-    ) -> Result<(), IcSettingsError> {
-        if guard.len() != cache.len() {
+    /// Replaces every level's cache with `levels` (a persistent cache read back), deepest last,
+    /// each record with the leak guard's data given beside it (by record id). Refused, and
+    /// nothing changed, unless there is one per level and one guard entry per record.
+    pub fn load_levels(&mut self, levels: Vec<CachedLevel>) -> Result<(), IcSettingsError> {
+        if levels.len() != self.core.levels.len() {
             return Err(setting_error(
                 "--cache",
                 format!(
-                    "{} records but {} leak-guard entries",
-                    cache.len(),
-                    guard.len()
+                    "{} cache levels, but these settings have {}",
+                    levels.len(),
+                    self.core.levels.len()
                 ),
             ));
         }
-        if let Some(l) = self.core.levels.first_mut() {
-            l.cache = cache;
-            l.guard = guard;
+        if let Some((i, l)) = levels
+            .iter()
+            .enumerate()
+            .find(|(_, l)| l.guard.len() != l.cache.len())
+        {
+            return Err(setting_error(
+                "--cache",
+                format!(
+                    "level {i}: {} records but {} leak-guard entries",
+                    l.cache.len(),
+                    l.guard.len()
+                ),
+            ));
+        }
+        for (level, read) in self.core.levels.iter_mut().zip(levels) {
+            level.cache = read.cache;
+            level.guard = read.guard;
         }
         Ok(())
     }
 
-    /// What the leak guard keeps of the first level's records, by record id.
-    pub fn guard_records(&self) -> &[GuardRecord] {
-        self.core.levels.first().map_or(&[], |l| &l.guard)
+    /// What the leak guard keeps of level `level`'s records, by record id (empty for a level
+    /// the integrator does not have).
+    pub fn guard_records(&self, level: usize) -> &[GuardRecord] {
+        self.core.levels.get(level).map_or(&[], |l| &l.guard)
     }
 
     /// The radiance along `ray` split as [`PathTracer::li_split`] splits it: `emitted` (Le of
     /// the first surface x₀), `direct` (NEE at x₀) and `indirect` ((ρ/π)·E_ind(x₀) from the
     /// cache, or from a gather of its own where no record covers x₀: not stored, the final pass
     /// only reads). Each part estimates the same light paths as the path tracer's part of the
-    /// same name (module docs).
+    /// same name (module docs). One sample alone, as a pixel of one sample (the renderer hands
+    /// the integrator a pixel's samples together: `li_split_many`, module `pixel`).
     pub fn li_split(
         &self,
         scene: &Scene,
@@ -160,49 +184,15 @@ impl IrradianceCacheIntegrator {
         dims: &mut Dimensions,
         rays: &mut RayCounter,
     ) -> Radiance {
-        let (surface, wo, emitted) = match first_surface(scene, ray, rays) {
-            Ok(first) => first,
-            Err(background) => return background,
-        };
-        // The depth counts reflections as the path tracer's does: none at depth 0, the direct
-        // light's one at depth 1, and the cache's indirect light (two or more) from depth 2 on,
-        // where the integrator has at least one cache level.
-        if self.core.settings.path.max_depth == 0 {
-            return Radiance {
-                emitted,
-                ..Radiance::default()
-            };
-        }
-        let x = ShadingPoint::new(&surface, wo);
-        // Direct light: NEE at x₀.
-        let direct = direct_nee(scene, &x, self.core.settings.direct_samples, dims, rays);
-        // The cache holds irradiance, so the (textured) albedo of x₀ itself multiplies it,
-        // never a record's.
-        let albedo = scene.albedo(x.triangle, x.b1, x.b2);
-        if albedo == Vec3::ZERO || self.core.levels.is_empty() {
-            return Radiance {
-                emitted,
-                direct,
-                indirect: Vec3::ZERO,
-            };
-        }
-        let e = match self.core.lookup(scene, 0, &Query::from(&x), rays) {
-            Some(e) => e.to_gathered(),
-            None => {
-                // The fallback gather's own key: a hash of this sample's key and the cursor's
-                // position, so it depends only on the sample (the pixel, the index, the seed).
-                let key = SampleKey::new(dims.key().bits(dims.position()), FALLBACK_STREAM, 0);
-                self.core.fallbacks.fetch_add(1, Ordering::Relaxed);
-                self.gather_irradiance(scene, 0, &x, key, rays)
-                    .map(|g| g.irradiance())
-                    .unwrap_or(Vec3::ZERO)
-            }
-        };
-        Radiance {
-            emitted,
-            direct,
-            indirect: albedo * FRAC_1_PI * e,
-        }
+        let mut out = [Radiance::default()];
+        self.li_split_pixel(
+            scene,
+            std::slice::from_ref(ray),
+            std::slice::from_mut(dims),
+            &mut out,
+            rays,
+        );
+        out[0]
     }
 
     /// What the gather rays of `level` bring back ([`IrradianceCacheIntegrator::gather_radiance`]
@@ -300,27 +290,6 @@ impl IrradianceCacheIntegrator {
             }
         }
     }
-
-    /// E_ind at x for `level` by a gather of its own (the fallback of the final pass).
-    fn gather_irradiance(
-        &self,
-        scene: &Scene,
-        level: usize,
-        x: &ShadingPoint,
-        key: SampleKey,
-        rays: &mut RayCounter,
-    ) -> Option<GatherSamples<Vec3>> {
-        self.core
-            .gather(
-                scene,
-                self.core.fallback_strata,
-                x,
-                key,
-                rays,
-                |traced, rays| self.gather_radiances(scene, level, traced, rays),
-            )
-            .map(|(g, _)| g)
-    }
 }
 
 impl Integrator for IrradianceCacheIntegrator {
@@ -344,6 +313,37 @@ impl Integrator for IrradianceCacheIntegrator {
         rays: &mut RayCounter,
     ) -> Radiance {
         IrradianceCacheIntegrator::li_split(self, scene, ray, dims, rays)
+    }
+
+    /// A pixel's samples share their cache lookups (module `pixel`).
+    fn batching(&self) -> Batching {
+        Batching::ByPixel
+    }
+
+    fn li_many(
+        &self,
+        scene: &Scene,
+        camera_rays: &[Ray],
+        dims: &mut [Dimensions],
+        out: &mut [Vec3],
+        rays: &mut RayCounter,
+    ) {
+        let mut split = vec![Radiance::default(); camera_rays.len()];
+        self.li_split_pixel(scene, camera_rays, dims, &mut split, rays);
+        for (o, s) in out.iter_mut().zip(split) {
+            *o = s.total();
+        }
+    }
+
+    fn li_split_many(
+        &self,
+        scene: &Scene,
+        camera_rays: &[Ray],
+        dims: &mut [Dimensions],
+        out: &mut [Radiance],
+        rays: &mut RayCounter,
+    ) {
+        self.li_split_pixel(scene, camera_rays, dims, out, rays);
     }
 }
 

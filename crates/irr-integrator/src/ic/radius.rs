@@ -4,6 +4,7 @@
 use super::builder::{PROBE_M, PROBE_N, Probe};
 use super::guard::Query;
 use super::levels::Core;
+use super::settings::RadiusStatistic;
 use super::value::IcValue;
 use crate::integrator::RayCounter;
 use crate::scene::Scene;
@@ -23,13 +24,42 @@ impl<V: IcValue> Core<V> {
             min: self.settings.world_min * self.diagonal,
             max: (self.settings.world_max * self.diagonal).max(f32::MIN_POSITIVE),
         };
-        if level > 0 {
+        let Some(pixel) = self.pixel_limits(level, spacing) else {
             return world;
-        }
-        let pixel = self.levels[0].cache.metric().radius_limits(spacing);
+        };
         let max = pixel.max.min(world.max);
         let min = pixel.min.max(world.min).min(max);
         RadiusLimits { min, max }
+    }
+
+    /// The pixel limits of level `level` at `spacing`. Level 0: the metric's, raised to the
+    /// influence floor, which keeps every sphere of influence at least `influence_floor` pixels
+    /// wide (both metrics' influence is proportional to the radius), so that the repair passes'
+    /// probes, a fraction of a pixel apart, leave no gap between records for the final pass's
+    /// samples to fall into. A deeper level is not seen by the camera: its limits are those of
+    /// a view [`DEEP_RESOLUTION`] pixels across the scene's diagonal, whatever the image's size.
+    fn pixel_limits(&self, level: u32, spacing: f32) -> Option<RadiusLimits> {
+        if level > 0 {
+            let metric = self.levels.get(level as usize)?.cache.metric();
+            return Some(metric.radius_limits(self.diagonal / DEEP_RESOLUTION));
+        }
+        let metric = self.levels.first()?.cache.metric();
+        let mut pixel = metric.radius_limits(spacing);
+        let floor = self.settings.influence_floor * spacing / metric.influence_radius(1.0);
+        if floor.is_finite() && floor > pixel.min {
+            pixel.min = floor;
+            pixel.max = pixel.max.max(floor);
+        }
+        Some(pixel)
+    }
+
+    /// See [`CacheBuilder::smallest_influence_pixels`].
+    pub(super) fn smallest_influence_pixels(&self) -> f32 {
+        // The level-0 pixel limits at a spacing of one unit are in pixels.
+        match (self.levels.first(), self.pixel_limits(0, 1.0)) {
+            (Some(l), Some(pixel)) => l.cache.metric().influence_radius(pixel.min),
+            _ => 0.0,
+        }
     }
 
     /// See [`CacheBuilder::probe`].
@@ -57,8 +87,8 @@ impl<V: IcValue> Core<V> {
         if covered {
             return None;
         }
-        // The predicted radius: the harmonic mean distance of a coarse distance-only gather
-        // (as the full gather will compute it), the neighbours' first-half clamp and the limits.
+        // The predicted radius: the distance statistic of a coarse distance-only gather (as the
+        // full gather will compute it), the neighbours' first-half clamp and the limits.
         let mut spent = RayCounter::default();
         let strata = HemisphereStrata::new(PROBE_M, PROBE_N).ok()?;
         let frame = Frame::from_normal(x.ns);
@@ -79,19 +109,20 @@ impl<V: IcValue> Core<V> {
         spent.closest += u64::from(count);
         let mut hits = vec![None; batch.len()];
         scene.geometry().intersect_many(&batch, &mut hits);
-        let mut inv_sum = 0.0f64;
+        let (mut inv_sum, mut nearest) = (0.0f64, f32::INFINITY);
         for (r, hit) in batch.iter().zip(hits) {
             if let Some(hit) = hit {
                 let d = (scene.geometry().surface(r, &hit).position - x.position).length();
                 inv_sum += 1.0 / f64::from(d.max(f32::MIN_POSITIVE));
+                nearest = nearest.min(d);
             }
         }
-        let spacing = spread * t;
+        let spacing = surface_spacing(spread * t, ray.direction, x.ng);
         let limits = self.limits(level, spacing);
-        let h = if inv_sum > 0.0 {
-            (f64::from(count) / inv_sum) as f32
-        } else {
-            limits.max
+        let h = match self.settings.radius_statistic {
+            _ if inv_sum == 0.0 => limits.max,
+            RadiusStatistic::HarmonicMean => (f64::from(count) / inv_sum) as f32,
+            RadiusStatistic::Minimum => nearest,
         };
         let mut g = h.min(limits.max);
         if self.settings.neighbour_clamping {
@@ -109,4 +140,22 @@ impl<V: IcValue> Core<V> {
             rays: spent,
         })
     }
+}
+
+/// The resolution (pixels across the scene's bounding-box diagonal) whose pixel limits size the
+/// records of the levels below the first: their density does not depend on the image's size.
+pub const DEEP_RESOLUTION: f32 = 512.0;
+
+/// The smallest cosine of the angle between the view and the surface that [`surface_spacing`]
+/// takes: beyond ~89°, a pixel's footprint is a sliver whose area says little about its width.
+const MIN_FOOTPRINT_COS: f32 = 1.0 / 64.0;
+
+/// The size of a pixel's footprint on the surface, as pbrt-v2 sizes it: √(area of the
+/// footprint), where a pixel spanning `perpendicular` across the view covers an area
+/// `perpendicular`²/cos θ of a surface seen at θ from its normal `ng`. So a record of radius
+/// k·spacing covers the same screen area (πk² pixels) on a grazing floor as on a wall facing the
+/// camera: along the slant its projection shrinks by cos θ, across it grows by 1/√cos θ.
+pub(super) fn surface_spacing(perpendicular: f32, view: Vec3, ng: Vec3) -> f32 {
+    let cos = (view.normalize_or_zero().dot(ng.normalize_or_zero())).abs();
+    perpendicular / cos.max(MIN_FOOTPRINT_COS).sqrt()
 }

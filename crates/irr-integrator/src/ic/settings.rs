@@ -1,6 +1,7 @@
 //! The cache integrators' settings: the metric, the gathers, the radius limits, the bounce mode
 //! and the leak guard, each with its range (`IcSettings::validate`).
 
+use super::radius::HORIZON_CUT_COS;
 use crate::path::PathSettings;
 use irr_cache::{ErrorMetric, MetricError, PixelRange, RadiusLimits, TabellionLamorlette, Ward};
 use irr_sampling::HemisphereStrata;
@@ -60,14 +61,40 @@ pub enum GradientMode {
     KrivanekGautron,
 }
 
+/// Which statistic of a gather's hit distances sizes its record (the hits more than 10° above
+/// the horizon, [`crate::ic::HORIZON_CUT_COS`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum RadiusStatistic {
+    /// The harmonic mean (Ward et al. 1988; Radiance).
+    #[default]
+    HarmonicMean,
+    /// The minimum (Tabellion & Lamorlette 2004; Mitsuba 0.6): never larger than the harmonic
+    /// mean, so records near occluders are smaller.
+    Minimum,
+}
+
+impl RadiusStatistic {
+    /// The statistic of `samples`' hit distances above the horizon cut (+∞ when none hit).
+    pub fn of<V: irr_gradients::GatherValue>(
+        self,
+        samples: &irr_gradients::GatherSamples<V>,
+    ) -> f32 {
+        match self {
+            Self::HarmonicMean => samples.harmonic_mean_distance_above(HORIZON_CUT_COS),
+            Self::Minimum => samples.min_distance_above(HORIZON_CUT_COS),
+        }
+    }
+}
+
 /// What a gather ray brings back beyond the direct light at its hit.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum BounceMode {
     /// The hit point's own indirect light by a path-traced continuation (unbiased).
-    #[default]
     PathTraced,
     /// The hit point's indirect light from the cache of the next bounce level (Radiance's
-    /// `-ab`); the deepest level path-traces the rest.
+    /// `-ab`); the deepest level path-traces the rest. The default: its gathers are smoother
+    /// (an interpolated value where a path-traced one is a single noisy path).
+    #[default]
     Cached,
 }
 
@@ -92,11 +119,9 @@ pub struct IcSettings {
     pub error: f32,
     /// M, strata along θ of a first-level gather. Default: 12. Range: ≥ 1 (M·N ≤ 2²⁰).
     ///
-    /// The defaults (κ = 1, 12×48, with 64 camera samples per pixel in `cargo xtask render`)
-    /// were chosen by `cargo xtask compare` on the Cornell box at 128×128 against a 4096-spp
-    /// path-traced reference: relMSE 3.2e-4 in 5.2 s (2 loaded cores), where 8×32 gave 4.8e-4
-    /// in 3.7 s, and the path tracer needs about 670 spp (≈ 22 s) for 3.2e-4. See the closing
-    /// note of the integrator issue and docs/compare.md.
+    /// The defaults (κ = 1, 12×48, one cached bounce, 2 light samples, with 36 camera samples
+    /// per pixel in the `irr` command) were chosen by measurement on the Cornell box at 256²:
+    /// see docs/performance.md, "The cache's defaults".
     pub strata_m: u32,
     /// N, strata along φ. Default: 48. Range: ≥ 1.
     pub strata_n: u32,
@@ -105,6 +130,13 @@ pub struct IcSettings {
     pub pixel_min: f32,
     /// Largest record radius scale on screen, in pixels. Default: 10. Range: ≥ `pixel_min`.
     pub pixel_max: f32,
+    /// Smallest influence radius of a record on screen, in pixels: records are never denser
+    /// than that, so the construction's repair passes, which probe a fraction of a pixel apart,
+    /// cover every point the final pass's samples land on (at high κ, or Ward's a ≤ 0.1, the
+    /// pixel limits alone allow records far smaller than a pixel). Default: 1.25 (see
+    /// docs/performance.md, "Covering what the final pass asks"). Range: [0, ∞); 0 turns it
+    /// off.
+    pub influence_floor: f32,
     /// Largest record radius in world units, as a fraction of the scene's bounding-box diagonal
     /// (also the radius of a record whose gather hit nothing). Default: 0.25. Range: (0, ∞).
     pub world_max: f32,
@@ -113,11 +145,15 @@ pub struct IcSettings {
     pub world_min: f32,
     /// The translation gradient. Default: Ward & Heckbert.
     pub gradients: GradientMode,
+    /// The statistic of a gather's hit distances that sizes its record. Default: the harmonic
+    /// mean.
+    pub radius_statistic: RadiusStatistic,
     /// Neighbour clamping (Křivánek et al. 2006). Default: on.
     pub neighbour_clamping: bool,
     /// The leak guard. Default: visibility.
     pub leak_guard: LeakGuard,
-    /// What a gather ray brings back. Default: path-traced.
+    /// What a gather ray brings back. Default: cached (one level below the first, whose
+    /// gathers path-trace the rest).
     pub bounce_mode: BounceMode,
     /// With [`BounceMode::Cached`]: how many cache levels below the first (≥ 1). Default: 1.
     pub cached_bounces: u32,
@@ -125,13 +161,11 @@ pub struct IcSettings {
     /// factor (κ divided, a multiplied) and its strata halved in each direction (at least 4×8),
     /// as Radiance loosens its accuracy per bounce. Default: 2. Range: ≥ 1.
     pub level_loosening: f32,
-    /// Light samples (NEE) per camera hit for the direct light. Default: 1. Range: ≥ 1.
+    /// Light samples (NEE) per camera hit for the direct light. Default: 2. Range: ≥ 1.
     pub direct_samples: u32,
-    /// Construction also checks every camera sample's own hit (not only pixel centres), so the
-    /// final pass almost never gathers for itself. Default: off. Measured on the Cornell box at
-    /// 128×128, 64 spp: 4.25 s and relMSE 3.24e-4 with it (1988 records), 3.77 s and 3.28e-4
-    /// without (1015 records), the final pass's own gathers (1 % of samples, at a quarter of the
-    /// strata each way) costing less than checking every sample during construction.
+    /// Construction also probes every camera sample's own hit (not only the repair passes'
+    /// lattice), so the final pass almost never gathers for itself, at the cost of a probe per
+    /// sample. Default: off.
     pub fill_samples: bool,
     /// The path tracer of continuations and of the fallback.
     pub path: PathSettings,
@@ -146,15 +180,17 @@ impl Default for IcSettings {
             strata_n: 48,
             pixel_min: 1.5,
             pixel_max: 10.0,
+            influence_floor: 1.25,
             world_max: 0.25,
             world_min: 1e-4,
             gradients: GradientMode::WardHeckbert,
+            radius_statistic: RadiusStatistic::HarmonicMean,
             neighbour_clamping: true,
             leak_guard: LeakGuard::Visibility,
-            bounce_mode: BounceMode::PathTraced,
+            bounce_mode: BounceMode::Cached,
             cached_bounces: 1,
             level_loosening: 2.0,
-            direct_samples: 1,
+            direct_samples: 2,
             fill_samples: false,
             path: PathSettings::default(),
         }
@@ -190,6 +226,15 @@ impl IcSettings {
         })?;
         PixelRange::new(self.pixel_min, self.pixel_max)
             .map_err(|e| setting_error("--pixel-spacing", e.to_string()))?;
+        if !(self.influence_floor.is_finite() && self.influence_floor >= 0.0) {
+            return Err(setting_error(
+                "--influence-floor",
+                format!(
+                    "must be finite and non-negative, got {}",
+                    self.influence_floor
+                ),
+            ));
+        }
         if !(self.world_max.is_finite() && self.world_max > 0.0) {
             return Err(setting_error(
                 "--world-max",

@@ -1,0 +1,259 @@
+//! The final pass a pixel at a time ([`crate::Batching::ByPixel`]): a pixel's samples share one
+//! walk of the octree, the leak guard's answers, and the gathers of the points no record
+//! covers.
+//!
+//! - **One walk**: the records whose spheres meet the box of the pixel's shading points are
+//!   found once (`IrradianceCache::records_meeting_box`); each sample then weighs only those
+//!   (`interpolate_among`: the same records and weights as its own octree query, summed in
+//!   index order). A pixel whose points spread far (a silhouette between near and far
+//!   surfaces) meets many records; past [`MAX_NEARBY`] its samples query the octree each.
+//! - **The guard's answers**: a record's shadow ray is traced once per pixel and surface (the
+//!   triangle the sample hit), for the first sample that needs it; the pixel's later samples on
+//!   that triangle reuse the answer. Within a pixel the points of one surface lie a pixel's
+//!   footprint apart, far closer than the record they look at.
+//! - **Shared gathers**: a sample that no record covers gets a gather of its own, as a record
+//!   of the pixel alone (never stored in the cache, which the final pass only reads); the
+//!   pixel's later samples that this record covers interpolate it instead of gathering again.
+//!
+//! Everything a sample gets depends on its pixel's samples before it, in index order, and on
+//! the cache: the image is the same whatever the thread count, and `--debug-pixel` replays a
+//! pixel exactly.
+
+use super::guard::{GuardRecord, GuardTest, Query};
+use super::levels::Level;
+use super::{FALLBACK_STREAM, IrradianceCacheIntegrator, direct_nee};
+use crate::integrator::RayCounter;
+use crate::path::{Radiance, ShadingPoint, first_surface};
+use crate::scene::Scene;
+use glam::Vec3;
+use irr_cache::{IrradianceCache, NearbyRecord, Record, RecordId, Rgb};
+use irr_geometry::Ray;
+use irr_sampling::SampleKey;
+use irr_sampling::rng::Dimensions;
+use std::f32::consts::FRAC_1_PI;
+use std::sync::atomic::Ordering;
+
+/// The most records a pixel's samples weigh from one walk of the octree; past it, each sample
+/// queries the octree itself (the same records, in the octree's order).
+pub const MAX_NEARBY: usize = 256;
+
+/// A sample waiting for its indirect light: its index in the batch, its shading point and
+/// albedo, and what it has so far.
+struct Pending {
+    index: usize,
+    x: ShadingPoint,
+    albedo: Vec3,
+    partial: Radiance,
+}
+
+/// The leak guard's answers within one pixel: (record, triangle the sample hit, visible).
+#[derive(Default)]
+struct GuardMemo(Vec<(RecordId, u32, bool)>);
+
+impl GuardMemo {
+    /// The memoised answer for `id` seen from `triangle`, or `answer()` (then memoised).
+    fn get(&mut self, id: RecordId, triangle: u32, answer: impl FnOnce() -> bool) -> bool {
+        if let Some(&(_, _, v)) = self.0.iter().find(|e| e.0 == id && e.1 == triangle) {
+            return v;
+        }
+        let v = answer();
+        self.0.push((id, triangle, v));
+        v
+    }
+}
+
+impl IrradianceCacheIntegrator {
+    /// [`IrradianceCacheIntegrator::li_split`] for the samples of one pixel (see the module
+    /// docs): `out[i]` for `camera_rays[i]`, with `dims[i]`.
+    pub(super) fn li_split_pixel(
+        &self,
+        scene: &Scene,
+        camera_rays: &[Ray],
+        dims: &mut [Dimensions],
+        out: &mut [Radiance],
+        rays: &mut RayCounter,
+    ) {
+        assert!(
+            camera_rays.len() == dims.len() && dims.len() == out.len(),
+            "one dimension stream and one answer per ray"
+        );
+        // Emission and direct light, sample by sample; the samples that need the cache wait.
+        let mut pending = Vec::with_capacity(camera_rays.len());
+        for (index, ((ray, d), o)) in camera_rays
+            .iter()
+            .zip(dims.iter_mut())
+            .zip(out.iter_mut())
+            .enumerate()
+        {
+            let (surface, wo, emitted) = match first_surface(scene, ray, rays) {
+                Ok(first) => first,
+                Err(background) => {
+                    *o = background;
+                    continue;
+                }
+            };
+            // The depth counts reflections as the path tracer's does: none at depth 0, the
+            // direct light's one at depth 1, and the cache's indirect light (two or more) from
+            // depth 2 on, where the integrator has at least one cache level.
+            if self.core.settings.path.max_depth == 0 {
+                *o = Radiance {
+                    emitted,
+                    ..Radiance::default()
+                };
+                continue;
+            }
+            let x = ShadingPoint::new(&surface, wo);
+            // Direct light: NEE at x₀.
+            let direct = direct_nee(scene, &x, self.core.settings.direct_samples, d, rays);
+            *o = Radiance {
+                emitted,
+                direct,
+                indirect: Vec3::ZERO,
+            };
+            // The cache holds irradiance, so the (textured) albedo of x₀ itself multiplies it,
+            // never a record's.
+            let albedo = scene.albedo(x.triangle, x.b1, x.b2);
+            if albedo != Vec3::ZERO && !self.core.levels.is_empty() {
+                pending.push(Pending {
+                    index,
+                    x,
+                    albedo,
+                    partial: *o,
+                });
+            }
+        }
+        let Some(level) = self.core.levels.first() else {
+            return;
+        };
+        if pending.is_empty() {
+            return;
+        }
+        // One walk of the octree for the pixel.
+        let (lo, hi) = pending.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(p.x.position), hi.max(p.x.position)),
+        );
+        let mut nearby = Vec::new();
+        level.cache.records_meeting_box(lo, hi, &mut nearby);
+        let walked = nearby.len() <= MAX_NEARBY;
+        let mut memo = GuardMemo::default();
+        let mut local: Option<Level<Rgb>> = None;
+        let mut guard_rays = 0;
+        for p in pending {
+            let q = Query::from(&p.x);
+            let shared = self.lookup_in_pixel(
+                scene,
+                level,
+                walked.then_some(nearby.as_slice()),
+                &q,
+                p.x.triangle,
+                &mut memo,
+                &mut guard_rays,
+            );
+            let e = match shared {
+                Some(e) => e,
+                None => {
+                    self.core.misses.fetch_add(1, Ordering::Relaxed);
+                    self.local_irradiance(scene, &mut local, &p.x, &mut dims[p.index], rays)
+                }
+            };
+            out[p.index] = Radiance {
+                indirect: p.albedo * FRAC_1_PI * e,
+                ..p.partial
+            };
+        }
+        rays.shadow += guard_rays;
+    }
+
+    /// The first level's interpolated irradiance at `q`, from the records `nearby` (or, when
+    /// `None`, from the octree's own query), with the leak guard's answers shared through `memo`.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the pixel's shared state (records, memo, counter) beside the query"
+    )]
+    fn lookup_in_pixel(
+        &self,
+        scene: &Scene,
+        level: &Level<Rgb>,
+        nearby: Option<&[NearbyRecord]>,
+        q: &Query,
+        triangle: u32,
+        memo: &mut GuardMemo,
+        guard_rays: &mut u64,
+    ) -> Option<Vec3> {
+        let mut accept = |id: RecordId, r: &Record<Rgb>| match self.core.guard_test(level, id, r, q)
+        {
+            GuardTest::Pass => true,
+            GuardTest::Fail => false,
+            GuardTest::Ray(ray) => memo.get(id, triangle, || {
+                *guard_rays += 1;
+                !scene.geometry().occluded(&ray)
+            }),
+        };
+        let found = match nearby {
+            Some(nearby) => level
+                .cache
+                .interpolate_among(nearby, q.p, q.ns, &mut accept),
+            None => level.cache.interpolate_filtered(q.p, q.ns, &mut accept),
+        };
+        found.map(|i| Vec3::from_array(i.value.0))
+    }
+
+    /// The irradiance at `x`, which no record of the cache covers: from the pixel's own records
+    /// (`local`) if one covers it, else from a gather of its own, which becomes one of them.
+    fn local_irradiance(
+        &self,
+        scene: &Scene,
+        local: &mut Option<Level<Rgb>>,
+        x: &ShadingPoint,
+        dims: &mut Dimensions,
+        rays: &mut RayCounter,
+    ) -> Vec3 {
+        let q = Query::from(x);
+        if let Some(l) = local.as_ref() {
+            let mut guard = 0;
+            let e = l
+                .cache
+                .interpolate_filtered(q.p, q.ns, |id, r| {
+                    self.core.visible(scene, l, id, r, &q, &mut guard)
+                })
+                .map(|i| Vec3::from_array(i.value.0));
+            rays.shadow += guard;
+            if let Some(e) = e {
+                return e;
+            }
+        }
+        // The fallback gather's own key: a hash of this sample's key and the cursor's position,
+        // so it depends only on the sample (the pixel, the index, the seed).
+        let key = SampleKey::new(dims.key().bits(dims.position()), FALLBACK_STREAM, 0);
+        self.core.fallbacks.fetch_add(1, Ordering::Relaxed);
+        let Some((samples, frame)) = self.core.gather(
+            scene,
+            self.core.fallback_strata,
+            x,
+            key,
+            rays,
+            |traced, r| self.gather_radiances(scene, 0, traced, r),
+        ) else {
+            return Vec3::ZERO;
+        };
+        // The pixel's record: sized by its gather and the world limits (the final pass knows no
+        // pixel footprint; the record serves this pixel's samples only).
+        let (record, inputs, nearest_hit) = self.core.record_from(0, x, &samples, &frame, 0.0);
+        let e = Vec3::from_array(record.value.0);
+        if let Some(first) = self.core.levels.first() {
+            let l = local.get_or_insert_with(|| Level {
+                cache: IrradianceCache::new(*first.cache.metric()),
+                guard: Vec::new(),
+                strata: self.core.fallback_strata,
+            });
+            if l.cache.insert_with_radius(record, &inputs).is_ok() {
+                l.guard.push(GuardRecord {
+                    nearest_hit,
+                    geometric_normal: x.ng,
+                });
+            }
+        }
+        e
+    }
+}
