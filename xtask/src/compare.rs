@@ -14,8 +14,8 @@
 use clap::Args;
 use irr_render::{
     BounceMode, CacheBuilder, GradientMode, IcSettings, Image, Integrator,
-    IrradianceCacheIntegrator, PathSettings, PathTracer, RenderSettings, build_cache, load_scene,
-    render, tone_map, write_exr_and_png,
+    IrradianceCacheIntegrator, PathSettings, PathTracer, RadiusStatistic, RenderSettings,
+    build_cache, load_scene, render, tone_map, write_exr_and_png,
 };
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -46,16 +46,17 @@ pub struct CompareArgs {
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
     /// Camera samples per pixel of the irradiance-cache runs (the default render's)
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = irr_cli::render::IC_DEFAULT_SPP as u32)]
     pub ic_spp: u32,
-    /// Light samples per camera hit of the irradiance-cache runs
-    #[arg(long, default_value_t = 1)]
+    /// Light samples per camera hit of the irradiance-cache runs (the default render's)
+    #[arg(long, default_value_t = IcSettings::default().direct_samples)]
     pub direct_samples: u32,
     /// Run only the irradiance-cache settings whose label contains this text and no path
     /// tracer, or (with `path`) only the path tracer
     #[arg(long)]
     pub only: Option<String>,
-    /// More irradiance-cache settings to run, as KAPPA:MxN[:cached], comma-separated
+    /// More irradiance-cache settings to run, as KAPPA:MxN[:cached|:path] (the bounce mode;
+    /// default: the default render's), comma-separated
     #[arg(long, value_delimiter = ',')]
     pub extra: Vec<String>,
     /// Also copy the report, plot, heat maps and crops to docs/compare/<scene>/ (what the README
@@ -320,17 +321,23 @@ fn ic_sweep(quick: bool) -> Vec<Sweep> {
             },
         ),
         (
-            "bounce=cached",
+            "bounce=path-traced",
             IcSettings {
-                bounce_mode: BounceMode::Cached,
+                bounce_mode: BounceMode::PathTraced,
                 ..base
             },
         ),
         (
-            "bounce=cached bounces=2",
+            "bounces=2",
             IcSettings {
-                bounce_mode: BounceMode::Cached,
                 cached_bounces: 2,
+                ..base
+            },
+        ),
+        (
+            "radius-statistic=minimum",
+            IcSettings {
+                radius_statistic: RadiusStatistic::Minimum,
                 ..base
             },
         ),
@@ -346,30 +353,27 @@ fn ic_sweep(quick: bool) -> Vec<Sweep> {
     out
 }
 
-/// An extra setting KAPPA:MxN[:cached].
+/// An extra setting KAPPA:MxN[:cached|:path].
 fn parse_extra(text: &str) -> Result<IcSettings, String> {
     let parts: Vec<&str> = text.split(':').collect();
-    let bad = || format!("--extra: expected KAPPA:MxN[:cached], got '{text}'");
+    let bad = || format!("--extra: expected KAPPA:MxN[:cached|:path], got '{text}'");
     let kappa: f32 = parts.first().and_then(|k| k.parse().ok()).ok_or_else(bad)?;
     let (m, n) = parts
         .get(1)
         .and_then(|s| s.split_once('x'))
         .and_then(|(m, n)| Some((m.parse().ok()?, n.parse().ok()?)))
         .ok_or_else(bad)?;
-    let cached = match parts.get(2) {
-        None => false,
-        Some(&"cached") => true,
+    let bounce_mode = match parts.get(2) {
+        None => IcSettings::default().bounce_mode,
+        Some(&"cached") => BounceMode::Cached,
+        Some(&"path") => BounceMode::PathTraced,
         Some(_) => return Err(bad()),
     };
     let s = IcSettings {
         error: kappa,
         strata_m: m,
         strata_n: n,
-        bounce_mode: if cached {
-            BounceMode::Cached
-        } else {
-            BounceMode::PathTraced
-        },
+        bounce_mode,
         ..IcSettings::default()
     };
     s.validate().map_err(|e| format!("--extra {text}: {e}"))?;

@@ -99,7 +99,7 @@ pub struct IcArgs {
     #[arg(long, value_enum, default_value_t = GradientChoice::WardHeckbert)]
     pub gradients: GradientChoice,
     /// The statistic of a gather's hit distances (above 10° of the horizon) that sizes its record
-    #[arg(long, value_enum, default_value_t = RadiusChoice::Harmonic)]
+    #[arg(long, value_enum, default_value_t = RadiusChoice::Minimum)]
     pub radius_statistic: RadiusChoice,
     /// Turn neighbour clamping (Křivánek et al. 2006) off
     #[arg(long)]
@@ -209,7 +209,7 @@ pub struct RenderArgs {
     /// The integrator
     #[arg(long, value_enum, default_value_t = IntegratorChoice::Ic)]
     pub integrator: IntegratorChoice,
-    /// Samples per pixel (≥ 1) [default: 256 for path and ao, 64 for ic and ic-ao: camera
+    /// Samples per pixel (≥ 1) [default: 256 for path and ao, 36 for ic and ic-ao: camera
     /// samples for anti-aliasing and direct light; the cache makes the indirect light smooth]
     #[arg(long, allow_negative_numbers = true)]
     pub spp: Option<i64>,

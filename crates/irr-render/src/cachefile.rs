@@ -1,5 +1,5 @@
-//! A persistent irradiance cache (`--cache FILE`): the first level's records of one render, kept
-//! for a later render of the same scene, camera and settings.
+//! A persistent irradiance cache (`--cache FILE`): every level's records of one render, kept for
+//! a later render of the same scene, camera, image size, settings and seed.
 //!
 //! Layout (little-endian):
 //!
@@ -160,10 +160,7 @@ pub fn read_cache_file(
     for level in 0..settings.levels() {
         let metric = settings.metric_at(level).map_err(|e| bad(e.to_string()))?;
         let n = word(take(8, "record count")?);
-        let entries = take(
-            n.saturating_mul(GUARD_BYTES as u64),
-            "leak-guard entries",
-        )?;
+        let entries = take(n.saturating_mul(GUARD_BYTES as u64), "leak-guard entries")?;
         let mut guard = Vec::with_capacity(entries.len() / GUARD_BYTES);
         for (i, entry) in entries.chunks_exact(GUARD_BYTES).enumerate() {
             let nearest_hit = float(&entry[0..4]);

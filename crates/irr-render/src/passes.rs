@@ -3,9 +3,10 @@
 //!
 //! # The passes
 //! Each cache level is built from the deepest (its records are read by the gathers of the level
-//! above) to level 0. A level is built in passes over a coarse-to-fine grid of pixels: stride
-//! 16, then the pixels of stride 8 not already visited, and so on down to stride 1 (level 0) or
-//! 4 (deeper levels, whose records are larger and fewer). In a pass:
+//! above) to level 0. A level is built in passes over a coarse-to-fine grid: stride 16, then the
+//! points of stride 8 not already visited, and so on down to stride 1. Level 0's grid is the
+//! image's pixels; a deeper level's is a [`DEEP_GRID`]² grid over the view whatever the image's
+//! size, each point the start of a random bounce path. In a pass:
 //! 1. the cache is read-only; every pixel of the pass asks [`CacheBuilder::probe`] whether the
 //!    hit of its camera ray (through the pixel's centre; for a deeper level, the end of a random
 //!    bounce path from there) is covered, and if not for a predicted radius, in parallel on the
@@ -16,9 +17,11 @@
 //! 4. [`CacheBuilder::commit`] inserts the candidates in pixel order, each dropped if an earlier
 //!    one of the same pass already covers it.
 //!
-//! Each finer stride runs as three sub-lattice passes whose pixels lie 2s apart; after the
-//! finest, repair passes repeat it until no pixel is uncovered (neighbour clamping shrinks earlier
-//! records as later ones arrive).
+//! Each finer stride runs as three sub-lattice passes whose points lie 2s apart. Repair passes
+//! follow (neighbour clamping shrinks earlier records as later ones arrive): level 0's probe a
+//! lattice of every 1/k of a pixel ([`coverage_lattice`], k ≤ [`MAX_COVERAGE_LATTICE`]) until
+//! none is uncovered, a deeper level's walk its grid again until fewer than [`DEEP_UNCOVERED`]
+//! of the walks end uncovered; at most [`MAX_REPAIR_PASSES`] each.
 //!
 //! A candidate depends only on the cache before its pass and on its own [`SampleKey`]
 //! (seed, level stream, pixel), and commits run in a fixed order, so the cache is the same bit

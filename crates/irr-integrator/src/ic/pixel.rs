@@ -12,12 +12,12 @@
 //!   that triangle reuse the answer. Within a pixel the points of one surface lie a pixel's
 //!   footprint apart, far closer than the record they look at.
 //! - **Shared gathers**: a sample that no record covers gets a gather of its own, as a record
-//!   of the pixel alone (never stored in the cache, which the final pass only reads); the
-//!   pixel's later samples that this record covers interpolate it instead of gathering again.
+//!   of the pixel alone (never stored in the cache, which the final pass only reads), whose
+//!   influence reaches every point of the pixel on the same triangle; the pixel's later samples
+//!   that this record covers interpolate it instead of gathering again.
 //!
-//! Everything a sample gets depends on its pixel's samples before it, in index order, and on
-//! the cache: the image is the same whatever the thread count, and `--debug-pixel` replays a
-//! pixel exactly.
+//! Everything a sample gets depends on its pixel's samples in the call and on the cache: the
+//! image is the same whatever the thread count, and `--debug-pixel` replays a pixel exactly.
 
 use super::guard::{GuardRecord, GuardTest, Query};
 use super::levels::Level;
@@ -26,7 +26,7 @@ use crate::integrator::RayCounter;
 use crate::path::{Radiance, ShadingPoint, first_surface};
 use crate::scene::Scene;
 use glam::Vec3;
-use irr_cache::{IrradianceCache, NearbyRecord, Record, RecordId, Rgb};
+use irr_cache::{ErrorMetric, IrradianceCache, NearbyRecord, Record, RecordId, Rgb};
 use irr_geometry::Ray;
 use irr_sampling::SampleKey;
 use irr_sampling::rng::Dimensions;
@@ -139,6 +139,10 @@ impl IrradianceCacheIntegrator {
         let mut memo = GuardMemo::default();
         let mut local: Option<Level<Rgb>> = None;
         let mut guard_rays = 0;
+        let points: Vec<(u32, Vec3)> = pending
+            .iter()
+            .map(|p| (p.x.triangle, p.x.position))
+            .collect();
         for p in pending {
             let q = Query::from(&p.x);
             let shared = self.lookup_in_pixel(
@@ -154,7 +158,13 @@ impl IrradianceCacheIntegrator {
                 Some(e) => e,
                 None => {
                     self.core.misses.fetch_add(1, Ordering::Relaxed);
-                    self.local_irradiance(scene, &mut local, &p.x, &mut dims[p.index], rays)
+                    // How far the pixel's points on this triangle lie from this one.
+                    let reach = points
+                        .iter()
+                        .filter(|(t, _)| *t == p.x.triangle)
+                        .map(|(_, y)| (*y - p.x.position).length())
+                        .fold(0.0f32, f32::max);
+                    self.local_irradiance(scene, &mut local, &p.x, reach, &mut dims[p.index], rays)
                 }
             };
             out[p.index] = Radiance {
@@ -200,12 +210,14 @@ impl IrradianceCacheIntegrator {
     }
 
     /// The irradiance at `x`, which no record of the cache covers: from the pixel's own records
-    /// (`local`) if one covers it, else from a gather of its own, which becomes one of them.
+    /// (`local`) if one covers it, else from a gather of its own, which becomes one of them with
+    /// an influence of at least `reach` (the pixel's points on the same triangle).
     fn local_irradiance(
         &self,
         scene: &Scene,
         local: &mut Option<Level<Rgb>>,
         x: &ShadingPoint,
+        reach: f32,
         dims: &mut Dimensions,
         rays: &mut RayCounter,
     ) -> Vec3 {
@@ -237,11 +249,16 @@ impl IrradianceCacheIntegrator {
         ) else {
             return Vec3::ZERO;
         };
-        // The pixel's record: sized by its gather and the world limits (the final pass knows no
-        // pixel footprint; the record serves this pixel's samples only).
-        let (record, inputs, nearest_hit) = self.core.record_from(0, x, &samples, &frame, 0.0);
+        // The pixel's record: sized by its gather and the world limits, and at least as large as
+        // the pixel's points on its triangle ask (it serves this pixel's samples only, as a
+        // record of the pixel's footprint would: no sample of the pixel's surface gathers twice).
+        let (record, mut inputs, nearest_hit) = self.core.record_from(0, x, &samples, &frame, 0.0);
         let e = Vec3::from_array(record.value.0);
         if let Some(first) = self.core.levels.first() {
+            let needed = reach / first.cache.metric().influence_radius(1.0);
+            if needed.is_finite() && needed > inputs.limits.min {
+                inputs.limits.min = needed.min(inputs.limits.max);
+            }
             let l = local.get_or_insert_with(|| Level {
                 cache: IrradianceCache::new(*first.cache.metric()),
                 guard: Vec::new(),
