@@ -521,9 +521,17 @@ fn a_cache_file_round_trips_and_refuses_strangers() {
 /// The cached bounce mode (Radiance's `-ab`) converges too: Radiance's cached multi-bounce
 /// Cornell box stays +1.1 % bright whatever its accuracy, because its deepest bounce is cut off
 /// and its deeper caches are interpolated at a fixed looseness. irr's deepest level path-traces
-/// the rest and every level tightens with κ, so the bias of the indirect part must shrink as κ
+/// the rest and every level tightens with κ, so the error of the indirect part must shrink as κ
 /// grows: from κ = 0.5 to κ = 4 (with M×N growing) the relMSE falls by more than the measured
-/// noise and the mean bias falls in magnitude, for one and for two cached levels.
+/// noise, and the mean bias over four seeds falls in magnitude or is indistinguishable from
+/// zero, for one and for two cached levels.
+///
+/// Tolerance: the bias of a 16×16 image's mean is itself noisy (its records are few and shared
+/// by many pixels), so a single image's bias can cross zero at a loose κ. The four seeds' image
+/// biases are independent: at κ = 4 their mean must be smaller in magnitude than at κ = 0.5, or
+/// within 3 standard errors (their sample deviation / √4) of zero. A real bias that does not
+/// shrink (Radiance's +1.1 %, or irr's +2.5 % before its deeper levels had their own density)
+/// is many standard errors (~0.1 % here) from zero and fails.
 #[test]
 fn cached_bounces_converge_too() {
     let loaded = cornell();
@@ -537,6 +545,7 @@ fn cached_bounces_converge_too() {
         threads: 0,
     };
     let (reference, reference_noise) = indirect_reference(&loaded.scene, &camera, &settings);
+    let seeds = [5u64, 1005, 2005, 3005];
     for bounces in [1u32, 2] {
         let at = |kappa: f32, m: u32, n: u32, seed: u64| {
             let ic = IcSettings {
@@ -555,23 +564,35 @@ fn cached_bounces_converge_too() {
             )
             .0
         };
-        let loose = at(0.5, 6, 24, 5);
-        let tight = at(4.0, 16, 64, 5);
-        let noise = rel_mse(&at(4.0, 16, 64, 1005), &at(4.0, 16, 64, 2005)) / 2.0 + reference_noise;
-        let (e0, b0) = (rel_mse(&loose, &reference), mean_bias(&loose, &reference));
-        let (e1, b1) = (rel_mse(&tight, &reference), mean_bias(&tight, &reference));
+        let loose: Vec<Image> = seeds.iter().map(|&s| at(0.5, 6, 24, s)).collect();
+        let tight: Vec<Image> = seeds.iter().map(|&s| at(4.0, 16, 64, s)).collect();
+        let noise = rel_mse(&tight[1], &tight[2]) / 2.0 + reference_noise;
+        let (e0, e1) = (
+            rel_mse(&loose[0], &reference),
+            rel_mse(&tight[0], &reference),
+        );
+        let biases = |images: &[Image]| -> (f64, f64) {
+            let b: Vec<f64> = images.iter().map(|i| mean_bias(i, &reference)).collect();
+            let n = b.len() as f64;
+            let mean = b.iter().sum::<f64>() / n;
+            let var = b.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+            (mean, (var / n).sqrt())
+        };
+        let ((b0, se0), (b1, se1)) = (biases(&loose), biases(&tight));
         println!(
-            "{bounces} cached level(s): κ 0.5: relMSE {e0:.3e}, bias {:+.3} %; κ 4: relMSE {e1:.3e}, bias {:+.3} %; noise {noise:.3e}",
+            "{bounces} cached level(s): κ 0.5: relMSE {e0:.3e}, bias {:+.3} ± {:.3} %; κ 4: relMSE {e1:.3e}, bias {:+.3} ± {:.3} %; noise {noise:.3e}",
             100.0 * b0,
-            100.0 * b1
+            100.0 * se0,
+            100.0 * b1,
+            100.0 * se1
         );
         assert!(
             e1 + 2.0 * noise < e0,
             "{bounces}: the error did not fall beyond the noise"
         );
         assert!(
-            b1.abs() < b0.abs(),
-            "{bounces}: the bias did not shrink: {b0} -> {b1}"
+            b1.abs() < b0.abs() || b1.abs() < 3.0 * se1,
+            "{bounces}: the bias did not shrink: {b0} -> {b1} (standard error {se1})"
         );
     }
 }

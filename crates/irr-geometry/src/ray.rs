@@ -119,6 +119,23 @@ impl Ray {
         } else {
             -target_ng
         };
+        Self::to_offset_target(origin, target, n_to)
+    }
+
+    /// A shadow ray from the front of `p`'s surface to the front of `target`'s: each end offset
+    /// along its own normal as given (`front`, `target_front`: the sides the two points are
+    /// seen from), whatever the other end's side; otherwise as [`Ray::spawn_to`]. A target
+    /// behind `p`'s surface is then occluded by that surface where it extends between them: the
+    /// ray crosses it as it leaves (a point on a floor's top does not see a point under it). A
+    /// crossing of the target's own surface lies within rounding of the segment's end and may
+    /// go unseen, so a caller that needs it starts from the end the other lies behind.
+    #[must_use]
+    pub fn spawn_between_fronts(p: Vec3, front: Vec3, target: Vec3, target_front: Vec3) -> Ray {
+        Self::to_offset_target(offset_ray_origin(p, front), target, target_front)
+    }
+
+    /// The segment from `origin` to `target` offset along `n_to`.
+    fn to_offset_target(origin: Vec3, target: Vec3, n_to: Vec3) -> Ray {
         // |end_i − origin_i| ≤ |target_i| + |origin_i| (plus the offset, far below this), and its
         // rounding is at most half an ulp, 2⁻²⁴ of that: 2⁻²³ leaves a factor 2.
         let direction_rounding = (target.abs() + origin.abs()) * (1.0 / 8_388_608.0);

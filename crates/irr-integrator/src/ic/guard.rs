@@ -7,9 +7,12 @@
 //! directions, which for a wall is a factor 1/cos(gap) ≈ 1.02 at 32×128, far inside the factor
 //! 2). A record on the lit side of a 1 mm wall therefore never lights the dark side.
 //!
-//! The shadow ray leaves and reaches the two surfaces by their geometric normals, as
-//! `Ray::spawn_to` requires: a shading normal can tilt across the direction between two points
-//! of a smooth-shaded mesh, and an offset along it would start the ray behind its own triangle.
+//! The shadow ray leaves the record's surface and reaches the query's on their front sides (the
+//! sides the record's gather and the query's viewer saw), offset along the geometric normals: a
+//! shading normal can tilt across the direction between two points of a smooth-shaded mesh, and
+//! an offset along it would start the ray behind its own triangle. An offset toward the other
+//! end instead would let a record under a surface (in the gap below a 1 cm step's top, at the
+//! foot of its face) reach the surface's top from below without crossing it.
 
 use super::levels::{Core, Level};
 use super::settings::LeakGuard;
@@ -78,12 +81,21 @@ impl<V: IcValue> Core<V> {
         if d <= 0.5 * guard.nearest_hit {
             return GuardTest::Pass;
         }
-        GuardTest::Ray(Ray::spawn_to(
-            record.position,
-            guard.geometric_normal,
-            q.p,
-            q.ng,
-        ))
+        // Between the side of the record's surface its gather saw and the side of the query's
+        // surface the camera (or a gather) sees: a record under a surface, however near, does not
+        // light that surface's top. A ray sees a surface it crosses as it leaves, not one it
+        // would cross at its very end: it starts at the query when the record lies behind the
+        // query's surface.
+        let front = |ng: Vec3, ns: Vec3| if ng.dot(ns) >= 0.0 { ng } else { -ng };
+        let (rf, qf) = (
+            front(guard.geometric_normal, record.normal),
+            front(q.ng, q.ns),
+        );
+        GuardTest::Ray(if qf.dot(record.position - q.p) < 0.0 {
+            Ray::spawn_between_fronts(q.p, qf, record.position, rf)
+        } else {
+            Ray::spawn_between_fronts(record.position, rf, q.p, qf)
+        })
     }
 
     /// Whether record `id` of `level` may be used at `q`: the leak guard, its shadow ray (if it
@@ -177,5 +189,94 @@ mod tests {
         }
         assert!(rays > 100_000, "{rays} shadow rays");
         assert_eq!(blocked, 0, "{blocked} of {rays} pairs seen as occluded");
+    }
+
+    /// A 1 cm step: a platform (top at y = 0.01 over x < 0, its face at x = 0) on a floor that
+    /// runs on under it. A record in the gap under the top, at the face's foot (where a camera
+    /// ray grazing the face's lower edge can put one), must not light the top above it: the
+    /// shadow ray has to cross the top, which an offset toward the other end (below the top, at
+    /// the query) let it avoid, so that such records darkened the top along the edge by a quarter
+    /// (Cornell box with the step, records 10-40 pixels). Records that do see the query still pass.
+    #[test]
+    fn a_record_under_a_step_does_not_light_its_top() {
+        let quad = |p: [Vec3; 4]| irr_geometry::TriangleMesh {
+            positions: p.to_vec(),
+            indices: vec![[0, 1, 2], [0, 2, 3]],
+            normals: None,
+            material_ids: vec![0, 0],
+        };
+        let y = |x: f32, h: f32, z: f32| Vec3::new(x, h, z);
+        let meshes = [
+            // Floor (+y), the platform's top (+y) and its face (+x).
+            quad([
+                y(-1.0, 0.0, -1.0),
+                y(-1.0, 0.0, 1.0),
+                y(1.0, 0.0, 1.0),
+                y(1.0, 0.0, -1.0),
+            ]),
+            quad([
+                y(-1.0, 0.01, -1.0),
+                y(-1.0, 0.01, 1.0),
+                y(0.0, 0.01, 1.0),
+                y(0.0, 0.01, -1.0),
+            ]),
+            quad([
+                y(0.0, 0.0, -1.0),
+                y(0.0, 0.01, -1.0),
+                y(0.0, 0.01, 1.0),
+                y(0.0, 0.0, 1.0),
+            ]),
+        ];
+        let scene = scene(&meshes, vec![Material::diffuse(Vec3::splat(0.5))]);
+        let mut ic =
+            IrradianceCacheIntegrator::new(IcSettings::default()).unwrap_or_else(|e| panic!("{e}"));
+        let records = [
+            y(-0.0005, 0.0, 0.0), // in the gap under the top
+            y(0.005, 0.0, 0.0),   // on the floor in front of the face
+            y(-0.03, 0.01, 0.01), // on the top
+            y(0.03, 0.0, 0.0),    // on the floor farther out
+        ];
+        let level = &mut ic.core.levels[0];
+        for p in records {
+            level
+                .cache
+                .insert(Record::new(p, Vec3::Y, 1.0, Rgb::splat(1.0)))
+                .unwrap_or_else(|e| panic!("{e}"));
+            // Nearest hit 0: every query needs a shadow ray.
+            level.guard.push(GuardRecord {
+                nearest_hit: 0.0,
+                geometric_normal: Vec3::Y,
+            });
+        }
+        let level = &ic.core.levels[0];
+        let on_top = Query {
+            p: y(-0.002, 0.01, 0.0),
+            ns: Vec3::Y,
+            ng: Vec3::Y,
+        };
+        let on_floor = Query {
+            p: y(0.002, 0.0, 0.01),
+            ns: Vec3::Y,
+            ng: Vec3::Y,
+        };
+        let mut rays = 0;
+        let mut sees = |id: u32, q: &Query| {
+            let r = &level.cache.records()[id as usize];
+            ic.core.visible(&scene, level, id, r, q, &mut rays)
+        };
+        assert!(!sees(0, &on_top), "the record under the top lights it");
+        assert!(
+            !sees(1, &on_top),
+            "the floor record sees the top through the face"
+        );
+        assert!(sees(2, &on_top), "a record on the top does not see the top");
+        assert!(
+            !sees(0, &on_floor),
+            "the record under the top sees the floor through the face"
+        );
+        assert!(
+            sees(3, &on_floor),
+            "a record on the floor does not see the floor"
+        );
     }
 }
