@@ -2,30 +2,13 @@
 //! one-line error naming the file (or option) and the problem, never a panic, never a partial
 //! output, and leaves an earlier output intact.
 
+use crate::support::{asset, read, temp, write};
 use glam::Vec3;
 use irr_integrator::{PathSettings, PathTracer};
 use irr_render::{
     Image, RenderError, RenderSettings, check_output, load_scene, render, write_exr_and_png,
 };
 use std::path::{Path, PathBuf};
-
-fn asset(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../assets")
-        .join(name)
-}
-
-fn temp() -> tempfile::TempDir {
-    tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn read(path: &Path) -> Vec<u8> {
-    std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
-}
-
-fn write(path: &Path, bytes: impl AsRef<[u8]>) {
-    std::fs::write(path, bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-}
 
 /// Loads `path`, expects an error, and checks that its message is one line that names the
 /// file and contains every one of `problem`.

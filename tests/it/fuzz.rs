@@ -21,6 +21,7 @@
 //! - `IRR_FUZZ_REPLAY=path` replays one file (a `.gltf`/`.glb` scene or an `.irrc` cache file);
 //!   `IRR_FUZZ_DEBUG=1` prints every refusal (to tune the mutations).
 
+use crate::support::read;
 use irr_render::{
     IcSettings, IrradianceCacheIntegrator, PathTracer, RenderSettings, build_cache, render,
 };
@@ -76,10 +77,6 @@ impl Rng {
 
 fn workspace() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn read(path: &Path) -> Vec<u8> {
-    std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
 /// Where failing cases are kept.

@@ -2,30 +2,13 @@
 //! options that once read outside the scene's folder, read without bound, allocated without
 //! bound, panicked, or rendered wrong; every file is generated here.
 
+use crate::support::{asset, read, temp, write};
 use glam::{Vec2, Vec3};
 use irr_integrator::{PathSettings, PathTracer};
 use irr_render::{LoadOptions, RenderSettings, load_gltf, load_scene, load_scene_with, render};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
-
-fn asset(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../assets")
-        .join(name)
-}
-
-fn temp() -> tempfile::TempDir {
-    tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn read(path: &Path) -> Vec<u8> {
-    std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
-}
-
-fn write(path: &Path, bytes: impl AsRef<[u8]>) {
-    std::fs::write(path, bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-}
 
 fn mkdir(path: &Path) {
     std::fs::create_dir_all(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));

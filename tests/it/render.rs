@@ -3,6 +3,7 @@
 //! plus f32 rounding; each derivation is written beside its assertion. A failing image check
 //! writes `-actual`, `-reference` and `-error` EXRs under target/ and names them.
 
+use crate::support::asset;
 use glam::Vec3;
 use irr_geometry::{Geometry, TriangleMesh};
 use irr_integrator::{
@@ -12,13 +13,7 @@ use irr_render::{
     Camera, Image, LoadedScene, RenderSettings, load_gltf, load_scene, mean_of_samples,
     pixel_samples, render, write_exr_and_png,
 };
-use std::path::{Path, PathBuf};
-
-fn asset(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../assets")
-        .join(name)
-}
+use std::path::Path;
 
 fn load(name: &str) -> LoadedScene {
     load_scene(&asset(name)).unwrap_or_else(|e| panic!("{e}"))

@@ -7,6 +7,7 @@ use irr_render::{
     Camera, IcSettings, Image, IrradianceCacheIntegrator, PathSettings, PathTracer, RenderSettings,
     build_cache, render,
 };
+use std::path::{Path, PathBuf};
 
 /// relMSE = mean over pixels and channels of (x − r)²/(r² + 0.01): the measure of the peer
 /// figures in the issues and of `cargo xtask compare`.
@@ -153,4 +154,26 @@ impl Integrator for Indirect<'_> {
             _ => Vec3::ZERO,
         }
     }
+}
+
+/// The path of `name` in the workspace's assets/.
+pub fn asset(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../assets")
+        .join(name)
+}
+
+/// A temporary folder, removed when dropped.
+pub fn temp() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The bytes of `path` (panics naming it).
+pub fn read(path: &Path) -> Vec<u8> {
+    std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// Writes `bytes` to `path` (panics naming it).
+pub fn write(path: &Path, bytes: impl AsRef<[u8]>) {
+    std::fs::write(path, bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
 }

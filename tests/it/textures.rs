@@ -14,6 +14,7 @@
 //! tail, and 64 or more samples per mean make the mean close to normal; the seed is fixed, so
 //! the outcome is deterministic), plus f32 rounding.
 
+use crate::support::write;
 use glam::{Vec2, Vec3};
 use irr_geometry::Ray;
 use irr_integrator::ic::direct_nee;
@@ -54,10 +55,6 @@ fn png(width: u32, height: u32, texels: &[[u8; 3]]) -> Vec<u8> {
             .unwrap_or_else(|e| panic!("{e}"));
     }
     out
-}
-
-fn write(path: &Path, bytes: impl AsRef<[u8]>) {
-    std::fs::write(path, bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
 }
 
 /// A quad: its four corners (counter-clockwise seen from the front), its normal, and the

@@ -177,6 +177,27 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         });
     }
 
+    /// `record`'s candidate for a query whose offset from it is `offset` (squared length `d2`)
+    /// and whose unit normal is `n`, with its weight, if that is positive and finite.
+    #[inline]
+    fn weigh(
+        &self,
+        record: &Record<V>,
+        offset: DVec3,
+        d2: f64,
+        n: DVec3,
+    ) -> Option<(Candidate, f64)> {
+        let candidate = Candidate {
+            offset,
+            distance: d2.sqrt(),
+            query_normal: n,
+            record_normal: record.normal.as_dvec3(),
+            record_radius: f64::from(record.radius),
+        };
+        let w = self.metric.weight(&candidate);
+        (w > 0.0 && w.is_finite()).then_some((candidate, w))
+    }
+
     /// Calls `f` for every record of positive weight at (p, n).
     ///
     /// In two passes: the records in range are collected (a batch at a time) before any is read,
@@ -194,15 +215,7 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         let mut flush = |batch: &[(u32, DVec3, f64)]| {
             for &(index, offset, d2) in batch {
                 let record = &self.records[index as usize];
-                let candidate = Candidate {
-                    offset,
-                    distance: d2.sqrt(),
-                    query_normal: n,
-                    record_normal: record.normal.as_dvec3(),
-                    record_radius: f64::from(record.radius),
-                };
-                let w = self.metric.weight(&candidate);
-                if w > 0.0 && w.is_finite() {
+                if let Some((candidate, w)) = self.weigh(record, offset, d2, n) {
                     f(index, record, &candidate, w);
                 }
             }
@@ -314,15 +327,9 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
             let Some(record) = self.records.get(near.id as usize) else {
                 continue;
             };
-            let candidate = Candidate {
-                offset,
-                distance: d2.sqrt(),
-                query_normal: nd,
-                record_normal: record.normal.as_dvec3(),
-                record_radius: f64::from(record.radius),
-            };
-            let w = self.metric.weight(&candidate);
-            if w > 0.0 && w.is_finite() && accept(near.id, record) {
+            if let Some((candidate, w)) = self.weigh(record, offset, d2, nd)
+                && accept(near.id, record)
+            {
                 mean.add(record, &candidate, w);
             }
         }
@@ -360,15 +367,7 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
             }
             if let Some((offset, d2)) = contains_offset(e.center, e.radius, pd) {
                 let record = &self.records[e.index as usize];
-                let candidate = Candidate {
-                    offset,
-                    distance: d2.sqrt(),
-                    query_normal: nd,
-                    record_normal: record.normal.as_dvec3(),
-                    record_radius: f64::from(record.radius),
-                };
-                let w = self.metric.weight(&candidate);
-                found = w > 0.0 && w.is_finite() && accept(e.index, record);
+                found = self.weigh(record, offset, d2, nd).is_some() && accept(e.index, record);
             }
         });
         found

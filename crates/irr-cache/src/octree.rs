@@ -29,10 +29,7 @@ use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hash, Hasher};
 
 /// A record's cell side is at least `FIT` times its influence radius. 2 (the sphere's diameter is
-/// at most a cell) bounds its copies by 8. Measured with the benchmark's scene at 10⁵ records
-/// (CPU time per random query / coherent query / bytes per record): FIT = 1: 1.7 µs / 0.38 µs /
-/// more copies; 2: 1.5 µs / 0.38 µs / 344 B; 4: 2.0 µs / 0.71 µs / fewer copies but more
-/// entries to test per query.
+/// at most a cell) bounds its copies by 8 (docs/performance.md, "The octree's cell size").
 const FIT: f64 = 2.0;
 
 /// A record's sphere as the octree stores it: its centre, influence radius and index.
