@@ -54,7 +54,7 @@ d = one_triangle()
 d["nodes"] = [{"children": [i + 1], "translation": [0, 0, 1e-6]} for i in range(n - 1)] + [{"mesh": 0}]
 write("chain-1e6.gltf", d)
 
-# Nested triangles with one centroid, each 1.0001 times the one before (item 5: PLOC's hang).
+# Nested triangles with one centroid, each 1.0001 times the one before (PLOC's hang).
 for n in [10**4, 4 * 10**4, 10**5]:
     c = (0.0, -1.0 / 3.0, 0.0)
     base = [(-1.0, -1.0, 0.0), (1.0, -1.0, 0.0), (0.0, 1.0, 0.0)]
