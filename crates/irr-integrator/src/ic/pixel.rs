@@ -139,11 +139,7 @@ impl IrradianceCacheIntegrator {
         let mut memo = GuardMemo::default();
         let mut local: Option<Level<Rgb>> = None;
         let mut guard_rays = 0;
-        let points: Vec<(u32, Vec3)> = pending
-            .iter()
-            .map(|p| (p.x.triangle, p.x.position))
-            .collect();
-        for p in pending {
+        for p in &pending {
             let q = Query::from(&p.x);
             let shared = self.lookup_in_pixel(
                 scene,
@@ -159,10 +155,10 @@ impl IrradianceCacheIntegrator {
                 None => {
                     self.core.misses.fetch_add(1, Ordering::Relaxed);
                     // How far the pixel's points on this triangle lie from this one.
-                    let reach = points
+                    let reach = pending
                         .iter()
-                        .filter(|(t, _)| *t == p.x.triangle)
-                        .map(|(_, y)| (*y - p.x.position).length())
+                        .filter(|o| o.x.triangle == p.x.triangle)
+                        .map(|o| (o.x.position - p.x.position).length())
                         .fold(0.0f32, f32::max);
                     self.local_irradiance(scene, &mut local, &p.x, reach, &mut dims[p.index], rays)
                 }
