@@ -4,10 +4,10 @@
 //! # What it owns
 //! - [`RenderArgs`]: every render option (integrator, size, samples, seed, threads, exposure,
 //!   `--camera`, `--aov`, the irradiance cache's settings, `--cache`, `--show-records`,
-//!   `--debug-pixel`, `--asset-root`, `--background`), parsed with clap, each checked with a one-line error
-//!   naming the option. A missing `--width` or `--height` follows from the other and the
+//!   `--debug-pixel`, `--asset-root`, `--background`, `--denoise`), parsed with clap, each
+//!   checked with a one-line error naming the option. A missing `--width` or `--height` follows from the other and the
 //!   camera's aspect ratio.
-//! - [`run`]: load, build the cache, render, write the EXR (colour, AOVs, chromaticities and
+//! - [`run`]: load, build the cache, render, denoise if asked, write the EXR (colour, AOVs, chromaticities and
 //!   the render's metadata) and its PNG preview; used by the `irr` binary (scene as a positional
 //!   argument, output [`default_output`], `<scene stem>.exr` in the current directory, unless
 //!   `-o` says otherwise) and by `cargo xtask render` (the workspace's default scene, output in

@@ -8,12 +8,12 @@
 use clap::{Args, ValueEnum};
 use irr_render::{
     AmbientOcclusion, AoSettings, Aov, BounceMode, CacheBuilder, CachedAmbientOcclusion, Camera,
-    ExrMetadata, GradientMode, IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard,
-    LoadOptions, MetricKind, PathSettings, PathTracer, RadiusStatistic, RenderSettings,
-    build_cache, check_exposure, check_output, check_output_file, fingerprint, load_scene_with,
-    mark_records, mean_of_samples, pixel_samples, read_cache_file,
-    remove_partial_outputs_on_signals, render_with_aovs, write_cache_file, write_exr_and_png,
-    write_render,
+    DENOISER, DENOISER_AOVS, ExrMetadata, GradientMode, IcSettings, Integrator,
+    IrradianceCacheIntegrator, LeakGuard, LoadOptions, MetricKind, NO_DENOISER, PathSettings,
+    PathTracer, RadiusStatistic, RenderSettings, build_cache, check_exposure, check_output,
+    check_output_file, denoise, fingerprint, load_scene_with, mark_records, mean_of_samples,
+    pixel_samples, read_cache_file, remove_partial_outputs_on_signals, render_with_aovs,
+    write_cache_file, write_exr_and_png, write_render,
 };
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -230,6 +230,11 @@ pub struct RenderArgs {
     /// emitted.R/G/B, …; each averaged over the pixel's samples like the colour)
     #[arg(long, value_name = "AOV,...", value_delimiter = ',', value_parser = parse_aov)]
     pub aov: Vec<Aov>,
+    /// Denoise the colour with Intel Open Image Denoise (its RT filter, HDR, with the albedo
+    /// and normal AOVs, which are written too); the EXR keeps the raw colour as the layer
+    /// noisy.R/G/B. Needs a build with the `denoise` feature (README, "Denoising")
+    #[arg(long)]
+    pub denoise: bool,
     /// Worker threads; 0 means one per core
     #[arg(long, default_value_t = RenderSettings::default().threads as i64, allow_negative_numbers = true)]
     pub threads: i64,
@@ -371,6 +376,14 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
     RenderSettings::from_options(width.into(), height.into(), spp, args.seed, args.threads)
         .map_err(|e| e.to_string())?;
     check_exposure(args.exposure).map_err(|e| e.to_string())?;
+    if args.denoise {
+        if DENOISER.is_none() {
+            return Err(format!("--denoise: {NO_DENOISER}"));
+        }
+        if args.debug_pixel.is_some() {
+            return Err("--denoise: --debug-pixel writes no image to denoise".into());
+        }
+    }
     let ic_settings = match args.integrator {
         IntegratorChoice::Ic | IntegratorChoice::IcAo => Some(args.ic.settings(args.max_depth)?),
         _ => None,
@@ -564,17 +577,24 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
 
     // From here on temporary output files may exist: delete them if the user interrupts.
     remove_partial_outputs_on_signals()?;
-    let output = render_with_aovs(
-        &loaded.scene,
-        &camera,
-        integrator,
-        &settings,
-        &args.aov,
-        true,
-    )
-    .map_err(|e| e.to_string())?;
-    let render_seconds = started.elapsed().as_secs_f64();
+    let mut aovs = args.aov.clone();
+    if args.denoise {
+        aovs.extend(DENOISER_AOVS);
+    }
+    let mut output = render_with_aovs(&loaded.scene, &camera, integrator, &settings, &aovs, true)
+        .map_err(|e| e.to_string())?;
     eprintln!("{}", output.stats.summary());
+    if let (true, Some(name)) = (args.denoise, DENOISER) {
+        let denoise_started = Instant::now();
+        let denoised = denoise(&output.image, &output.aovs).map_err(|e| e.to_string())?;
+        let raw = std::mem::replace(&mut output.image, denoised);
+        output.aovs.insert(Aov::Noisy, raw);
+        eprintln!(
+            "denoised with {name} in {:.2} s",
+            denoise_started.elapsed().as_secs_f64()
+        );
+    }
+    let render_seconds = started.elapsed().as_secs_f64();
     let mean = output.image.mean();
     eprintln!("image mean radiance: {} {} {}", mean.x, mean.y, mean.z);
     if let Some(b) = builder {
@@ -616,6 +636,9 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
                     ..PathSettings::default()
                 }
             ),
+        } + &match (args.denoise, DENOISER) {
+            (true, Some(name)) => format!("; denoised by {name}, the raw colour in noisy.R/G/B"),
+            _ => String::new(),
         },
         spp: settings.spp,
         seed: settings.seed,

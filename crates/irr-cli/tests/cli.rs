@@ -566,3 +566,92 @@ fn a_cache_path_that_cannot_be_used_is_refused_before_rendering() {
     assert!(!stderr.contains("rendered"), "it rendered first: {stderr}");
     assert!(!work.path().join("b.exr").exists());
 }
+
+/// relMSE of `x` against `r` (mean over pixels and channels of (x − r)² / (r² + 0.01)), from
+/// the `R`, `G`, `B` channels or a layer's `<layer>.R/G/B`.
+fn rel_mse(x: &Exr, layer: &str, r: &Exr) -> f64 {
+    let mut sum = 0.0f64;
+    for c in ["R", "G", "B"] {
+        let name = if layer.is_empty() {
+            c.to_owned()
+        } else {
+            format!("{layer}.{c}")
+        };
+        for (x, r) in x.channel(&name).iter().zip(r.channel(c)) {
+            let (x, r) = (f64::from(*x), f64::from(*r));
+            sum += (x - r) * (x - r) / (r * r + 0.01);
+        }
+    }
+    sum / (3 * x.width * x.height) as f64
+}
+
+/// In a build without the denoiser, `--denoise` is refused before anything is loaded, with the
+/// way to get one, and nothing is written.
+#[cfg(not(feature = "denoise"))]
+#[test]
+fn denoise_without_the_feature_is_a_clear_error() {
+    let work = temp();
+    let scene = cornell().to_string_lossy().into_owned();
+    let out = irr(work.path(), &[&scene, "--denoise", "--spp", "1"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.starts_with("error: --denoise: this build of irr has no denoiser: install"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("pip install") && stderr.contains("--features denoise"));
+    assert!(
+        !stderr.contains("loading") && !stderr.contains("rendered"),
+        "{stderr}"
+    );
+    assert!(std::fs::read_dir(work.path()).is_ok_and(|mut d| d.next().is_none()));
+}
+
+/// `--denoise` on the Cornell box (64², path tracer, 8 spp): the colour is denoised, the raw
+/// colour is kept as `noisy.R/G/B` bit for bit the image the same render writes without
+/// `--denoise`, the albedo and normal the denoiser read are written too, and the header says
+/// so. Against a 1024-spp reference of another seed, the denoised relMSE is below the raw
+/// one's by more than 2×: measured 4.03–7.09× over seeds 1–12 (OIDN 2.5.1, AVX-512 Xeon; raw
+/// relMSE 1.9–2.2e-2); the bound is half the least of them. The reference's own relMSE (about
+/// 2e-2 × 8/1024 = 1.6e-4) is under 5 % of the denoised error it is compared with.
+#[cfg(feature = "denoise")]
+#[test]
+fn denoise_removes_most_of_the_noise_and_keeps_the_raw_colour() {
+    let work = temp();
+    let scene = cornell().to_string_lossy().into_owned();
+    let common = ["--integrator", "path", "--width", "64"];
+    let render = |name: &str, extra: &[&str]| {
+        let mut args = vec![scene.as_str()];
+        args.extend(common);
+        args.extend(extra);
+        args.extend(["-o", name]);
+        irr_ok(work.path(), &args);
+        Exr::read(&work.path().join(name))
+    };
+    let reference = render("reference.exr", &["--spp", "1024", "--seed", "77"]);
+    let raw = render("raw.exr", &["--spp", "8", "--seed", "1"]);
+    let denoised = render("denoised.exr", &["--spp", "8", "--seed", "1", "--denoise"]);
+    for c in ["R", "G", "B"] {
+        assert_eq!(denoised.channel(&format!("noisy.{c}")), raw.channel(c));
+    }
+    for name in ["albedo.R", "normal.X"] {
+        assert!(
+            denoised.channels.contains_key(name),
+            "{:?}",
+            denoised.names()
+        );
+    }
+    assert!(
+        denoised
+            .text("irr.settings")
+            .contains("denoised by Intel Open Image Denoise")
+    );
+    let (before, after) = (
+        rel_mse(&raw, "", &reference),
+        rel_mse(&denoised, "", &reference),
+    );
+    assert!(
+        before > 2.0 * after,
+        "raw relMSE {before:.3e}, denoised {after:.3e}"
+    );
+}

@@ -20,17 +20,21 @@
 //!   there, light reflected two or more times. Their sum is the colour up to f32 rounding.
 //!   Ambient occlusion has no split: it is all `emitted`. A sample whose colour is NaN or
 //!   infinite counts as black in all three, as in the colour.
+//! - `noisy`: with `--denoise`, the colour as rendered; `R`, `G`, `B` then hold the denoised
+//!   colour (Blender's "Noisy Image" pass beside its denoised "Combined"), so a viewer shows the
+//!   denoised image first and keeps the raw one a click away.
 //!
 //! # Channel names in the OpenEXR file
 //! One part (one header), every channel 32-bit float: the colour as `R`, `G`, `B` (what every
 //! reader shows first; Blender calls it "Combined"), and each AOV as `<name>.<channel>`, the
 //! OpenEXR convention for layers inside one part: `albedo.R/G/B`, `normal.X/Y/Z`, `depth.Z`,
-//! `emitted.R/G/B`, `direct.R/G/B`, `indirect.R/G/B`. tev lists them as layers, Nuke as layers
-//! `albedo`, `normal`, … (and `depth.Z` is Nuke's own depth channel), and Blender's Image node
-//! as passes of the same names (it splits a channel name at its last two dots into view layer,
-//! pass and channel, and reads a three-channel pass with X, Y, Z as a vector). For OIDN,
-//! extract the planes, e.g. `oiiotool render.exr --ch albedo.R,albedo.G,albedo.B -o
-//! albedo.pfm` (OIDN's `oidnDenoise --hdr color.pfm --alb albedo.pfm --nrm normal.pfm`).
+//! `emitted.R/G/B`, `direct.R/G/B`, `indirect.R/G/B`, `noisy.R/G/B`. tev lists them as
+//! layers, Nuke as layers `albedo`, `normal`, … (and `depth.Z` is Nuke's own depth channel),
+//! and Blender's Image node as passes of the same names (it splits a channel name at its last
+//! two dots into view layer, pass and channel, and reads a three-channel pass with X, Y, Z as a
+//! vector). irr denoises with OIDN itself (`--denoise`, [`crate::denoise()`]); for another
+//! denoiser, extract the planes, e.g. `oiiotool render.exr --ch albedo.R,albedo.G,albedo.B -o
+//! albedo.pfm`.
 
 use crate::image::Image;
 
@@ -49,10 +53,14 @@ pub enum Aov {
     Direct,
     /// Light reflected two or more times (paths `L D D+ E`).
     Indirect,
+    /// The colour as rendered, before denoising: written beside a denoised colour (`--denoise`),
+    /// never requested from a render, so not in [`Aov::ALL`].
+    Noisy,
 }
 
 impl Aov {
-    /// Every AOV, in the order they are listed and written.
+    /// Every AOV a render can make (what `--aov` accepts), in the order they are listed and
+    /// written.
     pub const ALL: [Aov; 6] = [
         Aov::Albedo,
         Aov::Normal,
@@ -71,6 +79,7 @@ impl Aov {
             Aov::Emitted => "emitted",
             Aov::Direct => "direct",
             Aov::Indirect => "indirect",
+            Aov::Noisy => "noisy",
         }
     }
 
@@ -100,6 +109,7 @@ impl Aov {
             Aov::Emitted => &["emitted.R", "emitted.G", "emitted.B"],
             Aov::Direct => &["direct.R", "direct.G", "direct.B"],
             Aov::Indirect => &["indirect.R", "indirect.G", "indirect.B"],
+            Aov::Noisy => &["noisy.R", "noisy.G", "noisy.B"],
         }
     }
 
@@ -111,7 +121,7 @@ impl Aov {
 
     /// Whether it needs the integrator's split of the colour (emitted, direct, indirect).
     pub fn needs_split(self) -> bool {
-        !self.needs_first_hit()
+        matches!(self, Aov::Emitted | Aov::Direct | Aov::Indirect)
     }
 }
 

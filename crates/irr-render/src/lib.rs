@@ -20,6 +20,9 @@
 //! - [`build_cache`]: the deterministic parallel passes that build an irradiance cache through an
 //!   integrator's [`CacheBuilder`] (the pixel order and the threads are irr-render's; the
 //!   records and their commit are the integrator's).
+//! - [`denoise`]: Intel Open Image Denoise's `RT` filter on a render's colour with its albedo
+//!   and normal, with the optional `denoise` feature ([`DENOISER`] says whether this build has
+//!   it).
 //! - [`write_exr_and_png`] and [`write_render`]: linear f32 OpenEXR (chromaticities, and for a
 //!   render its AOVs and [`ExrMetadata`]) and an sRGB PNG preview, both written to temporary
 //!   files and renamed into place; [`Image`] with [`Image::read_exr`].
@@ -59,6 +62,7 @@ mod accessor;
 mod aov;
 mod cachefile;
 mod camera;
+mod denoise;
 mod digest;
 mod error;
 mod files;
@@ -75,6 +79,7 @@ mod uri;
 pub use aov::{Aov, AovImages, normalise_aovs};
 pub use cachefile::{fingerprint, read_cache_file, write_cache_file};
 pub use camera::{Camera, CameraRay, NamedCamera, Projection};
+pub use denoise::{DENOISER, DENOISER_AOVS, NO_DENOISER, denoise};
 pub use error::RenderError;
 pub use files::{LoadOptions, MAX_JSON_BYTES, MAX_SCENE_BYTES};
 pub use image::Image;

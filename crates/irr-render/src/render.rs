@@ -484,6 +484,9 @@ fn pixel_with_aovs(
             Aov::Emitted => emitted.mean(n),
             Aov::Direct => direct.mean(n),
             Aov::Indirect => indirect.mean(n),
+            // Never requested from a render (normalise_aovs keeps Aov::ALL's), but it is the
+            // colour as rendered.
+            Aov::Noisy => colour.mean(n),
         });
     }
     (colour.mean(n), bad)
