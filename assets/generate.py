@@ -6,6 +6,14 @@ Run from anywhere with `python3 assets/generate.py`; it rewrites, next to itself
 - cornell-box.gltf + cornell-box.bin: the default scene, the Cornell box from Cornell's
   published "Cornell Box Data" (geometry in mm, converted to metres), with the camera as a glTF
   perspective camera. External buffer.
+- indirect-room.gltf + indirect-room.bin: the Cornell box lit only indirectly: its light is
+  replaced by a panel of the same size under the ceiling that emits upwards, so apart from the
+  spot it lights on the ceiling, everything the camera sees is lit by bounced light. Same
+  camera, colours and geometry otherwise. External buffer, as the Cornell box.
+- textured-room.gltf + textured-room.bin + textured-room-{floor,back-wall,blocks}.png: the
+  Cornell box (with its own light) with base-colour textures carrying fine detail: parquet on
+  the floor, glyphs and stripes on the back wall, a checker on the blocks. External buffer
+  and PNG files.
 - furnace.glb: the white furnace, a closed sphere with albedo RHO and emission LE: every pixel sees
   LE / (1 - RHO) (with unbounded depth). Binary glTF.
 - disk-light.gltf: a disk light of radius R at height H over a large diffuse plane; the irradiance
@@ -13,9 +21,10 @@ Run from anywhere with `python3 assets/generate.py`; it rewrites, next to itself
 - ao-plane.gltf: one plane and nothing above it, no emitter: ambient occlusion is exactly 1.
   Buffer embedded as a data URI.
 
-Only the standard library is used (json, struct, base64, math). The output is deterministic:
-running the script twice gives the same bytes, so the committed files can be checked by
-re-running it and asking git for a diff.
+Only the standard library is used (json, struct, base64, math, zlib). The output is
+deterministic: running the script twice gives the same bytes, so the committed files can be
+checked by re-running it and asking git for a diff. (The PNGs avoid zlib's compressor, whose
+output may vary between zlib builds; zlib only supplies the CRC-32 and Adler-32 checksums.)
 """
 
 import base64
@@ -23,6 +32,7 @@ import json
 import math
 import os
 import struct
+import zlib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -42,6 +52,9 @@ class Builder:
         self.materials = []
         self.nodes = []
         self.cameras = []
+        self.images = []
+        self.samplers = []
+        self.textures = []
         self.extensions_used = set()
 
     def _align(self, n):
@@ -56,6 +69,34 @@ class Builder:
             {"buffer": 0, "byteOffset": offset, "byteLength": len(payload), "target": target}
         )
         return len(self.views) - 1
+
+    def texcoords(self, uvs):
+        """TEXCOORD_0: float (u, v) per vertex, glTF's convention ((0, 0) is the image's top-left
+        texel corner, v grows down the rows)."""
+        payload = b"".join(struct.pack("<2f", *uv) for uv in uvs)
+        view = self._view(payload, 34962)  # ARRAY_BUFFER
+        self.accessors.append(
+            {"bufferView": view, "componentType": 5126, "count": len(uvs), "type": "VEC2"}
+        )
+        return len(self.accessors) - 1
+
+    def texture(self, name, uri, mag_filter):
+        """A texture reading the image file `uri` (next to the .gltf) through a sampler with
+        magFilter `mag_filter` (9728 NEAREST, 9729 LINEAR), wrap REPEAT on both axes. minFilter
+        is set equal to magFilter: irr has no mip maps and warns about any other minFilter."""
+        self.images.append({"name": name, "uri": uri, "mimeType": "image/png"})
+        sampler = {
+            "magFilter": mag_filter,
+            "minFilter": mag_filter,
+            "wrapS": 10497,  # REPEAT
+            "wrapT": 10497,
+        }
+        if sampler not in self.samplers:
+            self.samplers.append(sampler)
+        self.textures.append(
+            {"name": name, "source": len(self.images) - 1, "sampler": self.samplers.index(sampler)}
+        )
+        return len(self.textures) - 1
 
     def positions(self, points):
         payload = b"".join(struct.pack("<3f", *p) for p in points)
@@ -91,12 +132,16 @@ class Builder:
         )
         return len(self.accessors) - 1
 
-    def material(self, name, albedo, emission=(0.0, 0.0, 0.0), double_sided=True):
+    def material(
+        self, name, albedo, emission=(0.0, 0.0, 0.0), double_sided=True, texture=None
+    ):
         """A Lambertian material: glTF's metallic-roughness model with metallic 0, roughness 1.
 
         `emission` is the emitted radiance (W sr^-1 m^-2 per channel); glTF clamps emissiveFactor
         to [0, 1], so a brighter emission is written as emissiveFactor = emission / max(emission)
-        times KHR_materials_emissive_strength = max(emission).
+        times KHR_materials_emissive_strength = max(emission). `texture` (an index from
+        `texture()`) becomes the baseColorTexture, read through TEXCOORD_0; the albedo is then
+        baseColorFactor times the texture's (linear) colour.
         """
         m = {
             "name": name,
@@ -107,6 +152,8 @@ class Builder:
             },
             "doubleSided": double_sided,
         }
+        if texture is not None:
+            m["pbrMetallicRoughness"]["baseColorTexture"] = {"index": texture, "texCoord": 0}
         peak = max(emission)
         if peak > 0.0:
             m["emissiveFactor"] = [e / peak for e in emission]
@@ -116,7 +163,7 @@ class Builder:
         self.materials.append(m)
         return len(self.materials) - 1
 
-    def mesh(self, name, points, triangles, material, component_type=5123):
+    def mesh(self, name, points, triangles, material, component_type=5123, uvs=None):
         check_indices(points, triangles, component_type)
         prim = {
             "attributes": {"POSITION": self.positions(points)},
@@ -124,6 +171,9 @@ class Builder:
             "material": material,
             "mode": 4,  # TRIANGLES
         }
+        if uvs is not None:
+            assert len(uvs) == len(points), (name, len(uvs), len(points))
+            prim["attributes"]["TEXCOORD_0"] = self.texcoords(uvs)
         self.meshes.append({"name": name, "primitives": [prim]})
         node = {"name": name, "mesh": len(self.meshes) - 1}
         self.nodes.append(node)
@@ -165,6 +215,10 @@ class Builder:
         }
         if self.cameras:
             doc["cameras"] = self.cameras
+        if self.textures:
+            doc["images"] = self.images
+            doc["samplers"] = self.samplers
+            doc["textures"] = self.textures
         if self.extensions_used:
             doc["extensionsUsed"] = sorted(self.extensions_used)
         return doc
@@ -299,6 +353,40 @@ def quads_to_mesh(quads):
     return points, triangles
 
 
+# The room's centre (mm / 1000): every wall, the floor and the ceiling face it.
+CORNELL_CENTRE = (0.278, 0.2744, 0.2796)
+
+
+def check_winding(name, points, triangles, centre=CORNELL_CENTRE):
+    """The listing winds every surface so that its front face looks into the room (walls,
+    floor, ceiling, light) or out of the block (blocks). Check it, since a light emits from its
+    front face only."""
+    for t in triangles:
+        n = face_normal(points, t)
+        p0 = points[t[0]]
+        to_centre = sub(centre, p0)
+        if name.endswith("block"):
+            # The block faces' fronts point away from the block's own centre.
+            block = [p for p in points]
+            c = tuple(sum(p[i] for p in block) / len(block) for i in range(3))
+            assert dot(n, sub(p0, c)) > 0.0, (name, t)
+        else:
+            assert dot(n, to_centre) > 0.0, (name, t)
+
+
+def cornell_camera(b):
+    # glTF cameras look down their local -Z with +Y up; the Cornell camera looks down world +Z
+    # with +Y up: a half turn about Y, the unit quaternion (x, y, z, w) = (0, 1, 0, 0). Its right
+    # (local +X) is then world -X, so the red wall (x = 0.55 m) is on the left, as in the photos.
+    b.camera(
+        "cornell camera",
+        CAMERA_YFOV,
+        1.0,
+        tuple(c / 1000.0 for c in CAMERA_POSITION_MM),
+        (0.0, 1.0, 0.0, 0.0),
+    )
+
+
 def cornell_box():
     b = Builder()
     white = b.material("white", WHITE)
@@ -316,37 +404,377 @@ def cornell_box():
         ("tall_block", white),
         ("light", light),
     ]
-    centre = (0.278, 0.2744, 0.2796)
     for name, material in surfaces:
         points, triangles = quads_to_mesh(CORNELL_MM[name])
-        # The listing winds every surface so that its front face looks into the room (walls,
-        # floor, ceiling, light) or out of the block (blocks). Check it, since the light emits
-        # from its front face only.
-        for t in triangles:
-            n = face_normal(points, t)
-            p0 = points[t[0]]
-            to_centre = sub(centre, p0)
-            if name.endswith("block"):
-                # The block faces' fronts point away from the block's own centre.
-                block = [p for p in points]
-                c = tuple(sum(p[i] for p in block) / len(block) for i in range(3))
-                assert dot(n, sub(p0, c)) > 0.0, (name, t)
-            else:
-                assert dot(n, to_centre) > 0.0, (name, t)
+        check_winding(name, points, triangles)
         b.mesh(name, points, triangles, material, component_type=5123)
-    # glTF cameras look down their local -Z with +Y up; the Cornell camera looks down world +Z
-    # with +Y up: a half turn about Y, the unit quaternion (x, y, z, w) = (0, 1, 0, 0). Its right
-    # (local +X) is then world -X, so the red wall (x = 0.55 m) is on the left, as in the photos.
-    b.camera(
-        "cornell camera",
-        CAMERA_YFOV,
-        1.0,
-        tuple(c / 1000.0 for c in CAMERA_POSITION_MM),
-        (0.0, 1.0, 0.0, 0.0),
-    )
+    cornell_camera(b)
     doc = b.document("Cornell Box Data (Cornell University PCG), metres", "cornell-box.bin")
     write_gltf(os.path.join(HERE, "cornell-box.gltf"), doc)
     with open(os.path.join(HERE, "cornell-box.bin"), "wb") as f:
+        f.write(bytes(b.data))
+
+
+# ---------------------------------------------------------------------------------------------
+# Variations on the Cornell box
+# ---------------------------------------------------------------------------------------------
+
+# The room lit only indirectly. The Cornell box without its ceiling light; instead a panel of
+# the same footprint (130 mm x 105 mm, 0.01365 m^2) hangs INDIRECT_GAP_MM below the ceiling
+# with its emitting face turned UP: the ceiling above it is the only surface the light reaches
+# directly, and everything the camera sees apart from that spot is lit by bounced light (the
+# case where an irradiance cache does all the work and a path tracer is noisiest).
+#
+# The panel is a thin closed fixture:
+# - the emitter, a single-sided quad at y = INDIRECT_PANEL_Y_MM facing +Y;
+# - its underside, a non-emissive quad INDIRECT_THICKNESS_MM lower facing -Y, with the light's
+#   albedo, so the camera sees a dark panel instead of looking through the emitter's back; the
+#   two never share a plane (coplanar surfaces make the first hit ambiguous);
+# - a lip of INDIRECT_LIP_MM around the emitter (four vertical quads from the underside up),
+#   because without it the top INDIRECT_GAP_MM of every wall stands above the emitter's plane
+#   and sees it at a grazing angle: a thin directly lit strip under the ceiling. The lip is
+#   high enough to block every such ray (asserted in indirect_room()).
+# The underside and the lip (the housing) stand INDIRECT_MARGIN_MM outside the emitter's edges:
+# with the emitter's edges on the lip's planes, a shadow ray to a light sample on the very
+# edge ends a hair before the lip and slips under it (measured: a few grazing samples of
+# direct light on the far ceiling in a 512 x 512 direct-only render).
+INDIRECT_PANEL_Y_MM = 530.0
+INDIRECT_THICKNESS_MM = 1.0
+INDIRECT_LIP_MM = 10.0
+INDIRECT_MARGIN_MM = 1.0
+INDIRECT_GAP_MM = 548.8 - INDIRECT_PANEL_Y_MM
+# The Cornell light's footprint (x, z in mm).
+PANEL_X_MM = (213.0, 343.0)
+PANEL_Z_MM = (227.0, 332.0)
+# The emitted radiance: the Cornell light's colour, INDIRECT_GAIN times brighter (68 48 16), so
+# that the room looks as bright as the Cornell box. Measured with irr at 256 x 256 (default
+# integrator; the path tracer at 64 spp agrees within 0.5 %), red channel: the PNG preview's
+# mean linear value (clipped to [0, 1], as displayed) is 0.103 here and 0.104 in the Cornell
+# box. `image mean radiance` is 0.272 here against 0.198 there, since each image has a small,
+# far brighter patch, here the directly lit ceiling spot (0.09 of the 0.272; up to ~40 W sr^-1
+# m^-2) and there the light itself (0.10 of the 0.198): what the spot adds over the Cornell
+# light's share is clipped on screen. Going from direct to indirect light costs the bounce off
+# the ceiling (albedo ~0.7) and the light the lip and the open front lose.
+INDIRECT_GAIN = 4.0
+INDIRECT_RADIANCE = tuple(INDIRECT_GAIN * c for c in LIGHT_RADIANCE)
+
+
+def indirect_room():
+    b = Builder()
+    white = b.material("white", WHITE)
+    red = b.material("red", RED)
+    green = b.material("green", GREEN)
+    # Single-sided: the emitter's front face looks up at the ceiling; its back emits nothing.
+    light = b.material("light", LIGHT_ALBEDO, emission=INDIRECT_RADIANCE, double_sided=False)
+    housing = b.material("light housing", LIGHT_ALBEDO)
+    for name, material in [
+        ("floor", white),
+        ("ceiling", white),
+        ("back_wall", white),
+        ("right_wall", green),
+        ("left_wall", red),
+        ("short_block", white),
+        ("tall_block", white),
+    ]:
+        points, triangles = quads_to_mesh(CORNELL_MM[name])
+        check_winding(name, points, triangles)
+        b.mesh(name, points, triangles, material, component_type=5123)
+
+    (x0, x1), (z0, z1) = PANEL_X_MM, PANEL_Z_MM
+    top = INDIRECT_PANEL_Y_MM
+    bottom = top - INDIRECT_THICKNESS_MM
+    lip = top + INDIRECT_LIP_MM
+    # Wound so that (p1 - p0) x (p2 - p0) points up: the emitter's front face is +Y.
+    emitter = [(x1, top, z0), (x0, top, z0), (x0, top, z1), (x1, top, z1)]
+    # The housing's footprint, INDIRECT_MARGIN_MM larger on every side.
+    m = INDIRECT_MARGIN_MM
+    hx0, hx1, hz0, hz1 = x0 - m, x1 + m, z0 - m, z1 + m
+    # The Cornell light's own winding, facing down.
+    underside = [(hx1, bottom, hz0), (hx1, bottom, hz1), (hx0, bottom, hz1), (hx0, bottom, hz0)]
+    # Each lip quad runs from the underside's edge up to `lip`, its front face outwards.
+    corners = [(hx0, hz0), (hx1, hz0), (hx1, hz1), (hx0, hz1)]
+    lips = []
+    for (ax, az), (bx, bz) in zip(corners, corners[1:] + corners[:1]):
+        lips.append([(ax, bottom, az), (ax, lip, az), (bx, lip, bz), (bx, bottom, bz)])
+    points, triangles = quads_to_mesh([emitter])
+    for t in triangles:
+        assert face_normal(points, t)[1] > 0.0  # the emitter faces up
+    b.mesh("light", points, triangles, light, component_type=5121)
+    points, triangles = quads_to_mesh([underside] + lips)
+    panel_centre = ((hx0 + hx1) / 2000.0, top / 1000.0, (hz0 + hz1) / 2000.0)
+    for k, t in enumerate(triangles):
+        n = face_normal(points, t)
+        if k < 2:
+            assert n[1] < 0.0  # the underside faces down
+        else:
+            assert dot(n, sub(points[t[0]], panel_centre)) > 0.0  # the lip faces out
+    b.mesh("light housing", points, triangles, housing, component_type=5121)
+
+    # No wall sees the emitter over the lip. A ray from an emitter point to a wall point above
+    # the emitter's plane (at most INDIRECT_GAP_MM above it) leaves the housing's footprint
+    # after a horizontal run d <= the footprint's diagonal and reaches the wall after a further
+    # run D >= the footprint's smallest horizontal distance to a wall (the left wall's smallest
+    # x is 549.6 mm; the front is open and the blocks are far below), so it rises at most
+    # gap * d / (d + D) by the time it crosses the lip, which must stand higher than that.
+    d_max = math.hypot(hx1 - hx0, hz1 - hz0)
+    d_wall = min(hx0 - 0.0, 549.6 - hx1, 559.2 - hz1)
+    assert INDIRECT_LIP_MM > INDIRECT_GAP_MM * d_max / (d_max + d_wall)
+    assert lip < 548.8  # and the light still reaches the ceiling
+
+    cornell_camera(b)
+    radiance = " ".join("%g" % c for c in INDIRECT_RADIANCE)
+    doc = b.document(
+        "Cornell box lit only indirectly: a %g x %g mm panel %g mm under the ceiling emitting "
+        "%s upwards, metres" % (x1 - x0, z1 - z0, INDIRECT_GAP_MM, radiance),
+        "indirect-room.bin",
+    )
+    write_gltf(os.path.join(HERE, "indirect-room.gltf"), doc)
+    with open(os.path.join(HERE, "indirect-room.bin"), "wb") as f:
+        f.write(bytes(b.data))
+
+
+# The textured room: the Cornell box with its ceiling light (direct light, as in cornell-box),
+# but with base-colour textures carrying detail finer than the lighting: where a denoiser
+# blurs, and where an irradiance cache must multiply the texture's albedo at the shading
+# point rather than interpolate it. Each texture is mapped by a planar projection in metres
+# (texels stay square on every surface) and repeats (wrap REPEAT):
+# - floor: basket-weave parquet, 128 x 128 texels per TEX_FLOOR_M metres: 32-texel squares of
+#   two 16-texel planks (3.1 cm, about 4-10 pixels on a 256 x 256 image, depending on depth
+#   and foreshortening), 1-texel seams, per-plank shades and per-row grain; LINEAR filter;
+# - back wall: 128 x 128 texels over the whole wall (4.3 mm a texel, about 1.15 pixels at
+#   256 x 256): two rows of 5 x 7 glyphs with 2-texel strokes ("IRRADIANCE" / "CACHE TEST"),
+#   then bands of vertical stripes 8, 4 and 2 texels wide (about 9, 4.6 and 2.3 pixels),
+#   horizontal stripes 2 texels wide and a 4-texel checker at the bottom; LINEAR filter;
+# - both blocks: a two-colour checker of 8-texel squares, 16 x 16 texels per TEX_BLOCK_M
+#   (2.5 cm squares, about 6-10 pixels); NEAREST filter, so both of glTF's filters are used;
+# - side walls, ceiling and light: plain, as in the Cornell box.
+# The images are PNG files next to the .gltf (irr reads images from a file, a data: URI or a
+# bufferView; files let anyone open the textures in an image viewer and see them change in a
+# diff). Every texel is computed with integers only, and the PNGs hold stored (uncompressed)
+# deflate blocks, so the bytes do not depend on the platform's libm or zlib version; the three
+# files take about 100 KB. Texel values are sRGB; no channel exceeds TEX_MAX_ALBEDO linear
+# (asserted; the brightest, the wall's paper at sRGB 222, is 0.73, the Cornell white's 0.725).
+TEX_FLOOR_M = 0.25
+TEX_BLOCK_M = 0.05
+TEX_MAX_ALBEDO = 0.8
+
+# 5 x 7 glyphs, one string per row, "#" inked.
+GLYPHS = {
+    "A": [".###.", "#...#", "#...#", "#####", "#...#", "#...#", "#...#"],
+    "C": [".###.", "#...#", "#....", "#....", "#....", "#...#", ".###."],
+    "D": ["####.", "#...#", "#...#", "#...#", "#...#", "#...#", "####."],
+    "E": ["#####", "#....", "#....", "####.", "#....", "#....", "#####"],
+    "H": ["#...#", "#...#", "#...#", "#####", "#...#", "#...#", "#...#"],
+    "I": [".###.", "..#..", "..#..", "..#..", "..#..", "..#..", ".###."],
+    "N": ["#...#", "#...#", "##..#", "#.#.#", "#..##", "#...#", "#...#"],
+    "R": ["####.", "#...#", "#...#", "####.", "#.#..", "#..#.", "#...#"],
+    "S": [".####", "#....", "#....", ".###.", "....#", "....#", "####."],
+    "T": ["#####", "..#..", "..#..", "..#..", "..#..", "..#..", "..#.."],
+    " ": ["....."] * 7,
+}
+
+
+def srgb_to_linear(c):
+    """An 8-bit sRGB value to linear (IEC 61966-2-1), for the albedo check only."""
+    c = c / 255.0
+    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+
+
+def hash32(*values):
+    """A small integer hash (multiply-xorshift), for deterministic per-plank variation."""
+    h = 0x811C9DC5
+    for v in values:
+        h = ((h ^ (v & 0xFFFFFFFF)) * 0x01000193) & 0xFFFFFFFF
+        h ^= h >> 15
+        h = (h * 0x2C1B3C6D) & 0xFFFFFFFF
+        h ^= h >> 12
+    return h
+
+
+def shade(rgb, percent):
+    return tuple(c * percent // 100 for c in rgb)
+
+
+def floor_texture():
+    """Basket-weave parquet, 128 x 128: 4 x 4 squares of 32 texels, each two planks wide, the
+    planks running along u in one square and along v in the next."""
+    n, square, plank = 128, 32, 16
+    woods = [(176, 124, 78), (160, 110, 66), (190, 140, 92), (168, 118, 72)]
+    seam = (92, 62, 40)
+    rows = []
+    for y in range(n):
+        row = []
+        for x in range(n):
+            sx, sy = x // square, y // square
+            along_u = (sx + sy) % 2 == 0
+            # across: position across the planks; along: position along them.
+            across, along = (y % square, x % square) if along_u else (x % square, y % square)
+            k = across // plank
+            wood = woods[hash32(sx, sy, k) % len(woods)]
+            if across % plank == 0 or along == 0:
+                row.append(seam)
+                continue
+            # Grain: each line of texels along the plank gets its own darkening (0-15 %),
+            # and a few short darker streaks break it up along the plank.
+            grain = hash32(sx, sy, k, across) % 4 * 5
+            streak = 10 if hash32(sx, sy, k, across, along // 6) % 7 == 0 else 0
+            row.append(shade(wood, 100 - grain - streak))
+        rows.append(row)
+    return n, n, rows
+
+
+def back_wall_texture():
+    """128 x 128 over the whole back wall, top row at the ceiling: glyph rows, then stripes."""
+    n = 128
+    paper = (222, 214, 196)
+    ink = (40, 48, 72)
+    rows = [[paper] * n for _ in range(n)]
+
+    def fill(x, y, w, h):
+        for j in range(y, min(y + h, n)):
+            for i in range(x, min(x + w, n)):
+                rows[j][i] = ink
+
+    # Two lines of 10 glyphs, each glyph cell 2 x 2 texels (10 x 14), 12 texels apart.
+    cell, pitch = 2, 12
+    for line, text in enumerate(["IRRADIANCE", "CACHE TEST"]):
+        y0 = 6 + line * 18
+        x0 = (n - (pitch * len(text) - 2)) // 2
+        for c, ch in enumerate(text):
+            for gy, bits in enumerate(GLYPHS[ch]):
+                for gx, bit in enumerate(bits):
+                    if bit == "#":
+                        fill(x0 + c * pitch + gx * cell, y0 + gy * cell, cell, cell)
+    # Bands 12 texels tall, 4 apart: vertical stripes 8, 4 and 2 texels wide, then
+    # horizontal stripes 2 texels wide; a 4-texel checker fills the rest.
+    y = 46
+    for width in (8, 4, 2):
+        for x in range(0, n, 2 * width):
+            fill(x, y, width, 12)
+        y += 16
+    for j in range(y, y + 12, 4):
+        fill(0, j, n, 2)
+    y += 16
+    for j in range(y, n):
+        for i in range(n):
+            if (i // 4 + j // 4) % 2 == 0:
+                rows[j][i] = ink
+    return n, n, rows
+
+
+def block_texture():
+    """A 16 x 16 checker of 8-texel squares."""
+    light, dark = (214, 212, 204), (112, 122, 146)
+    rows = [[light if (x // 8 + y // 8) % 2 == 0 else dark for x in range(16)] for y in range(16)]
+    return 16, 16, rows
+
+
+def png_bytes(width, height, rows):
+    """An 8-bit RGB PNG whose zlib stream holds stored (uncompressed) deflate blocks: the same
+    bytes from any zlib (compressed output may differ between zlib versions and forks)."""
+    raw = b"".join(b"\0" + bytes(c for texel in row for c in texel) for row in rows)
+    assert len(raw) == height * (1 + 3 * width)
+    stream = bytearray(b"\x78\x01")  # deflate, 32 K window, no dictionary, FCHECK
+    for start in range(0, len(raw), 65535):
+        block = raw[start : start + 65535]
+        final = 1 if start + 65535 >= len(raw) else 0
+        stream += struct.pack("<BHH", final, len(block), len(block) ^ 0xFFFF) + block
+    stream += struct.pack(">I", zlib.adler32(raw))
+
+    def chunk(kind, body):
+        crc = struct.pack(">I", zlib.crc32(kind + body))
+        return struct.pack(">I", len(body)) + kind + body + crc
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)  # 8-bit truecolour
+    signature = b"\x89PNG\r\n\x1a\n"
+    return signature + chunk(b"IHDR", ihdr) + chunk(b"IDAT", bytes(stream)) + chunk(b"IEND", b"")
+
+
+def write_texture(name, image):
+    width, height, rows = image
+    assert len(rows) == height and all(len(r) == width for r in rows)
+    brightest = max(c for row in rows for texel in row for c in texel)
+    assert srgb_to_linear(brightest) <= TEX_MAX_ALBEDO, (name, brightest)
+    data = png_bytes(width, height, rows)
+    # The encoder's output must decode back to the texels: the IDAT payload lies after the
+    # signature (8 bytes), IHDR (4 + 4 + 13 + 4) and IDAT's length and type (8), and before
+    # IDAT's CRC (4) and IEND (12).
+    idat = data[8 + 25 + 8 : -4 - 12]
+    assert zlib.decompress(idat) == b"".join(
+        b"\0" + bytes(c for texel in row for c in texel) for row in rows
+    )
+    with open(os.path.join(HERE, name), "wb") as f:
+        f.write(data)
+
+
+X_AXIS, Z_AXIS, DOWN = (1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (0.0, -1.0, 0.0)
+
+
+def planar_uvs(points, origin, u_axis, v_axis, size):
+    """(u, v) = the offsets from `origin` along the unit axes, in units of `size` metres."""
+    return [
+        (dot(sub(p, origin), u_axis) / size, dot(sub(p, origin), v_axis) / size) for p in points
+    ]
+
+
+def block_uvs(points):
+    """Each block quad's own planar map: the top in x and z, a side along its bottom edge
+    (listed p0 -> p3) and down."""
+    uvs = []
+    for q in range(0, len(points), 4):
+        quad = points[q : q + 4]
+        if all(abs(p[1] - quad[0][1]) < 1e-9 for p in quad):
+            uvs += planar_uvs(quad, (0.0, 0.0, 0.0), X_AXIS, Z_AXIS, TEX_BLOCK_M)
+        else:
+            u_axis = normalise(sub(quad[3], quad[0]))
+            assert abs(u_axis[1]) < 1e-9, quad  # the bottom edge is horizontal
+            uvs += planar_uvs(quad, quad[0], u_axis, DOWN, TEX_BLOCK_M)
+    return uvs
+
+
+def textured_room():
+    b = Builder()
+    floor_tex = b.texture("parquet", "textured-room-floor.png", 9729)  # LINEAR
+    wall_tex = b.texture("glyphs and stripes", "textured-room-back-wall.png", 9729)  # LINEAR
+    block_tex = b.texture("checker", "textured-room-blocks.png", 9728)  # NEAREST
+    write_texture("textured-room-floor.png", floor_texture())
+    write_texture("textured-room-back-wall.png", back_wall_texture())
+    write_texture("textured-room-blocks.png", block_texture())
+    # A textured material's baseColorFactor is white: the albedo is the texture's colour.
+    white = b.material("white", WHITE)
+    red = b.material("red", RED)
+    green = b.material("green", GREEN)
+    parquet = b.material("parquet", (1.0, 1.0, 1.0), texture=floor_tex)
+    poster = b.material("glyphs and stripes", (1.0, 1.0, 1.0), texture=wall_tex)
+    checker = b.material("checker", (1.0, 1.0, 1.0), texture=block_tex)
+    light = b.material("light", LIGHT_ALBEDO, emission=LIGHT_RADIANCE, double_sided=False)
+    # The back wall's map: u from the red wall's side (x = 0.556 m, on the camera's left)
+    # towards x = 0, v down from the ceiling, one texture over 0.556 m, so text reads
+    # left to right, upright.
+    wall_size = 0.556
+    wall_corner, minus_x = (wall_size, 0.5488, 0.0), (-1.0, 0.0, 0.0)
+    surfaces = [
+        ("floor", parquet, lambda p: planar_uvs(p, (0.0, 0.0, 0.0), X_AXIS, Z_AXIS, TEX_FLOOR_M)),
+        ("ceiling", white, None),
+        ("back_wall", poster, lambda p: planar_uvs(p, wall_corner, minus_x, DOWN, wall_size)),
+        ("right_wall", green, None),
+        ("left_wall", red, None),
+        ("short_block", checker, block_uvs),
+        ("tall_block", checker, block_uvs),
+        ("light", light, None),
+    ]
+    for name, material, mapping in surfaces:
+        points, triangles = quads_to_mesh(CORNELL_MM[name])
+        check_winding(name, points, triangles)
+        uvs = mapping(points) if mapping else None
+        b.mesh(name, points, triangles, material, component_type=5123, uvs=uvs)
+    cornell_camera(b)
+    doc = b.document(
+        "Cornell box with base-colour textures (parquet, glyphs, checker), metres",
+        "textured-room.bin",
+    )
+    write_gltf(os.path.join(HERE, "textured-room.gltf"), doc)
+    with open(os.path.join(HERE, "textured-room.bin"), "wb") as f:
         f.write(bytes(b.data))
 
 
@@ -484,6 +912,8 @@ def ao_plane():
 
 if __name__ == "__main__":
     cornell_box()
+    indirect_room()
+    textured_room()
     furnace()
     disk_light()
     ao_plane()
