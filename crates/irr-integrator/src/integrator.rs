@@ -4,7 +4,7 @@
 use crate::path::{Radiance, ShadingPoint};
 use crate::scene::Scene;
 use glam::Vec3;
-use irr_geometry::Ray;
+use irr_geometry::{Ray, SurfacePoint};
 use irr_sampling::rng::Dimensions;
 use std::ops::AddAssign;
 
@@ -135,6 +135,31 @@ pub trait Integrator: Sync {
             *o = self.li_split(scene, ray, d, rays);
         }
     }
+
+    /// [`Integrator::li_split_many`] that also reports what each camera ray met first
+    /// (`first[i]`, `None` for a miss), for a renderer's albedo, normal and depth images
+    /// (pbrt-v4's `VisibleSurface`). `out` and `dims` come out as `li_split_many` leaves them.
+    /// The default traces each camera ray's first hit once more ([`first_hit`]); an integrator
+    /// that finds it anyway (the path tracer, the irradiance cache) overrides this so that the
+    /// images cost no ray.
+    ///
+    /// # Panics
+    /// If the four slices differ in length.
+    fn li_split_many_first_hits(
+        &self,
+        scene: &Scene,
+        camera_rays: &[Ray],
+        dims: &mut [Dimensions],
+        out: &mut [Radiance],
+        first: &mut [Option<FirstHit>],
+        rays: &mut RayCounter,
+    ) {
+        assert_eq!(camera_rays.len(), first.len(), "one first hit per ray");
+        self.li_split_many(scene, camera_rays, dims, out, rays);
+        for (ray, f) in camera_rays.iter().zip(first) {
+            *f = first_hit(scene, ray, rays);
+        }
+    }
 }
 
 /// [`Integrator::li`] of `integrator` for each ray in turn, as `li_many`'s default does.
@@ -179,10 +204,17 @@ pub fn first_hit(scene: &Scene, ray: &Ray, rays: &mut RayCounter) -> Option<Firs
     rays.closest += 1;
     let hit = scene.geometry().intersect(ray)?;
     let surface = scene.geometry().surface(ray, &hit);
-    let x = ShadingPoint::new(&surface, -ray.direction);
-    Some(FirstHit {
-        distance: hit.t,
-        albedo: scene.albedo(surface.triangle, surface.b1, surface.b2),
-        normal: x.ns,
-    })
+    Some(FirstHit::at(scene, &surface, -ray.direction, hit.t))
+}
+
+impl FirstHit {
+    /// The first hit at `surface`, seen from direction `wo` (towards the ray's origin; any
+    /// length) at parameter `t` along the ray.
+    pub fn at(scene: &Scene, surface: &SurfacePoint, wo: Vec3, t: f32) -> Self {
+        FirstHit {
+            distance: t,
+            albedo: scene.albedo(surface.triangle, surface.b1, surface.b2),
+            normal: ShadingPoint::new(surface, wo).ns,
+        }
+    }
 }

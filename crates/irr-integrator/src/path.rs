@@ -31,7 +31,7 @@
 //! background when they hit nothing. An integrator that takes `emitted` and `direct` from here
 //! and replaces `indirect` by a cache lookup counts every path once.
 
-use crate::integrator::{Integrator, RayCounter, li_each};
+use crate::integrator::{FirstHit, Integrator, RayCounter, li_each};
 use crate::light::LightSample;
 use crate::scene::Scene;
 use glam::Vec3;
@@ -263,7 +263,7 @@ pub(crate) fn first_surface(
     scene: &Scene,
     ray: &Ray,
     rays: &mut RayCounter,
-) -> Result<(SurfacePoint, Vec3, Vec3), Radiance> {
+) -> Result<(SurfacePoint, Vec3, Vec3, f32), Radiance> {
     rays.closest += 1;
     let Some(hit) = scene.geometry().intersect(ray) else {
         return Err(Radiance {
@@ -274,7 +274,7 @@ pub(crate) fn first_surface(
     let surface = scene.geometry().surface(ray, &hit);
     let wo = -ray.direction.normalize();
     let emitted = scene.emitted_at(&surface, wo);
-    Ok((surface, wo, emitted))
+    Ok((surface, wo, emitted, hit.t))
 }
 
 /// The path-traced reference: Lambertian BSDF, NEE on area and punctual lights combined with BSDF
@@ -300,13 +300,26 @@ impl PathTracer {
         dims: &mut Dimensions,
         rays: &mut RayCounter,
     ) -> Radiance {
-        let (surface, wo, emitted) = match first_surface(scene, ray, rays) {
+        self.li_split_first_hit(scene, ray, dims, rays).0
+    }
+
+    /// [`PathTracer::li_split`] and what the ray met first (`None` for a miss), found on the
+    /// way: no ray more.
+    pub fn li_split_first_hit(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        dims: &mut Dimensions,
+        rays: &mut RayCounter,
+    ) -> (Radiance, Option<FirstHit>) {
+        let (surface, wo, emitted, t) = match first_surface(scene, ray, rays) {
             Ok(first) => first,
-            Err(background) => return background,
+            Err(background) => return (background, None),
         };
+        let first = FirstHit::at(scene, &surface, wo, t);
         let mut out = self.reflected(scene, &surface, wo, dims, rays);
         out.emitted = emitted;
-        out
+        (out, Some(first))
     }
 
     /// The radiance leaving `surface` towards `wo` by reflection (its own emission excluded),
@@ -572,6 +585,25 @@ impl Integrator for PathTracer {
         PathTracer::li_split(self, scene, ray, dims, rays)
     }
 
+    /// The first hits come from the paths' own first intersections.
+    fn li_split_many_first_hits(
+        &self,
+        scene: &Scene,
+        camera_rays: &[Ray],
+        dims: &mut [Dimensions],
+        out: &mut [Radiance],
+        first: &mut [Option<FirstHit>],
+        rays: &mut RayCounter,
+    ) {
+        assert!(
+            camera_rays.len() == dims.len() && dims.len() == out.len() && out.len() == first.len(),
+            "one dimension stream, answer and first hit per ray"
+        );
+        for (((ray, d), o), f) in camera_rays.iter().zip(dims).zip(out).zip(first) {
+            (*o, *f) = self.li_split_first_hit(scene, ray, d, rays);
+        }
+    }
+
     /// Where the geometry streams (`Geometry::streams`: a large scene), the camera rays' first
     /// surfaces one at a time (neighbouring camera rays cross the same nodes), then the paths
     /// from them together ([`PathTracer::reflected_many`]); elsewhere `li` for each ray.
@@ -595,7 +627,7 @@ impl Integrator for PathTracer {
         let mut starts = Vec::with_capacity(camera_rays.len());
         for (i, ray) in camera_rays.iter().enumerate() {
             match first_surface(scene, ray, rays) {
-                Ok((surface, wo, emitted)) => {
+                Ok((surface, wo, emitted, _)) => {
                     hit.push((i, emitted));
                     starts.push((surface, wo));
                 }

@@ -369,3 +369,89 @@ fn scene_rejects_missing_and_invalid_materials() {
         "{err:?}"
     );
 }
+
+/// `li_split_many_first_hits` answers as `li_split_many` does, bit for bit, with the first hits
+/// `first_hit` finds (the light disk, the sphere, and a miss through a hole); the path tracer and
+/// the irradiance cache find them on the way (the same rays as `li_split_many`), the default
+/// (ambient occlusion) traces one more closest hit per ray.
+#[test]
+fn first_hits_come_with_the_answers_at_no_extra_ray_where_the_integrator_finds_them() {
+    use crate::{FirstHit, IcSettings, IrradianceCacheIntegrator, Radiance, first_hit};
+    // A grey sphere with a light disk inside, and rays from its centre, one of them through a
+    // gap: the icosphere is closed, so the miss is a ray from outside pointing away.
+    let scene = scene(
+        &[
+            icosphere(Vec3::ZERO, 2.0, 2, 0),
+            polygon(Vec3::new(0.0, 1.5, 0.0), 0.3, 16, -1.0, 1),
+        ],
+        vec![
+            Material::diffuse(Vec3::splat(0.6)),
+            Material::emitter(Vec3::splat(5.0)),
+        ],
+    );
+    let rays: Vec<Ray> = (0..24)
+        .map(|i| {
+            let a = i as f32 * 0.7;
+            Ray::new(
+                Vec3::ZERO,
+                Vec3::new(a.cos(), (a * 1.3).sin(), a.sin()).normalize(),
+            )
+        })
+        .chain([
+            Ray::new(Vec3::ZERO, Vec3::Y),
+            Ray::new(Vec3::new(0.0, 0.0, 5.0), Vec3::Z),
+        ])
+        .collect();
+    let ic =
+        IrradianceCacheIntegrator::new(IcSettings::default()).unwrap_or_else(|e| panic!("{e}"));
+    let path = PathTracer::new(PathSettings::default());
+    let ao = AmbientOcclusion::new(AoSettings::default());
+    let integrators: [(&dyn Integrator, u64); 3] = [(&path, 0), (&ic, 0), (&ao, 1)];
+    for (integrator, extra_per_ray) in integrators {
+        let dims = |k: u64| -> Vec<Dimensions> {
+            (0..rays.len() as u64)
+                .map(|i| Dimensions::starting_at(SampleKey::new(k, i, 0), 1))
+                .collect()
+        };
+        let (mut plain_dims, mut seen_dims) = (dims(3), dims(3));
+        let mut plain = vec![Radiance::default(); rays.len()];
+        let mut seen = vec![Radiance::default(); rays.len()];
+        let mut first: Vec<Option<FirstHit>> = vec![None; rays.len()];
+        let (mut plain_rays, mut seen_rays) = (RayCounter::default(), RayCounter::default());
+        integrator.li_split_many(&scene, &rays, &mut plain_dims, &mut plain, &mut plain_rays);
+        integrator.li_split_many_first_hits(
+            &scene,
+            &rays,
+            &mut seen_dims,
+            &mut seen,
+            &mut first,
+            &mut seen_rays,
+        );
+        let name = integrator.name();
+        for i in 0..rays.len() {
+            let (a, b) = (plain[i], seen[i]);
+            assert_eq!(
+                [a.emitted, a.direct, a.indirect].map(|v| v.to_array().map(f32::to_bits)),
+                [b.emitted, b.direct, b.indirect].map(|v| v.to_array().map(f32::to_bits)),
+                "{name}, ray {i}"
+            );
+            assert_eq!(plain_dims[i].position(), seen_dims[i].position(), "{name}");
+            let expected = first_hit(&scene, &rays[i], &mut RayCounter::default());
+            assert_eq!(first[i], expected, "{name}, ray {i}");
+        }
+        assert!(
+            first[rays.len() - 1].is_none() && first[0].is_some(),
+            "{name}"
+        );
+        assert!(
+            first[rays.len() - 2].is_some_and(|h| h.albedo == Vec3::ZERO),
+            "{name}"
+        );
+        assert_eq!(seen_rays.shadow, plain_rays.shadow, "{name}");
+        assert_eq!(
+            seen_rays.closest,
+            plain_rays.closest + extra_per_ray * rays.len() as u64,
+            "{name}"
+        );
+    }
+}

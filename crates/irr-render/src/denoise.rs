@@ -118,7 +118,6 @@ fn run_filter(colour: &Image, albedo: &Image, normal: &Image) -> Result<Image, R
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::Vec3;
 
     /// The auxiliary images are checked before the library is asked: a missing one or one of
     /// another size is an error naming it, in any build.
@@ -171,6 +170,7 @@ mod tests {
     #[cfg(feature = "denoise")]
     #[test]
     fn noise_on_a_flat_plane_is_removed() {
+        use glam::Vec3;
         let (w, h) = (64, 48);
         let flat = |v: Vec3| {
             Image::from_pixels(w, h, vec![v; (w * h) as usize]).unwrap_or_else(|| Image::new(w, h))

@@ -26,7 +26,7 @@ use crate::error::RenderError;
 use crate::image::Image;
 use glam::{Vec2, Vec3};
 use irr_geometry::Ray;
-use irr_integrator::{Batching, Integrator, PIXEL_BATCH, Radiance, RayCounter, Scene, first_hit};
+use irr_integrator::{Batching, FirstHit, Integrator, PIXEL_BATCH, Radiance, RayCounter, Scene};
 use irr_sampling::rng::Dimensions;
 use irr_sampling::{Cmj, PixelKeys, SampleKey};
 use rayon::prelude::*;
@@ -343,12 +343,47 @@ impl Sum3 {
     }
 }
 
+/// A pixel's sums of its samples' first hits (the albedo, normal and depth AOVs), in sample
+/// order.
+#[derive(Clone, Copy, Debug, Default)]
+struct FirstHitSums {
+    albedo: Sum3,
+    normal: Sum3,
+    depth: f64,
+    hits: u32,
+}
+
+impl FirstHitSums {
+    /// Adds a sample's first hit, `origin` being its camera ray's origin's distance from the
+    /// centre of projection.
+    fn add(&mut self, hit: &FirstHit, origin: f32) {
+        self.albedo.add(hit.albedo);
+        self.normal.add(hit.normal);
+        self.depth += f64::from(origin + hit.distance);
+        self.hits += 1;
+    }
+
+    /// The pixel's value of a first-hit AOV over `n` samples: albedo and normal averaged over
+    /// all samples, depth over those that hit (+∞ if none did); `None` for the other AOVs.
+    fn value(&self, aov: Aov, n: f64) -> Option<Vec3> {
+        match aov {
+            Aov::Albedo => Some(self.albedo.mean(n)),
+            Aov::Normal => Some(self.normal.mean(n)),
+            Aov::Depth if self.hits == 0 => Some(Vec3::INFINITY),
+            Aov::Depth => Some(Vec3::splat((self.depth / f64::from(self.hits)) as f32)),
+            _ => None,
+        }
+    }
+}
+
 /// The values of `tile`'s pixels, row by row: each the mean of its samples, summed in index
 /// order in f64. The samples go to the integrator a sample index at a time, the tile's
 /// samples of that index in one `Integrator::li_many` call (the path tracer traces their paths
 /// together, a bounce at a time, which lets a large scene's rays overlap their waits for
-/// memory); each sample's value is `li`'s, bit for bit. Returns the values and the number of
-/// non-finite samples (counted as black).
+/// memory); each sample's value is `li`'s, bit for bit. With `first` (a
+/// [`Batching::BySampleIndex`] integrator only), each pixel's first hits are summed there too,
+/// as the integrator reports them. Returns the values and the number of non-finite samples
+/// (counted as black).
 fn tile_pixels(
     scene: &Scene,
     camera: &Camera,
@@ -356,6 +391,7 @@ fn tile_pixels(
     settings: &RenderSettings,
     tile: &Tile,
     rays: &mut RayCounter,
+    mut first: Option<&mut [FirstHitSums]>,
 ) -> (Vec<Vec3>, u64) {
     let pixels: Vec<(u32, u32)> = (tile.y0..tile.y1)
         .flat_map(|y| (tile.x0..tile.x1).map(move |x| (x, y)))
@@ -374,8 +410,9 @@ fn tile_pixels(
     }
     let mut sums = vec![Sum3::default(); pixels.len()];
     let mut bad = 0;
-    let (mut camera_rays, mut dims) = (Vec::new(), Vec::new());
+    let (mut camera_rays, mut origins, mut dims) = (Vec::new(), Vec::new(), Vec::new());
     let mut out = vec![Vec3::ZERO; pixels.len()];
+    let (mut split, mut hits) = (Vec::new(), Vec::new());
     let samplers: Vec<PixelSampler> = pixels
         .iter()
         .map(|&p| PixelSampler::new(settings, p))
@@ -383,13 +420,41 @@ fn tile_pixels(
     let projection = camera.projection(settings.width, settings.height);
     for i in 0..settings.spp {
         camera_rays.clear();
+        origins.clear();
         dims.clear();
         for sampler in &samplers {
-            let (ray, _, d) = sampler.camera_sample(&projection, i);
+            let (ray, origin, d) = sampler.camera_sample(&projection, i);
             camera_rays.push(ray);
+            origins.push(origin);
             dims.push(d);
         }
-        integrator.li_many(scene, &camera_rays, &mut dims, &mut out, rays);
+        if let Some(first) = first.as_deref_mut() {
+            // The split's total is `li_many`'s answer bit for bit; the first hits draw no
+            // random numbers.
+            split.resize(pixels.len(), Radiance::default());
+            hits.resize(pixels.len(), None);
+            integrator.li_split_many_first_hits(
+                scene,
+                &camera_rays,
+                &mut dims,
+                &mut split,
+                &mut hits,
+                rays,
+            );
+            for (((o, r), h), (f, origin)) in out
+                .iter_mut()
+                .zip(&split)
+                .zip(&hits)
+                .zip(first.iter_mut().zip(&origins))
+            {
+                *o = r.total();
+                if let Some(h) = h {
+                    f.add(h, *origin);
+                }
+            }
+        } else {
+            integrator.li_many(scene, &camera_rays, &mut dims, &mut out, rays);
+        }
         for (sum, &l) in sums.iter_mut().zip(&out) {
             if l.is_finite() {
                 sum.add(l);
@@ -421,11 +486,10 @@ fn pixel_with_aovs(
 ) -> (Vec3, u64) {
     let wants = Wants::of(aovs);
     let [mut colour, mut emitted, mut direct, mut indirect] = [Sum3::default(); 4];
-    let (mut albedo, mut normal) = (Sum3::default(), Sum3::default());
-    let (mut depth, mut hits) = (0.0f64, 0u32);
+    let mut seen = FirstHitSums::default();
     let mut bad = 0;
     let (mut camera_rays, mut origins, mut dims) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut split, mut plain) = (Vec::new(), Vec::new());
+    let (mut split, mut plain, mut first) = (Vec::new(), Vec::new(), Vec::new());
     for chunk in sample_chunks(integrator, settings.spp) {
         pixel_batch(
             camera,
@@ -434,10 +498,23 @@ fn pixel_with_aovs(
             chunk,
             (&mut camera_rays, &mut origins, &mut dims),
         );
-        // The colour from the split when the split is wanted (the same bits as `li_many`'s),
-        // from `li_many` otherwise.
+        // The colour from the split when the split or the first hits are wanted (the same bits
+        // as `li_many`'s), from `li_many` otherwise. The integrator reports the first hits it
+        // finds anyway (they draw no random numbers: the estimate is unchanged).
         split.clear();
-        if wants.split {
+        first.clear();
+        if wants.first_hit {
+            split.resize(camera_rays.len(), Radiance::default());
+            first.resize(camera_rays.len(), None);
+            integrator.li_split_many_first_hits(
+                scene,
+                &camera_rays,
+                &mut dims,
+                &mut split,
+                &mut first,
+                rays,
+            );
+        } else if wants.split {
             split.resize(camera_rays.len(), Radiance::default());
             integrator.li_split_many(scene, &camera_rays, &mut dims, &mut split, rays);
         } else {
@@ -449,8 +526,12 @@ fn pixel_with_aovs(
                 ..Radiance::default()
             }));
         }
-        for ((r, ray), origin) in split.iter().zip(&camera_rays).zip(&origins) {
-            let l = if wants.split { r.total() } else { r.emitted };
+        for (i, (r, origin)) in split.iter().zip(&origins).enumerate() {
+            let l = if wants.split || wants.first_hit {
+                r.total()
+            } else {
+                r.emitted
+            };
             // A non-finite colour counts as black, in its parts too (if the sum is finite, so
             // is every part: an infinite or NaN part makes the sum infinite or NaN).
             if l.is_finite() {
@@ -461,26 +542,15 @@ fn pixel_with_aovs(
             } else {
                 bad += 1;
             }
-            // The first hit draws no random numbers: the integrator's estimate is unchanged.
-            if let Some(h) = wants
-                .first_hit
-                .then(|| first_hit(scene, ray, rays))
-                .flatten()
-            {
-                albedo.add(h.albedo);
-                normal.add(h.normal);
-                depth += f64::from(origin + h.distance);
-                hits += 1;
+            if let Some(Some(h)) = first.get(i) {
+                seen.add(h, *origin);
             }
         }
     }
     let n = f64::from(settings.spp);
-    for aov in aovs {
+    for &aov in aovs {
         out.push(match aov {
-            Aov::Albedo => albedo.mean(n),
-            Aov::Normal => normal.mean(n),
-            Aov::Depth if hits == 0 => Vec3::INFINITY,
-            Aov::Depth => Vec3::splat((depth / f64::from(hits)) as f32),
+            Aov::Albedo | Aov::Normal | Aov::Depth => seen.value(aov, n).unwrap_or(Vec3::NAN),
             Aov::Emitted => emitted.mean(n),
             Aov::Direct => direct.mean(n),
             Aov::Indirect => indirect.mean(n),
@@ -640,6 +710,11 @@ pub fn render_with_aovs(
 ) -> Result<RenderOutput, RenderError> {
     settings.validate()?;
     let aovs = normalise_aovs(aovs);
+    // Only first-hit AOVs, for an integrator whose answers are each ray's alone: the tiles'
+    // batches of one sample index, the first hits reported by the integrator.
+    let batched_first_hits = !aovs.is_empty()
+        && !Wants::of(&aovs).split
+        && integrator.batching() == Batching::BySampleIndex;
     let tiles = tiles(settings.width, settings.height);
     let bar = progress_bar(tiles.len(), progress);
     let start = Instant::now();
@@ -651,9 +726,22 @@ pub fn render_with_aovs(
                 let mut bad = 0;
                 let count = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
                 let mut extra = Vec::with_capacity(count * aovs.len());
-                let values = if aovs.is_empty() {
-                    let (values, b) =
-                        tile_pixels(scene, camera, integrator, settings, tile, &mut rays);
+                let values = if aovs.is_empty() || batched_first_hits {
+                    let mut first =
+                        vec![FirstHitSums::default(); count * usize::from(batched_first_hits)];
+                    let (values, b) = tile_pixels(
+                        scene,
+                        camera,
+                        integrator,
+                        settings,
+                        tile,
+                        &mut rays,
+                        batched_first_hits.then_some(first.as_mut_slice()),
+                    );
+                    let n = f64::from(settings.spp);
+                    for f in &first {
+                        extra.extend(aovs.iter().filter_map(|&a| f.value(a, n)));
+                    }
                     bad += b;
                     values
                 } else {

@@ -41,7 +41,7 @@ pub use settings::{
 };
 pub use value::IcValue;
 
-use crate::integrator::{Batching, Integrator, RayCounter};
+use crate::integrator::{Batching, FirstHit, Integrator, RayCounter};
 use crate::path::{PathSettings, PathTracer, Radiance, ShadingPoint, sample_light};
 use crate::scene::Scene;
 use builder::forward_to_core;
@@ -190,6 +190,7 @@ impl IrradianceCacheIntegrator {
             std::slice::from_ref(ray),
             std::slice::from_mut(dims),
             &mut out,
+            None,
             rays,
         );
         out[0]
@@ -329,7 +330,7 @@ impl Integrator for IrradianceCacheIntegrator {
         rays: &mut RayCounter,
     ) {
         let mut split = vec![Radiance::default(); camera_rays.len()];
-        self.li_split_pixel(scene, camera_rays, dims, &mut split, rays);
+        self.li_split_pixel(scene, camera_rays, dims, &mut split, None, rays);
         for (o, s) in out.iter_mut().zip(split) {
             *o = s.total();
         }
@@ -343,7 +344,21 @@ impl Integrator for IrradianceCacheIntegrator {
         out: &mut [Radiance],
         rays: &mut RayCounter,
     ) {
-        self.li_split_pixel(scene, camera_rays, dims, out, rays);
+        self.li_split_pixel(scene, camera_rays, dims, out, None, rays);
+    }
+
+    /// The first hits come from the samples' own camera-ray intersections.
+    fn li_split_many_first_hits(
+        &self,
+        scene: &Scene,
+        camera_rays: &[Ray],
+        dims: &mut [Dimensions],
+        out: &mut [Radiance],
+        first: &mut [Option<FirstHit>],
+        rays: &mut RayCounter,
+    ) {
+        first.fill(None);
+        self.li_split_pixel(scene, camera_rays, dims, out, Some(first), rays);
     }
 }
 

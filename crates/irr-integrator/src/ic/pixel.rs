@@ -22,7 +22,7 @@
 use super::guard::{GuardRecord, GuardTest, Query};
 use super::levels::Level;
 use super::{FALLBACK_STREAM, IrradianceCacheIntegrator, direct_nee};
-use crate::integrator::RayCounter;
+use crate::integrator::{FirstHit, RayCounter};
 use crate::path::{Radiance, ShadingPoint, first_surface};
 use crate::scene::Scene;
 use glam::Vec3;
@@ -65,16 +65,20 @@ impl GuardMemo {
 impl IrradianceCacheIntegrator {
     /// [`IrradianceCacheIntegrator::li_split`] for the samples of one pixel (see the module
     /// docs): `out[i]` for `camera_rays[i]`, with `dims[i]`.
+    /// With `first`, also what each camera ray met first (`None` for a miss), found on the way.
     pub(super) fn li_split_pixel(
         &self,
         scene: &Scene,
         camera_rays: &[Ray],
         dims: &mut [Dimensions],
         out: &mut [Radiance],
+        mut first: Option<&mut [Option<FirstHit>]>,
         rays: &mut RayCounter,
     ) {
         assert!(
-            camera_rays.len() == dims.len() && dims.len() == out.len(),
+            camera_rays.len() == dims.len()
+                && dims.len() == out.len()
+                && first.as_ref().is_none_or(|f| f.len() == out.len()),
             "one dimension stream and one answer per ray"
         );
         // Emission and direct light, sample by sample; the samples that need the cache wait.
@@ -85,13 +89,16 @@ impl IrradianceCacheIntegrator {
             .zip(out.iter_mut())
             .enumerate()
         {
-            let (surface, wo, emitted) = match first_surface(scene, ray, rays) {
+            let (surface, wo, emitted, t) = match first_surface(scene, ray, rays) {
                 Ok(first) => first,
                 Err(background) => {
                     *o = background;
                     continue;
                 }
             };
+            if let Some(f) = first.as_deref_mut() {
+                f[index] = Some(FirstHit::at(scene, &surface, wo, t));
+            }
             // The depth counts reflections as the path tracer's does: none at depth 0, the
             // direct light's one at depth 1, and the cache's indirect light (two or more) from
             // depth 2 on, where the integrator has at least one cache level.
