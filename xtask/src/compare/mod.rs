@@ -1,0 +1,1091 @@
+//! `cargo xtask compare`: the speed/accuracy trade of the irradiance cache against what a user
+//! would otherwise run, the path tracer, raw and denoised, measured on a list of scenes.
+//!
+//! For each scene:
+//! 1. A reference ([`reference`]): the path tracer at high spp as two halves of their own seeds,
+//!    cached under target/compare/cache/ by everything that decides its pixels (the scene's
+//!    bytes, the size, the samples, the seeds, the path tracer's settings, the renderer's
+//!    source). relMSE between the halves / 4 is its own noise, printed beside every error.
+//! 2. Runs, all with seed [`RUN_SEED`]: the path tracer over spp, raw and denoised by OIDN; the
+//!    irradiance cache along its κ ladder, raw and denoised; and the cache's ablations (other
+//!    strata, gradients, clamping, bounce modes, radius statistic). A denoised run's time
+//!    includes the auxiliary images and the denoiser.
+//! 3. A report in target/compare/<scene>/ (`runs.csv`, `report.md`, `plot.svg`, heat maps,
+//!    crops): each method's front along its primary series, and at each error level which of
+//!    the four methods is fastest, with FLIP beside relMSE ([`figures`]).
+
+mod figures;
+mod metrics;
+mod pictures;
+mod reference;
+
+use clap::Args;
+use figures::{Curve, Group, Method, Run, level_rows, pareto_front};
+use irr_render::{
+    BounceMode, CacheBuilder, DENOISER, DENOISER_AOVS, GradientMode, IcSettings, Image, Integrator,
+    IrradianceCacheIntegrator, LoadedScene, PathSettings, PathTracer, RadiusStatistic,
+    RenderSettings, build_cache, denoise, load_scene, render_with_aovs,
+};
+use metrics::{block_errors, metrics, metrics_with_flip};
+use pictures::{HEAT_MAP_MAX, worst_window, write_crops, write_heat_map, write_plot};
+use reference::{NOISE_SEEDS, RUN_SEED, reference};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The scenes compared by default, in assets/: the Cornell box (direct light dominates), a room
+/// lit only by bounced light (what an irradiance cache is for) and a textured room (detail a
+/// denoiser blurs).
+pub const DEFAULT_SCENES: [&str; 3] = [
+    "cornell-box.gltf",
+    "indirect-room.gltf",
+    "textured-room.gltf",
+];
+
+/// Compare the irradiance cache with the path tracer, raw and denoised, on a list of scenes.
+#[derive(Args, Debug)]
+pub struct CompareArgs {
+    /// The glTF 2.0 scenes, comma-separated [default: assets/cornell-box.gltf,
+    /// assets/indirect-room.gltf, assets/textured-room.gltf in the workspace]
+    #[arg(long = "scenes", alias = "scene", value_delimiter = ',')]
+    pub scenes: Vec<PathBuf>,
+    /// Image width in pixels
+    #[arg(long, default_value_t = 256)]
+    pub width: u32,
+    /// Image height in pixels
+    #[arg(long, default_value_t = 256)]
+    pub height: u32,
+    /// A small version: 48×48, a few settings (under a minute on 2 cores for all scenes)
+    #[arg(long)]
+    pub quick: bool,
+    /// Render the references again even if cached ones exist
+    #[arg(long)]
+    pub fresh: bool,
+    /// Samples per pixel of the reference (both halves together)
+    #[arg(long)]
+    pub reference_spp: Option<u32>,
+    /// Worker threads; 0 means one per core
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Camera samples per pixel of the irradiance-cache runs (the default render's)
+    #[arg(long, default_value_t = irr_cli::render::IC_DEFAULT_SPP as u32)]
+    pub ic_spp: u32,
+    /// Camera samples per pixel of the denoised irradiance-cache runs
+    #[arg(long, default_value_t = DENOISED_IC_SPP)]
+    pub denoised_ic_spp: u32,
+    /// Light samples per camera hit of the irradiance-cache runs (the default render's)
+    #[arg(long, default_value_t = IcSettings::default().direct_samples)]
+    pub direct_samples: u32,
+    /// Keep only the runs whose method and settings ("path spp=16", "ic+oidn kappa=1
+    /// strata=12x48", …) contain this text
+    #[arg(long)]
+    pub only: Option<String>,
+    /// More irradiance-cache settings to run, as KAPPA:MxN[:cached|:path] (the bounce mode;
+    /// default: the default render's), comma-separated
+    #[arg(long, value_delimiter = ',')]
+    pub extra: Vec<String>,
+    /// Also copy each report, plot, heat maps and crops to docs/compare/<scene>/ and its tables
+    /// into README.md (what the README shows)
+    #[arg(long)]
+    pub publish: bool,
+}
+
+/// Samples per pixel of the reference by default (both halves together).
+pub const REFERENCE_SPP: u32 = 8192;
+
+/// Samples per pixel of the reference with `--quick` (48×48): enough that the indirect-lit
+/// room's reference carries under a tenth of the quick cache runs' error.
+pub const QUICK_REFERENCE_SPP: u32 = 2048;
+
+/// Camera samples per pixel of the denoised cache runs by default: the denoiser removes the
+/// anti-aliasing's and the direct light's noise that the raw cache needs its 36 samples for
+/// (docs/performance.md, "Denoised cache").
+pub const DENOISED_IC_SPP: u32 = 16;
+
+/// What one scene's comparison measured, for the caller (and the test).
+#[derive(Debug)]
+pub struct Report {
+    /// Every run.
+    pub runs: Vec<Run>,
+    /// The reference's own relMSE.
+    pub reference_noise: f64,
+    /// One irradiance-cache image's own noise at the tightest ladder setting (relMSE between
+    /// two seeds, halved).
+    pub ic_noise: f64,
+    /// The report's folder.
+    pub folder: PathBuf,
+}
+
+/// Renders with the path tracer, denoised if asked: the image, wall-clock seconds (all of it),
+/// of which the denoiser's, and rays.
+fn path_render(
+    loaded: &LoadedScene,
+    settings: &RenderSettings,
+    denoised: bool,
+) -> Result<(Image, f64, f64, u64), String> {
+    let start = Instant::now();
+    let mut pt = PathTracer::new(PathSettings::default());
+    pt.preprocess(&loaded.scene);
+    let camera = loaded.camera_for(settings.width, settings.height);
+    finish(loaded, &camera, &pt, settings, denoised, start)
+}
+
+/// Renders with the irradiance cache, construction and final pass (and the denoiser) timed
+/// together: the image, seconds, of which the denoiser's, rays and records.
+pub fn ic_render(
+    loaded: &LoadedScene,
+    settings: &RenderSettings,
+    ic: IcSettings,
+    denoised: bool,
+) -> Result<(Image, f64, f64, u64, usize), String> {
+    let start = Instant::now();
+    let mut integrator = IrradianceCacheIntegrator::new(ic).map_err(|e| e.to_string())?;
+    integrator.preprocess(&loaded.scene);
+    let camera = loaded.camera_for(settings.width, settings.height);
+    let build = build_cache(
+        &loaded.scene,
+        &camera,
+        &mut integrator,
+        settings,
+        ic.fill_samples,
+        false,
+    )
+    .map_err(|e| e.to_string())?;
+    let (image, seconds, denoise_seconds, rays) =
+        finish(loaded, &camera, &integrator, settings, denoised, start)?;
+    let records = integrator.record_counts().iter().sum();
+    Ok((
+        image,
+        seconds,
+        denoise_seconds,
+        rays + build.rays().total(),
+        records,
+    ))
+}
+
+/// The final pass (with the denoiser's auxiliary images and the denoiser if asked), timed from
+/// `start`.
+fn finish(
+    loaded: &LoadedScene,
+    camera: &irr_render::Camera,
+    integrator: &dyn Integrator,
+    settings: &RenderSettings,
+    denoised: bool,
+    start: Instant,
+) -> Result<(Image, f64, f64, u64), String> {
+    let aovs: &[irr_render::Aov] = if denoised { &DENOISER_AOVS } else { &[] };
+    let out = render_with_aovs(&loaded.scene, camera, integrator, settings, aovs, false)
+        .map_err(|e| e.to_string())?;
+    let rays = out.stats.rays.total();
+    if !denoised {
+        return Ok((out.image, start.elapsed().as_secs_f64(), 0.0, rays));
+    }
+    let before = Instant::now();
+    let image = denoise(&out.image, &out.aovs).map_err(|e| e.to_string())?;
+    let denoise_seconds = before.elapsed().as_secs_f64();
+    Ok((image, start.elapsed().as_secs_f64(), denoise_seconds, rays))
+}
+
+/// One setting of the irradiance-cache sweep.
+struct Sweep {
+    label: String,
+    group: Group,
+    kappa: f32,
+    settings: IcSettings,
+}
+
+/// The κ ladder: κ with M×N growing alongside (the consistency claim is about both).
+fn ladder(quick: bool) -> &'static [(f32, u32, u32)] {
+    if quick {
+        &[(0.5, 6, 24), (1.0, 8, 32), (2.0, 12, 48)]
+    } else {
+        &[
+            (0.25, 6, 24),
+            (0.5, 8, 32),
+            (1.0, 12, 48),
+            (2.0, 16, 64),
+            (4.0, 24, 96),
+        ]
+    }
+}
+
+/// The irradiance-cache settings of the sweep: the ladder, then the ablations.
+fn ic_sweep(quick: bool) -> Vec<Sweep> {
+    let base = IcSettings::default();
+    let mut out: Vec<Sweep> = ladder(quick)
+        .iter()
+        .map(|&(k, m, n)| Sweep {
+            label: format!("kappa={k} strata={m}x{n}"),
+            group: Group::Ladder,
+            kappa: k,
+            settings: IcSettings {
+                error: k,
+                strata_m: m,
+                strata_n: n,
+                ..base
+            },
+        })
+        .collect();
+    if quick {
+        return out;
+    }
+    for &(m, n) in &[(8u32, 32u32), (16, 64), (32, 128)] {
+        out.push(Sweep {
+            label: format!("strata={m}x{n}"),
+            group: Group::Strata,
+            kappa: base.error,
+            settings: IcSettings {
+                strata_m: m,
+                strata_n: n,
+                ..base
+            },
+        });
+    }
+    let variants = [
+        (
+            "gradients=off",
+            IcSettings {
+                gradients: GradientMode::Off,
+                ..base
+            },
+        ),
+        (
+            "gradients=krivanek-gautron",
+            IcSettings {
+                gradients: GradientMode::KrivanekGautron,
+                ..base
+            },
+        ),
+        (
+            "neighbour-clamping=off",
+            IcSettings {
+                neighbour_clamping: false,
+                ..base
+            },
+        ),
+        (
+            "bounce=path-traced",
+            IcSettings {
+                bounce_mode: BounceMode::PathTraced,
+                ..base
+            },
+        ),
+        (
+            "bounces=2",
+            IcSettings {
+                cached_bounces: 2,
+                ..base
+            },
+        ),
+        (
+            "radius-statistic=harmonic",
+            IcSettings {
+                radius_statistic: RadiusStatistic::HarmonicMean,
+                ..base
+            },
+        ),
+    ];
+    for (label, settings) in variants {
+        out.push(Sweep {
+            label: label.into(),
+            group: Group::Variant,
+            kappa: base.error,
+            settings,
+        });
+    }
+    out
+}
+
+/// An extra setting KAPPA:MxN[:cached|:path].
+fn parse_extra(text: &str) -> Result<IcSettings, String> {
+    let parts: Vec<&str> = text.split(':').collect();
+    let bad = || format!("--extra: expected KAPPA:MxN[:cached|:path], got '{text}'");
+    let kappa: f32 = parts.first().and_then(|k| k.parse().ok()).ok_or_else(bad)?;
+    let (m, n) = parts
+        .get(1)
+        .and_then(|s| s.split_once('x'))
+        .and_then(|(m, n)| Some((m.parse().ok()?, n.parse().ok()?)))
+        .ok_or_else(bad)?;
+    let bounce_mode = match parts.get(2) {
+        None => IcSettings::default().bounce_mode,
+        Some(&"cached") => BounceMode::Cached,
+        Some(&"path") => BounceMode::PathTraced,
+        Some(_) => return Err(bad()),
+    };
+    let s = IcSettings {
+        error: kappa,
+        strata_m: m,
+        strata_n: n,
+        bounce_mode,
+        ..IcSettings::default()
+    };
+    s.validate().map_err(|e| format!("--extra {text}: {e}"))?;
+    Ok(s)
+}
+
+/// One render to measure.
+struct Job {
+    method: Method,
+    group: Group,
+    label: String,
+    kappa: f32,
+    /// `None` for the path tracer.
+    ic: Option<IcSettings>,
+    spp: u32,
+}
+
+/// Every render of a scene's comparison, in order.
+fn jobs(args: &CompareArgs, denoiser: bool) -> Result<Vec<Job>, String> {
+    let mut out = Vec::new();
+    let (path_spps, denoised_spps): (&[u32], &[u32]) = if args.quick {
+        (&[4, 16, 64], &[4, 16])
+    } else {
+        (&[16, 64, 256, 1024], &[4, 16, 64, 256])
+    };
+    for &spp in path_spps {
+        out.push(Job {
+            method: Method::Path,
+            group: Group::Spp,
+            label: format!("spp={spp}"),
+            kappa: f32::NAN,
+            ic: None,
+            spp,
+        });
+    }
+    for &spp in denoised_spps.iter().filter(|_| denoiser) {
+        out.push(Job {
+            method: Method::PathDenoised,
+            group: Group::Spp,
+            label: format!("spp={spp}"),
+            kappa: f32::NAN,
+            ic: None,
+            spp,
+        });
+    }
+    let mut sweep = ic_sweep(args.quick);
+    for extra in &args.extra {
+        sweep.push(Sweep {
+            label: format!("extra {extra}"),
+            group: Group::Extra,
+            kappa: f32::NAN,
+            settings: parse_extra(extra)?,
+        });
+    }
+    let cache_job = |sw: &Sweep, method: Method, spp: u32| Job {
+        method,
+        group: sw.group,
+        label: sw.label.clone(),
+        kappa: sw.kappa,
+        ic: Some(IcSettings {
+            direct_samples: args.direct_samples,
+            ..sw.settings
+        }),
+        spp,
+    };
+    for sw in &sweep {
+        out.push(cache_job(sw, Method::Cache, args.ic_spp));
+    }
+    for sw in sweep
+        .iter()
+        .filter(|s| denoiser && s.group == Group::Ladder)
+    {
+        out.push(cache_job(sw, Method::CacheDenoised, args.denoised_ic_spp));
+    }
+    out.retain(|j| {
+        args.only
+            .as_deref()
+            .is_none_or(|o| format!("{} {}", j.method.name(), j.label).contains(o))
+    });
+    Ok(out)
+}
+
+/// Runs `cargo xtask compare`.
+pub fn run(args: CompareArgs, root: &Path) -> Result<(), String> {
+    for scene in scenes(&args, root) {
+        let report = compare(&args, &scene, root)?;
+        if args.publish {
+            publish(&report, root)?;
+        }
+        println!(
+            "{}: {} runs; reference noise {:.2e}, one cache image's noise {:.2e}; wrote {} (report.md, runs.csv, plot.svg, heat maps, crops)",
+            scene.display(),
+            report.runs.len(),
+            report.reference_noise,
+            report.ic_noise,
+            report.folder.display()
+        );
+    }
+    Ok(())
+}
+
+/// The scenes to compare: `--scenes`, or [`DEFAULT_SCENES`] in the workspace's assets/.
+fn scenes(args: &CompareArgs, root: &Path) -> Vec<PathBuf> {
+    if args.scenes.is_empty() {
+        DEFAULT_SCENES
+            .iter()
+            .map(|s| root.join("assets").join(s))
+            .collect()
+    } else {
+        args.scenes.clone()
+    }
+}
+
+/// Copies a report's files to docs/compare/<scene>/ and its tables into README.md's section for
+/// the scene.
+fn publish(report: &Report, root: &Path) -> Result<(), String> {
+    let stem = report
+        .folder
+        .file_name()
+        .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
+    let dest = root.join("docs").join("compare").join(&stem);
+    std::fs::create_dir_all(&dest).map_err(|e| format!("{}: {e}", dest.display()))?;
+    for entry in std::fs::read_dir(&report.folder)
+        .map_err(|e| format!("{}: {e}", report.folder.display()))?
+        .flatten()
+    {
+        let from = entry.path();
+        let keep = from
+            .extension()
+            .is_some_and(|e| e == "md" || e == "csv" || e == "svg" || e == "png");
+        if keep && let Some(name) = from.file_name() {
+            std::fs::copy(&from, dest.join(name))
+                .map_err(|e| format!("{}: {e}", dest.join(name).display()))?;
+        }
+    }
+    println!("published to {}", dest.display());
+    let readme = root.join("README.md");
+    if let Ok(text) = std::fs::read_to_string(&readme) {
+        let report_md = std::fs::read_to_string(report.folder.join("report.md"))
+            .map_err(|e| format!("{}: {e}", report.folder.join("report.md").display()))?;
+        match readme_section(&text, &stem, &report_md) {
+            Some(updated) => {
+                std::fs::write(&readme, updated)
+                    .map_err(|e| format!("{}: {e}", readme.display()))?;
+                println!("updated the {stem} section of {}", readme.display());
+            }
+            None => println!(
+                "{} has no <!-- compare:{stem} --> section: its table is only in docs/compare/{stem}/",
+                readme.display()
+            ),
+        }
+    }
+    Ok(())
+}
+
+/// `readme` with the part between `<!-- compare:STEM -->` and `<!-- /compare:STEM -->` replaced
+/// by the report's tables, lists and pictures (their links pointed at docs/compare/STEM/), one
+/// blank line between blocks; `None` when the README has no such markers.
+pub fn readme_section(readme: &str, stem: &str, report_md: &str) -> Option<String> {
+    let open = format!("<!-- compare:{stem} -->");
+    let close = format!("<!-- /compare:{stem} -->");
+    let start = readme.find(&open)? + open.len();
+    let end = start + readme[start..].find(&close)?;
+    let mut body = String::from("\n");
+    let mut gap = false;
+    for line in report_md.lines() {
+        let keep = line.starts_with('|') || line.starts_with("- ") || line.starts_with("![");
+        if keep {
+            if gap && body.len() > 1 {
+                body.push('\n');
+            }
+            gap = false;
+            body.push_str(&line.replace("](", &format!("](docs/compare/{stem}/")));
+            body.push('\n');
+        } else {
+            gap = true;
+        }
+    }
+    Some(format!("{}{body}{}", &readme[..start], &readme[end..]))
+}
+
+/// Seconds as the tables print them: `~` marks a time extrapolated beyond the runs.
+fn seconds_text(t: Option<figures::TimeAt>) -> String {
+    match t {
+        None => "–".into(),
+        Some(t) if t.extrapolated => format!("~{:.2}", t.seconds),
+        Some(t) => match t.flip {
+            Some(f) => format!("{:.2} ({f:.3})", t.seconds),
+            None => format!("{:.2}", t.seconds),
+        },
+    }
+}
+
+/// The measurement behind `run`, for one scene.
+pub fn compare(args: &CompareArgs, scene_path: &Path, root: &Path) -> Result<Report, String> {
+    let (width, height) = if args.quick {
+        (48, 48)
+    } else {
+        (args.width, args.height)
+    };
+    let base = RenderSettings {
+        width,
+        height,
+        spp: args.ic_spp,
+        seed: RUN_SEED,
+        threads: args.threads,
+    };
+    base.validate().map_err(|e| e.to_string())?;
+    let loaded = load_scene(scene_path).map_err(|e| e.to_string())?;
+    let stem = scene_path
+        .file_stem()
+        .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
+    let out_dir = root.join("target").join("compare").join(&stem);
+    std::fs::create_dir_all(&out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
+    let ref_spp = args.reference_spp.unwrap_or(if args.quick {
+        QUICK_REFERENCE_SPP
+    } else {
+        REFERENCE_SPP
+    });
+    let (reference, noise, _) = reference(
+        &loaded,
+        &base,
+        ref_spp,
+        &root.join("target").join("compare").join("cache"),
+        args.fresh,
+    )?;
+    eprintln!("{stem}: reference noise (relMSE of the reference itself): {noise:.2e}");
+    let denoiser = DENOISER.is_some();
+    if !denoiser {
+        eprintln!(
+            "note: no denoised rows: this build has no denoiser (cargo xtask-oidn compare; README, \"Denoising\")"
+        );
+    }
+
+    let jobs = jobs(args, denoiser)?;
+    let bar = indicatif::ProgressBar::new(jobs.len() as u64);
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{elapsed_precise} [{wide_bar}] {pos}/{len} runs: {msg}",
+    ) {
+        bar.set_style(style);
+    }
+    let mut runs = Vec::new();
+    let mut images: Vec<Image> = Vec::new();
+    for job in &jobs {
+        bar.set_message(format!("{stem}: {} {}", job.method.name(), job.label));
+        let settings = RenderSettings {
+            spp: job.spp,
+            ..base
+        };
+        let (image, seconds, denoise_seconds, rays, records) = match job.ic {
+            None => {
+                let (i, s, d, r) = path_render(&loaded, &settings, job.method.denoised())?;
+                (i, s, d, r, 0)
+            }
+            Some(ic) => ic_render(&loaded, &settings, ic, job.method.denoised())?,
+        };
+        runs.push(Run {
+            method: job.method,
+            label: job.label.clone(),
+            group: job.group,
+            kappa: job.kappa,
+            seconds,
+            denoise_seconds,
+            rays,
+            records,
+            metrics: metrics_with_flip(&image, &reference),
+            blocks: block_errors(&image, &reference),
+        });
+        images.push(image);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    // One cache image's own noise at the tightest ladder setting: the same settings with two
+    // other seeds, relMSE(a, b)/2 (each image carries half the difference's variance).
+    let ic_noise = match jobs
+        .iter()
+        .rfind(|j| j.method == Method::Cache && j.group == Group::Ladder)
+    {
+        Some(Job { ic: Some(ic), .. }) => {
+            let [a, b] = NOISE_SEEDS.map(|seed| RenderSettings { seed, ..base });
+            let (a, ..) = ic_render(&loaded, &a, *ic, false)?;
+            let (b, ..) = ic_render(&loaded, &b, *ic, false)?;
+            metrics(&a, &b).rel_mse / 2.0
+        }
+        _ => 0.0,
+    };
+
+    let md = write_report(
+        args, &stem, &runs, &images, &reference, noise, ic_noise, &out_dir,
+    )?;
+    println!("{md}");
+    Ok(Report {
+        runs,
+        reference_noise: noise,
+        ic_noise,
+        folder: out_dir,
+    })
+}
+
+/// Writes runs.csv, report.md and the pictures; returns report.md's text.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "one call, from compare: the measured pieces of one scene"
+)]
+fn write_report(
+    args: &CompareArgs,
+    stem: &str,
+    runs: &[Run],
+    images: &[Image],
+    reference: &Image,
+    noise: f64,
+    ic_noise: f64,
+    out_dir: &Path,
+) -> Result<String, String> {
+    let (width, height) = (reference.width(), reference.height());
+    let mut csv = String::from(
+        "method,settings,group,seconds,denoise_seconds,rays,records,rel_mse,rel_mse_se,reference_noise,bias_percent,mae,p99_rel,flip\n",
+    );
+    let denoiser = match DENOISER {
+        Some(name) => format!(
+            "Denoised runs: {name}, {} camera samples per pixel for the cache, their time \
+             including the albedo and normal images and the denoiser.",
+            args.denoised_ic_spp
+        ),
+        None => "No denoised runs: this build has no denoiser (`cargo xtask-oidn compare`).".into(),
+    };
+    let mut md = format!(
+        "# {stem}: the irradiance cache against the path tracer, raw and denoised\n\n\
+         {width}×{height}; the cache with {} camera samples per pixel and {} light sample(s) per \
+         camera hit. {denoiser} Reference: the path tracer at {} spp, its own relMSE {noise:.2e} \
+         (the column ref. % is its share of each run's relMSE); one cache image's own noise at \
+         the tightest κ setting {ic_noise:.2e}. relMSE ± its standard error over {}×{}-pixel \
+         blocks. Times are wall-clock on this machine ({} threads).\n\n\
+         | method | settings | seconds | M rays | records | relMSE ± s.e. | ref. % | bias % | MAE | p99 rel. | FLIP |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|\n",
+        args.ic_spp,
+        args.direct_samples,
+        args.reference_spp.unwrap_or(if args.quick {
+            QUICK_REFERENCE_SPP
+        } else {
+            REFERENCE_SPP
+        }),
+        metrics::BLOCK,
+        metrics::BLOCK,
+        rayon_threads(args.threads)
+    );
+    for r in runs {
+        let m = &r.metrics;
+        let _ = writeln!(
+            csv,
+            "{},{},{},{:.4},{:.4},{},{},{:.6e},{:.6e},{:.6e},{:.4},{:.6e},{:.6e},{:.6e}",
+            r.method.name(),
+            r.label,
+            r.group.name(),
+            r.seconds,
+            r.denoise_seconds,
+            r.rays,
+            r.records,
+            m.rel_mse,
+            m.rel_mse_se,
+            noise,
+            m.bias_percent,
+            m.mae,
+            m.p99_rel,
+            m.flip
+        );
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.2} | {:.1} | {} | {:.2e} ± {:.1e} | {:.1} | {:+.2} | {:.2e} | {:.3} | {:.4} |",
+            r.method.name(),
+            r.label,
+            r.seconds,
+            r.rays as f64 / 1e6,
+            r.records,
+            m.rel_mse,
+            m.rel_mse_se,
+            100.0 * noise / m.rel_mse.max(f64::MIN_POSITIVE),
+            m.bias_percent,
+            m.mae,
+            m.p99_rel,
+            m.flip
+        );
+    }
+    md.push_str("\n## Derived figures\n\n");
+    let curves: Vec<Curve> = Method::ALL
+        .into_iter()
+        .filter_map(|m| Curve::of(m, runs))
+        .collect();
+    let describe = |front: &[&Run]| {
+        front
+            .iter()
+            .map(|r| {
+                format!(
+                    "{} ({:.2} s, {:.2e})",
+                    r.label, r.seconds, r.metrics.rel_mse
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    for method in Method::ALL {
+        let front = pareto_front(
+            runs.iter()
+                .filter(|r| r.method == method && r.group.primary()),
+        );
+        if !front.is_empty() {
+            let _ = writeln!(
+                md,
+                "- Front of {} ({}): {}.",
+                method.name(),
+                if method.cache() {
+                    "its κ ladder"
+                } else {
+                    "its spp series"
+                },
+                describe(&front)
+            );
+        }
+    }
+    let all_cache = pareto_front(runs.iter().filter(|r| r.method == Method::Cache));
+    if all_cache.iter().any(|r| !r.group.primary()) {
+        let _ = writeln!(
+            md,
+            "- Front of every raw cache run, ablations included (each ablation one setting away \
+             from the defaults; not used for the figures below): {}.",
+            describe(&all_cache)
+        );
+    }
+    if let Some((k, _)) = curves
+        .iter()
+        .find(|c| c.method == Method::Path)
+        .and_then(|c| c.fit)
+    {
+        let _ = writeln!(
+            md,
+            "- Path tracer: relMSE ∝ time^{k:.2} (fit over its runs; −1 is the Monte Carlo rate); \
+             its times beyond its runs (marked ~) follow the fit."
+        );
+    }
+    let rows = level_rows(&curves);
+    if !rows.is_empty() {
+        md.push_str(
+            "\nThe time each method needs for an error (interpolated log-log along its front; \
+             FLIP there in brackets), the fastest, and the faster of the cache's two methods \
+             against the denoised path tracer:\n\n\
+             | relMSE | path s | path+oidn s | ic s | ic+oidn s | fastest | best cache vs path+oidn |\n\
+             |---|---|---|---|---|---|---|\n",
+        );
+        for row in &rows {
+            let fastest = row
+                .fastest()
+                .map_or_else(|| "–".into(), |(m, _)| m.name().to_string());
+            let versus = match (row.best_cache(), row.time(Method::PathDenoised)) {
+                (Some((m, c)), Some(p)) => {
+                    format!("{}: {:.2}× faster", m.name(), p.seconds / c.seconds)
+                }
+                _ => "–".into(),
+            };
+            let _ = writeln!(
+                md,
+                "| {:.0e} | {} | {} | {} | {} | {fastest} | {versus} |",
+                row.error,
+                seconds_text(row.time(Method::Path)),
+                seconds_text(row.time(Method::PathDenoised)),
+                seconds_text(row.time(Method::Cache)),
+                seconds_text(row.time(Method::CacheDenoised)),
+            );
+        }
+        md.push('\n');
+    }
+    // Each run of the cache's fronts against the path tracer, raw and denoised, at its error,
+    // and each run of the denoised path tracer against the cache's two methods.
+    let time_of = |method: Method, e: f64| {
+        curves
+            .iter()
+            .find(|c| c.method == method)
+            .and_then(|c| c.time_at(e))
+    };
+    let cache = [Method::Cache, Method::CacheDenoised];
+    let path = [Method::Path, Method::PathDenoised];
+    for (method, others) in [
+        (Method::Cache, path),
+        (Method::CacheDenoised, path),
+        (Method::PathDenoised, cache),
+    ] {
+        let front = pareto_front(
+            runs.iter()
+                .filter(|r| r.method == method && r.group.primary()),
+        );
+        for r in front {
+            let e = r.metrics.rel_mse;
+            let against = others
+                .into_iter()
+                .filter_map(|m| {
+                    time_of(m, e).map(|t| {
+                        format!(
+                            "{} {}{:.2} s ({:.2}× this run's time{})",
+                            m.name(),
+                            if t.extrapolated { "~" } else { "" },
+                            t.seconds,
+                            t.seconds / r.seconds,
+                            t.flip
+                                .map_or_else(String::new, |f| format!(", FLIP {f:.4}"))
+                        )
+                    })
+                })
+                .collect::<Vec<_>>();
+            if !against.is_empty() {
+                let _ = writeln!(
+                    md,
+                    "- {} {}: relMSE {:.2e} in {:.2} s (FLIP {:.4}); for it {}.",
+                    method.name(),
+                    r.label,
+                    e,
+                    r.seconds,
+                    r.metrics.flip,
+                    against.join(", ")
+                );
+            }
+        }
+    }
+    let mut ladder: Vec<&Run> = runs
+        .iter()
+        .filter(|r| r.method == Method::Cache && r.group == Group::Ladder)
+        .collect();
+    ladder.sort_by(|a, b| a.kappa.total_cmp(&b.kappa));
+    let kappa_pts: Vec<(f64, f64)> = ladder
+        .iter()
+        .map(|r| (f64::from(r.kappa), r.metrics.rel_mse))
+        .collect();
+    if let Some((slope, _)) = figures::fit_log(&kappa_pts) {
+        let _ = writeln!(
+            md,
+            "- Consistency: along the κ ladder relMSE ∝ κ^{slope:.2} (negative: the error falls as \
+             κ tightens); each step's change ± its standard error (from the blocks' paired \
+             differences, which leave out the noise the runs share): {}; bias by κ: {}.",
+            ladder
+                .windows(2)
+                .map(|w| format!(
+                    "{} → {}: {:+.2e} ± {:.1e}",
+                    w[0].kappa,
+                    w[1].kappa,
+                    w[1].metrics.rel_mse - w[0].metrics.rel_mse,
+                    metrics::paired_standard_error(&w[1].blocks, &w[0].blocks)
+                ))
+                .collect::<Vec<_>>()
+                .join(", "),
+            ladder
+                .iter()
+                .map(|r| format!("{}: {:+.2} %", r.kappa, r.metrics.bias_percent))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    write_plot(
+        &out_dir.join("plot.svg"),
+        runs,
+        &format!("{stem} {width}×{height}: error against time"),
+    )?;
+    md.push_str("\n![relMSE against time](plot.svg)\n");
+    write_pictures(runs, images, reference, out_dir, &mut md)?;
+    std::fs::write(out_dir.join("runs.csv"), csv)
+        .map_err(|e| format!("{}: {e}", out_dir.join("runs.csv").display()))?;
+    std::fs::write(out_dir.join("report.md"), &md)
+        .map_err(|e| format!("{}: {e}", out_dir.join("report.md").display()))?;
+    Ok(md)
+}
+
+/// Heat maps of each method near the cache's κ = 1 run's time, and crops of the windows where
+/// the cache and the denoised path tracer err most.
+fn write_pictures(
+    runs: &[Run],
+    images: &[Image],
+    reference: &Image,
+    out_dir: &Path,
+    md: &mut String,
+) -> Result<(), String> {
+    let Some(shown) = runs
+        .iter()
+        .position(|r| r.method == Method::Cache && r.label.contains("kappa=1 "))
+        .or_else(|| runs.iter().position(|r| r.method == Method::Cache))
+    else {
+        return Ok(());
+    };
+    let time = runs[shown].seconds;
+    // Each method's run nearest in time (log) to the cache's shown run.
+    let nearest = |method: Method| {
+        runs.iter()
+            .enumerate()
+            .filter(|(_, r)| r.method == method && r.group.primary())
+            .min_by(|a, b| {
+                (a.1.seconds.ln() - time.ln())
+                    .abs()
+                    .total_cmp(&(b.1.seconds.ln() - time.ln()).abs())
+            })
+            .map(|(i, _)| i)
+    };
+    let mut panels: Vec<(Method, usize)> = vec![(Method::Cache, shown)];
+    for m in [Method::CacheDenoised, Method::Path, Method::PathDenoised] {
+        if let Some(i) = nearest(m) {
+            panels.push((m, i));
+        }
+    }
+    let mut names = Vec::new();
+    for (method, i) in &panels {
+        let file = format!("heat-{}.png", method.name().replace('+', "-"));
+        write_heat_map(&out_dir.join(&file), &images[*i], reference)?;
+        names.push(format!("![{} {}]({file})", method.name(), runs[*i].label));
+    }
+    let _ = write!(
+        md,
+        "\nHeat maps of the per-pixel relative error |x − r|/(r + 0.01) (magma, 0 to \
+         {HEAT_MAP_MAX} and above), each method's run nearest in time to the cache's {}: {}.\n\n{}\n",
+        runs[shown].label,
+        panels
+            .iter()
+            .map(|(m, i)| format!(
+                "{} {} ({:.2} s)",
+                m.name(),
+                runs[*i].label,
+                runs[*i].seconds
+            ))
+            .collect::<Vec<_>>()
+            .join(", "),
+        names.join(" ")
+    );
+    let mut shown_images: Vec<&Image> = panels.iter().map(|(_, i)| &images[*i]).collect();
+    shown_images.push(reference);
+    let order = panels
+        .iter()
+        .map(|(m, _)| m.name())
+        .chain(["reference"])
+        .collect::<Vec<_>>()
+        .join(", ");
+    let size = 32;
+    let corner = worst_window(&images[shown], reference, size);
+    write_crops(&out_dir.join("crops.png"), &shown_images, corner, size)?;
+    let _ = write!(
+        md,
+        "\nThe cache's worst {size}×{size} window (at {}, {}), ×4: {order}.\n\n![crops](crops.png)\n",
+        corner.0, corner.1
+    );
+    if let Some(&(_, i)) = panels.iter().find(|(m, _)| *m == Method::PathDenoised) {
+        let corner = worst_window(&images[i], reference, size);
+        write_crops(&out_dir.join("crops-oidn.png"), &shown_images, corner, size)?;
+        let _ = write!(
+            md,
+            "\nThe denoised path tracer's worst {size}×{size} window (at {}, {}), ×4: {order}.\n\n\
+             ![crops where the denoised path tracer errs most](crops-oidn.png)\n",
+            corner.0, corner.1
+        );
+    }
+    Ok(())
+}
+
+fn rayon_threads(threads: usize) -> usize {
+    if threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        threads
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_readme_section_is_replaced_between_its_markers() {
+        let readme = "# irr\n<!-- compare:box -->\nold\n<!-- /compare:box -->\nend\n";
+        let report = "# box\n\ntext\n| a | b |\n|---|---|\n- figure\n\nmore text\n| c |\n|---|\n\n![plot](plot.svg)\n";
+        let out = readme_section(readme, "box", report).unwrap_or_default();
+        assert_eq!(
+            out,
+            "# irr\n<!-- compare:box -->\n| a | b |\n|---|---|\n- figure\n\n| c |\n|---|\n\n![plot](docs/compare/box/plot.svg)\n<!-- /compare:box -->\nend\n"
+        );
+        assert!(readme_section("no markers", "box", report).is_none());
+    }
+
+    /// `cargo xtask compare --quick` on every default scene: the report's files exist, the CSV
+    /// parses with every error finite, a row per run, and the error falls along the cache's κ
+    /// ladder. The runs share their seed and the reference, so their errors share noise: each
+    /// step is judged by its blocks' paired differences ([`metrics::paired_standard_error`]),
+    /// allowed to rise by at most 2.31 standard errors (Student's t at 97.5 % for the 8 degrees
+    /// of freedom of a 48×48 image's 9 blocks), and from the first step to the last the error
+    /// must fall by more than that.
+    #[test]
+    fn quick_compare_writes_a_sound_report_for_every_scene() {
+        let root = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let workspace = crate::workspace_root().unwrap_or_else(|e| panic!("{e}"));
+        for scene in DEFAULT_SCENES {
+            let args = CompareArgs {
+                scenes: Vec::new(),
+                width: 48,
+                height: 48,
+                quick: true,
+                fresh: false,
+                reference_spp: None,
+                threads: 0,
+                ic_spp: 16,
+                denoised_ic_spp: 4,
+                direct_samples: 1,
+                only: None,
+                extra: Vec::new(),
+                publish: false,
+            };
+            let path = workspace.join("assets").join(scene);
+            let report = compare(&args, &path, root.path()).unwrap_or_else(|e| panic!("{e}"));
+            let mut files = vec![
+                "runs.csv",
+                "report.md",
+                "plot.svg",
+                "heat-ic.png",
+                "heat-path.png",
+                "crops.png",
+            ];
+            if DENOISER.is_some() {
+                files.extend(["heat-ic-oidn.png", "heat-path-oidn.png", "crops-oidn.png"]);
+            }
+            for file in files {
+                assert!(
+                    report.folder.join(file).is_file(),
+                    "{scene}: {file} missing"
+                );
+            }
+            let csv = std::fs::read_to_string(report.folder.join("runs.csv")).unwrap_or_default();
+            let mut rows = 0;
+            for line in csv.lines().skip(1) {
+                let cols: Vec<&str> = line.split(',').collect();
+                assert_eq!(cols.len(), 14, "{line}");
+                for c in &cols[3..] {
+                    let v: f64 = c.parse().unwrap_or(f64::NAN);
+                    assert!(v.is_finite(), "{line}");
+                }
+                rows += 1;
+            }
+            assert_eq!(rows, report.runs.len());
+            for m in Method::ALL
+                .into_iter()
+                .filter(|m| !m.denoised() || DENOISER.is_some())
+            {
+                assert!(
+                    report.runs.iter().any(|r| r.method == m),
+                    "{scene}: no {m:?}"
+                );
+            }
+            let ladder: Vec<&Run> = report
+                .runs
+                .iter()
+                .filter(|r| r.method == Method::Cache && r.group == Group::Ladder)
+                .collect();
+            assert!(ladder.len() >= 3);
+            let t = 2.31;
+            let errors: Vec<f64> = ladder.iter().map(|r| r.metrics.rel_mse).collect();
+            let allowed =
+                |a: &Run, b: &Run| t * metrics::paired_standard_error(&a.blocks, &b.blocks);
+            for w in ladder.windows(2) {
+                assert!(
+                    w[1].metrics.rel_mse <= w[0].metrics.rel_mse + allowed(w[0], w[1]),
+                    "{scene}: {errors:?}, step allowance {:.2e}",
+                    allowed(w[0], w[1])
+                );
+            }
+            let (first, last) = (ladder[0], ladder[ladder.len() - 1]);
+            assert!(
+                last.metrics.rel_mse + allowed(first, last) < first.metrics.rel_mse,
+                "{scene}: {errors:?}, allowance {:.2e}",
+                allowed(first, last)
+            );
+        }
+    }
+}
