@@ -1004,7 +1004,7 @@ mod tests {
     /// of freedom of a 48×48 image's 9 blocks), and from the first step to the last the error
     /// must fall by more than that.
     #[test]
-    fn quick_compare_writes_a_sound_report_for_every_scene() {
+    fn quick_compare_writes_a_sound_report_for_every_scene_raw_and_denoised() {
         let root = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
         let workspace = crate::workspace_root().unwrap_or_else(|e| panic!("{e}"));
         for scene in DEFAULT_SCENES {
