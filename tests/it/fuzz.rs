@@ -808,14 +808,18 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 }
 
 /// Where irr-cache's part of the first level lies in a cache file (after the 24-byte header,
-/// the level's record count, 16 bytes per record and the part's length), if the counts still
+/// the level's record count, `ENTRY_BYTES` per record and the part's length), if the counts still
 /// fit.
 fn inner_part(bytes: &[u8]) -> Option<std::ops::Range<usize>> {
     let word = |at: usize| -> Option<u64> {
         Some(u64::from_le_bytes(bytes.get(at..at + 8)?.try_into().ok()?))
     };
     let n = word(24)?;
-    let size_at = usize::try_from(n.checked_mul(16)?.checked_add(32)?).ok()?;
+    let size_at = usize::try_from(
+        n.checked_mul(irr_render::ENTRY_BYTES as u64)?
+            .checked_add(32)?,
+    )
+    .ok()?;
     let start = size_at.checked_add(8)?;
     let end = start.checked_add(usize::try_from(word(size_at)?).ok()?)?;
     (start + 28 + 8 <= end && end <= bytes.len().checked_sub(8)?).then_some(start..end)

@@ -120,7 +120,9 @@ pub struct IcArgs {
     /// pass then almost never gathers for itself)
     #[arg(long)]
     pub fill_samples: bool,
-    /// Write a second image, <out stem>-records.exr/.png, with every record marked
+    /// Write a second image, <out stem>-records.exr/.png, with every record marked: a dot, and
+    /// a ring of its influence radius in the colour of its noise (the estimated relative
+    /// standard error of its irradiance: blue 0, green 5 %, yellow 10 %, red 20 % and more)
     #[arg(long)]
     pub show_records: bool,
     /// A persistent cache (--integrator ic): read the records from FILE if it exists (it must

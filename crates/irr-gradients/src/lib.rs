@@ -13,6 +13,9 @@
 //!   [`Gradients`], which holds E, ∇ᵣE and ∇ₜE, turns them to world coordinates, extrapolates to
 //!   first order and gives the radius limit. The formulas and their derivation are in the
 //!   `gradient` module's source, next to the code.
+//! - A gather's own noise ([`GatherSamples::irradiance_variance`],
+//!   [`GatherSamples::relative_error`]): the variance of E from the differences of neighbouring
+//!   cells, with no ray more (the `noise` module's source derives it).
 //! - [`GatherValue`]: the value type (f32, RGB `Vec3`, …), this crate's own, generic.
 //!
 //! Gradients are computed in the **local frame** of the gather (normal = +z, the frame in which
@@ -56,6 +59,7 @@
 //! ```
 
 mod gradient;
+mod noise;
 mod samples;
 mod value;
 

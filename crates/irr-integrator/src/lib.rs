@@ -69,8 +69,8 @@ mod texture;
 pub use ao::{AmbientOcclusion, AoSettings};
 pub use ic::{
     BounceMode, CacheBuilder, CachedAmbientOcclusion, CachedLevel, Candidate, CommitStats,
-    GradientMode, GuardRecord, IcMetric, IcSettings, IcSettingsError, IrradianceCacheIntegrator,
-    LeakGuard, MetricKind, Probe, RadiusStatistic,
+    DisplayRecord, GradientMode, GuardRecord, IcMetric, IcSettings, IcSettingsError,
+    IrradianceCacheIntegrator, LeakGuard, MetricKind, Probe, RadiusStatistic,
 };
 pub use integrator::{Batching, FirstHit, Integrator, PIXEL_BATCH, RayCounter, first_hit};
 pub use light::{LightSample, LightSampler};

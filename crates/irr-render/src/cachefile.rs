@@ -5,7 +5,7 @@
 //!
 //! | offset | size | content |
 //! |---|---|---|
-//! | 0 | 8 | magic `IRRICSC2` (the last byte is the version of this layout) |
+//! | 0 | 8 | magic `IRRICSC3` (the last byte is the version of this layout) |
 //! | 8 | 8 | fingerprint: FNV-1a of what the render's records depend on (the caller's: irr-cli hashes the scene file's bytes, the image size, the camera, the cache settings, the background and the seed) |
 //! | 16 | 8 | L, the number of cache levels (the first, then each cached bounce level) |
 //!
@@ -14,7 +14,7 @@
 //! | size | content |
 //! |---|---|
 //! | 8 | n, the level's number of records |
-//! | 16·n | what the leak guard keeps of each record: the nearest hit distance of its gather (`f32`, finite, ≥ 0), then its geometric normal (3 `f32`, finite, not zero) |
+//! | 20·n | per record, what the leak guard keeps: the nearest hit distance of its gather (`f32`, finite, ≥ 0), then its geometric normal (3 `f32`, finite, not zero); then its noise, the estimated relative standard error of its irradiance (`f32`, finite, ≥ 0) |
 //! | 8 | the byte length of the level's records |
 //! | … | the records, in irr-cache's versioned, checksummed format (`IrradianceCache::write_to`) |
 //!
@@ -40,10 +40,10 @@ use irr_integrator::{
 use std::path::Path;
 
 /// The first eight bytes of a cache file.
-pub const MAGIC: [u8; 8] = *b"IRRICSC2";
+pub const MAGIC: [u8; 8] = *b"IRRICSC3";
 
-/// The bytes of one record's leak-guard entry.
-const GUARD_BYTES: usize = 16;
+/// The bytes of one record's entry: its leak-guard data and its noise.
+pub const ENTRY_BYTES: usize = 20;
 
 /// FNV-1a over `parts`, each prefixed by its length (so parts cannot run into each other).
 pub fn fingerprint(parts: &[&[u8]]) -> u64 {
@@ -70,12 +70,24 @@ pub fn write_cache_file(
             RenderError::write(path, format!("the integrator has no level {level}"))
         })?;
         let guard = integrator.guard_records(level);
+        let noise = integrator.record_noise(level);
+        if noise.len() != guard.len() {
+            return Err(RenderError::write(
+                path,
+                format!(
+                    "level {level}: {} leak-guard entries but {} noise entries",
+                    guard.len(),
+                    noise.len()
+                ),
+            ));
+        }
         bytes.extend_from_slice(&(guard.len() as u64).to_le_bytes());
-        for g in guard {
+        for (g, n) in guard.iter().zip(noise) {
             bytes.extend_from_slice(&g.nearest_hit.to_le_bytes());
             for c in g.geometric_normal.to_array() {
                 bytes.extend_from_slice(&c.to_le_bytes());
             }
+            bytes.extend_from_slice(&n.to_le_bytes());
         }
         let mut records = Vec::with_capacity(128 * cache.len() + 36);
         cache
@@ -160,9 +172,10 @@ pub fn read_cache_file(
     for level in 0..settings.levels() {
         let metric = settings.metric_at(level).map_err(|e| bad(e.to_string()))?;
         let n = word(take(8, "record count")?);
-        let entries = take(n.saturating_mul(GUARD_BYTES as u64), "leak-guard entries")?;
-        let mut guard = Vec::with_capacity(entries.len() / GUARD_BYTES);
-        for (i, entry) in entries.chunks_exact(GUARD_BYTES).enumerate() {
+        let entries = take(n.saturating_mul(ENTRY_BYTES as u64), "records' entries")?;
+        let mut guard = Vec::with_capacity(entries.len() / ENTRY_BYTES);
+        let mut noise = Vec::with_capacity(entries.len() / ENTRY_BYTES);
+        for (i, entry) in entries.chunks_exact(ENTRY_BYTES).enumerate() {
             let nearest_hit = float(&entry[0..4]);
             let normal = Vec3::new(
                 float(&entry[4..8]),
@@ -179,10 +192,17 @@ pub fn read_cache_file(
                     "level {level}, record {i}: the leak guard's geometric normal is not finite and non-zero"
                 )));
             }
+            let relative_error = float(&entry[16..20]);
+            if !(relative_error.is_finite() && relative_error >= 0.0) {
+                return Err(bad(format!(
+                    "level {level}, record {i}: the noise {relative_error} is not finite and non-negative"
+                )));
+            }
             guard.push(GuardRecord {
                 nearest_hit,
                 geometric_normal: normal,
             });
+            noise.push(relative_error);
         }
         let size = word(take(8, "records' length")?);
         let records = take(size, "records")?;
@@ -195,7 +215,11 @@ pub fn read_cache_file(
                 guard.len()
             )));
         }
-        levels.push(CachedLevel { cache, guard });
+        levels.push(CachedLevel {
+            cache,
+            guard,
+            noise,
+        });
     }
     if at != body.len() {
         return Err(bad(format!(

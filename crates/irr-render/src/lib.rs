@@ -77,7 +77,7 @@ mod testutil;
 mod uri;
 
 pub use aov::{Aov, AovImages, normalise_aovs};
-pub use cachefile::{fingerprint, read_cache_file, write_cache_file};
+pub use cachefile::{ENTRY_BYTES, fingerprint, read_cache_file, write_cache_file};
 pub use camera::{Camera, CameraRay, NamedCamera, Projection};
 pub use denoise::{DENOISER, DENOISER_AOVS, NO_DENOISER, denoise};
 pub use error::RenderError;

@@ -35,7 +35,9 @@ use crate::error::RenderError;
 use crate::render::RenderSettings;
 use glam::Vec2;
 use irr_geometry::Ray;
-use irr_integrator::{CacheBuilder, Candidate, CommitStats, Probe, RayCounter, Scene};
+use irr_integrator::{
+    CacheBuilder, Candidate, CommitStats, DisplayRecord, Probe, RayCounter, Scene,
+};
 use irr_sampling::SampleKey;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -115,6 +117,9 @@ pub struct CacheBuildStats {
     pub seconds: f64,
     /// Records per level after construction.
     pub records: Vec<usize>,
+    /// Per level, the median and the 90th percentile of its records' noise: the estimated
+    /// relative standard error of each record's irradiance (its gather's own).
+    pub noise: Vec<(f32, f32)>,
 }
 
 impl CacheBuildStats {
@@ -139,7 +144,7 @@ impl CacheBuildStats {
         }
     }
 
-    /// One line: records, passes, time, rays, waste.
+    /// One line: records (and their noise), passes, time, rays, waste.
     pub fn summary(&self) -> String {
         let inserted: u64 = self.passes.iter().map(|p| p.commit.inserted).sum();
         let dropped: u64 = self.passes.iter().map(|p| p.commit.dropped).sum();
@@ -149,9 +154,16 @@ impl CacheBuildStats {
             self.records
                 .iter()
                 .enumerate()
-                .map(|(l, n)| format!("level {l}: {n}"))
+                .map(|(l, n)| match self.noise.get(l) {
+                    Some((median, p90)) if *n > 0 => format!(
+                        "level {l}: {n}, noise {:.1} % median, {:.1} % at the 90th percentile",
+                        100.0 * median,
+                        100.0 * p90
+                    ),
+                    _ => format!("level {l}: {n}"),
+                })
                 .collect::<Vec<_>>()
-                .join(", "),
+                .join("; "),
             self.passes.len(),
             self.seconds,
             self.rays().total() as f64 / 1e6,
@@ -436,17 +448,32 @@ pub fn build_cache(
     bar.finish_and_clear();
     stats.seconds = start.elapsed().as_secs_f64();
     stats.records = builder.record_counts();
+    stats.noise = (0..stats.records.len())
+        .map(|l| median_and_p90(builder.record_noise(l)))
+        .collect();
     Ok(stats)
+}
+
+/// The median and the 90th percentile of `values` (nearest rank; 0 for none).
+fn median_and_p90(values: &[f32]) -> (f32, f32) {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f32::total_cmp);
+    let rank = |q: f32| {
+        let i = ((q * sorted.len() as f32).ceil() as usize).clamp(1, sorted.len().max(1)) - 1;
+        sorted.get(i).copied().unwrap_or(0.0)
+    };
+    (rank(0.5), rank(0.9))
 }
 
 /// The debug view of a cache (`--show-records`): a copy of `image` with each record at its
 /// projected position marked by a bright dot, and its sphere of influence by a ring of its
-/// projected radius, in the colour of the record's level-0 normal (|n|, so walls of different
-/// orientation differ). Records behind the camera or off the image are skipped.
+/// projected radius in the colour of its noise ([`noise_colour`]: blue for a quiet record,
+/// through green and yellow, to red for 20 % and more). Records behind the camera or off the
+/// image are skipped.
 pub fn mark_records(
     image: &crate::image::Image,
     camera: &Camera,
-    records: &[(glam::Vec3, glam::Vec3, f32)],
+    records: &[DisplayRecord],
 ) -> crate::image::Image {
     let (w, h) = (image.width(), image.height());
     let mut out = image.clone();
@@ -463,7 +490,8 @@ pub fn mark_records(
             out.set(x as u32, y as u32, c);
         }
     };
-    for &(p, n, influence) in records {
+    for r in records {
+        let (p, influence) = (r.position, r.influence_radius);
         let d = p - camera.position;
         let depth = d.dot(camera.forward);
         if depth.is_nan() || depth <= 0.0 {
@@ -473,17 +501,38 @@ pub fn mark_records(
         let ndc_y = d.dot(camera.up) / (depth * tan);
         let x = (ndc_x + 1.0) * 0.5 * w as f32;
         let y = (1.0 - ndc_y) * 0.5 * h as f32;
-        let colour = n.abs() * bright;
+        // At most 1 in every channel, so the PNG preview (clipped at 1) keeps its hue.
+        let colour = noise_colour(r.noise);
         // The ring: the influence radius in pixels at that depth.
         let radius = influence / (depth * 2.0 * tan / h as f32);
         let steps = (radius * 6.3).clamp(8.0, 512.0) as u32;
         for i in 0..steps {
             let a = i as f32 / steps as f32 * std::f32::consts::TAU;
-            plot(x + radius * a.cos(), y + radius * a.sin(), colour * 0.5);
+            plot(x + radius * a.cos(), y + radius * a.sin(), colour);
         }
         plot(x, y, glam::Vec3::splat(bright));
     }
     out
+}
+
+/// The debug view's colour for a record's noise (relative standard error): blue at 0, green at
+/// 5 %, yellow at 10 %, red at 20 % and above, linear in between.
+pub fn noise_colour(noise: f32) -> glam::Vec3 {
+    use glam::Vec3;
+    let stops = [
+        (0.0, Vec3::new(0.1, 0.3, 1.0)),
+        (0.05, Vec3::new(0.1, 1.0, 0.2)),
+        (0.1, Vec3::new(1.0, 1.0, 0.1)),
+        (0.2, Vec3::new(1.0, 0.1, 0.1)),
+    ];
+    let noise = if noise.is_nan() { 1.0 } else { noise };
+    for w in stops.windows(2) {
+        let ((a, ca), (b, cb)) = (w[0], w[1]);
+        if noise <= b {
+            return ca.lerp(cb, ((noise - a) / (b - a)).clamp(0.0, 1.0));
+        }
+    }
+    stops[stops.len() - 1].1
 }
 
 #[cfg(test)]

@@ -2,7 +2,7 @@
 
 use super::FALLBACK_STREAM;
 use super::builder::{
-    CacheBuilder, Candidate, CommitStats, FinalPassMisses, Probe, forward_to_core,
+    CacheBuilder, Candidate, CommitStats, DisplayRecord, FinalPassMisses, Probe, forward_to_core,
 };
 use super::guard::Query;
 use super::levels::{Core, display};

@@ -31,6 +31,9 @@ pub struct Candidate {
     pub(super) record: Record<Rgb>,
     pub(super) inputs: RadiusInputs,
     pub(super) guard: GuardRecord,
+    /// The estimated relative standard error of its irradiance, from its gather's strata
+    /// (`GatherSamples::relative_error`).
+    pub(super) noise: f32,
     /// Gather rays (and their continuations) this candidate cost.
     pub rays: RayCounter,
 }
@@ -44,6 +47,23 @@ impl Candidate {
     pub fn position(&self) -> Vec3 {
         self.record.position
     }
+    /// The estimated relative standard error of its irradiance (its gather's own noise).
+    pub fn noise(&self) -> f32 {
+        self.noise
+    }
+}
+
+/// A level-0 record as the debug view (`--show-records`) draws it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DisplayRecord {
+    /// Where it was computed.
+    pub position: Vec3,
+    /// Its surface normal.
+    pub normal: Vec3,
+    /// The radius within which it has a weight.
+    pub influence_radius: f32,
+    /// The estimated relative standard error of its irradiance (its gather's own noise).
+    pub noise: f32,
 }
 
 /// A point of a construction pass that no record covers, with a cheap prediction of the radius
@@ -153,8 +173,13 @@ pub trait CacheBuilder: Integrator + Send {
     /// What the final pass found that no record covered so far.
     fn final_pass_misses(&self) -> FinalPassMisses;
 
-    /// Every level-0 record's position, radius and influence radius (for the debug view).
-    fn records_for_display(&self) -> Vec<(Vec3, Vec3, f32)>;
+    /// Every level-0 record's position, normal, influence radius and noise (for the debug
+    /// view).
+    fn records_for_display(&self) -> Vec<DisplayRecord>;
+
+    /// The estimated relative standard error of the irradiance of each record of `level`, by
+    /// record id (its gather's own noise; empty for a level the integrator does not have).
+    fn record_noise(&self, level: usize) -> &[f32];
 
     /// The smallest influence radius a level-0 record can have, in pixels (of the footprint on
     /// its surface): what the renderer's coverage probes must resolve.
@@ -196,8 +221,12 @@ macro_rules! forward_to_core {
             }
         }
 
-        fn records_for_display(&self) -> Vec<(Vec3, Vec3, f32)> {
+        fn records_for_display(&self) -> Vec<DisplayRecord> {
             display(&self.core)
+        }
+
+        fn record_noise(&self, level: usize) -> &[f32] {
+            self.core.levels.get(level).map_or(&[], |l| &l.noise)
         }
 
         fn smallest_influence_pixels(&self) -> f32 {

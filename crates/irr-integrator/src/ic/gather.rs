@@ -99,6 +99,7 @@ impl<V: IcValue> Core<V> {
     }
 
     /// A record of `level` at `x` from a gather, with its radius inputs and leak-guard distance.
+    /// (Its noise is the gather's: `GatherSamples::relative_error`.)
     pub(super) fn record_from(
         &self,
         level: u32,
@@ -157,6 +158,7 @@ impl<V: IcValue> Core<V> {
                 nearest_hit,
                 geometric_normal: probe.x.ng,
             },
+            noise: samples.relative_error(),
             rays,
         }
     }

@@ -2,14 +2,13 @@
 //! commits.
 
 use super::IcMetric;
-use super::builder::{Candidate, CommitStats, Probe};
+use super::builder::{Candidate, CommitStats, DisplayRecord, Probe};
 use super::guard::{GuardRecord, Query};
 use super::settings::{IcSettings, IcSettingsError};
 use super::value::{IcValue, convert_record};
 use crate::integrator::RayCounter;
 use crate::path::ShadingPoint;
 use crate::scene::Scene;
-use glam::Vec3;
 use irr_cache::{ErrorMetric, InsertError, IrradianceCache, Record};
 use irr_geometry::Ray;
 use irr_sampling::{Frame, HemisphereStrata, SampleKey, sample_cosine_hemisphere};
@@ -22,6 +21,8 @@ pub(super) struct Level<V: IcValue> {
     pub(super) cache: IrradianceCache<V, IcMetric>,
     /// Per record (by id).
     pub(super) guard: Vec<GuardRecord>,
+    /// Per record (by id): the estimated relative standard error of its irradiance.
+    pub(super) noise: Vec<f32>,
     pub(super) strata: HemisphereStrata,
 }
 
@@ -50,6 +51,7 @@ impl<V: IcValue> Core<V> {
                 Ok(Level {
                     cache: IrradianceCache::new(settings.metric_at(l)?),
                     guard: Vec::new(),
+                    noise: Vec::new(),
                     strata: settings.strata_at(l)?,
                 })
             })
@@ -156,6 +158,7 @@ impl<V: IcValue> Core<V> {
                 Ok((id, _)) => {
                     debug_assert_eq!(id as usize, l.guard.len());
                     l.guard.push(c.guard);
+                    l.noise.push(c.noise);
                     stats.inserted += 1;
                 }
                 Err(InsertError::Full) | Err(_) => stats.refused += 1,
@@ -165,17 +168,17 @@ impl<V: IcValue> Core<V> {
     }
 }
 
-pub(super) fn display<V: IcValue>(core: &Core<V>) -> Vec<(Vec3, Vec3, f32)> {
+pub(super) fn display<V: IcValue>(core: &Core<V>) -> Vec<DisplayRecord> {
     core.levels.first().map_or_else(Vec::new, |l| {
         l.cache
             .records()
             .iter()
-            .map(|r| {
-                (
-                    r.position,
-                    r.normal,
-                    l.cache.metric().influence_radius(r.radius),
-                )
+            .zip(&l.noise)
+            .map(|(r, &noise)| DisplayRecord {
+                position: r.position,
+                normal: r.normal,
+                influence_radius: l.cache.metric().influence_radius(r.radius),
+                noise,
             })
             .collect()
     })

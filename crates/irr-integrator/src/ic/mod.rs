@@ -32,7 +32,9 @@
 //! leak guard), `value` (the cached value types), `ao` (cached ambient occlusion).
 
 pub use ao::CachedAmbientOcclusion;
-pub use builder::{CacheBuilder, Candidate, CommitStats, FinalPassMisses, PROBE_M, PROBE_N, Probe};
+pub use builder::{
+    CacheBuilder, Candidate, CommitStats, DisplayRecord, FinalPassMisses, PROBE_M, PROBE_N, Probe,
+};
 pub use guard::GuardRecord;
 pub use radius::HORIZON_CUT_COS;
 pub use settings::{
@@ -76,6 +78,8 @@ pub struct CachedLevel {
     pub cache: IrradianceCache<Rgb, IcMetric>,
     /// The leak guard's data, one entry per record.
     pub guard: Vec<GuardRecord>,
+    /// The estimated relative standard error of each record's irradiance, one per record.
+    pub noise: Vec<f32>,
 }
 
 /// The stream of the final pass's own gathers (see `SampleKey::new`).
@@ -147,20 +151,22 @@ impl IrradianceCacheIntegrator {
         if let Some((i, l)) = levels
             .iter()
             .enumerate()
-            .find(|(_, l)| l.guard.len() != l.cache.len())
+            .find(|(_, l)| l.guard.len() != l.cache.len() || l.noise.len() != l.cache.len())
         {
             return Err(setting_error(
                 "--cache",
                 format!(
-                    "level {i}: {} records but {} leak-guard entries",
+                    "level {i}: {} records but {} leak-guard and {} noise entries",
                     l.cache.len(),
-                    l.guard.len()
+                    l.guard.len(),
+                    l.noise.len()
                 ),
             ));
         }
         for (level, read) in self.core.levels.iter_mut().zip(levels) {
             level.cache = read.cache;
             level.guard = read.guard;
+            level.noise = read.noise;
         }
         Ok(())
     }
@@ -432,5 +438,73 @@ mod tests {
             assert_eq!(value, r.direct + r.indirect, "sample {k}");
             assert_eq!(gathered, traced, "sample {k}");
         }
+    }
+
+    /// A record's noise is calibrated: in a white furnace (a closed sphere that emits Le and
+    /// reflects ρ everywhere) every direction sees the same mean radiance, so the estimator's
+    /// structure term is 0 and E[V̂] is the variance of E exactly (irr-gradients' `noise`
+    /// module). K = 2000 gathers of 6×24 at one point with path-traced continuations: the mean
+    /// of V̂ over them against the sample variance of their E. The ratio's relative standard
+    /// error combines the sample variance's, √(2/(K − 1)) (E, a sum of 144 cells, is nearly
+    /// normal), and the mean of V̂'s, its own spread / √K; the bound is 6 of them.
+    #[test]
+    fn a_records_noise_is_the_spread_of_its_irradiance() {
+        let rho = 0.6f32;
+        let furnace = Material {
+            albedo: Vec3::splat(rho),
+            emission: Vec3::splat(1.0),
+            two_sided: true,
+            albedo_texture: None,
+            emission_texture: None,
+        };
+        let scene = scene(&[icosphere(Vec3::ZERO, 2.0, 2, 0)], vec![furnace]);
+        let ic = IrradianceCacheIntegrator::new(IcSettings {
+            bounce_mode: BounceMode::PathTraced,
+            strata_m: 6,
+            strata_n: 24,
+            ..IcSettings::default()
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+        let ray = Ray::new(Vec3::ZERO, Vec3::new(0.3, -1.0, 0.2).normalize());
+        let hit = scene
+            .geometry()
+            .intersect(&ray)
+            .map(|h| scene.geometry().surface(&ray, &h))
+            .unwrap_or_else(|| panic!("the sphere surrounds the origin"));
+        let x = ShadingPoint::new(&hit, -ray.direction);
+        let strata = ic.core.levels[0].strata;
+        let k = 2000u64;
+        let (mut e_sum, mut e2_sum, mut v_sum, mut v2_sum) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for g in 0..k {
+            let mut rays = RayCounter::default();
+            let (samples, _) = ic
+                .core
+                .gather(
+                    &scene,
+                    strata,
+                    &x,
+                    SampleKey::new(5, g, 0),
+                    &mut rays,
+                    |t, r| ic.gather_radiances(&scene, 0, t, r),
+                )
+                .unwrap_or_else(|| panic!("gather {g}"));
+            let e = f64::from(samples.irradiance().x);
+            let v = samples.irradiance_variance(0);
+            e_sum += e;
+            e2_sum += e * e;
+            v_sum += v;
+            v2_sum += v * v;
+        }
+        let kf = k as f64;
+        let spread = (e2_sum - e_sum * e_sum / kf) / (kf - 1.0);
+        let mean_v = v_sum / kf;
+        let sd_v = ((v2_sum / kf - mean_v * mean_v).max(0.0)).sqrt();
+        let se = (2.0 / (kf - 1.0) + (sd_v / mean_v).powi(2) / kf).sqrt();
+        let ratio = mean_v / spread;
+        assert!(
+            (ratio - 1.0).abs() < 6.0 * se,
+            "mean V̂ {mean_v:.3e}, variance of E {spread:.3e}: ratio {ratio:.3} (bound ±{:.3})",
+            6.0 * se
+        );
     }
 }

@@ -265,6 +265,7 @@ impl IrradianceCacheIntegrator {
             let l = local.get_or_insert_with(|| Level {
                 cache: IrradianceCache::new(*first.cache.metric()),
                 guard: Vec::new(),
+                noise: Vec::new(),
                 strata: self.core.fallback_strata,
             });
             if l.cache.insert_with_radius(record, &inputs).is_ok() {
@@ -272,6 +273,7 @@ impl IrradianceCacheIntegrator {
                     nearest_hit,
                     geometric_normal: x.ng,
                 });
+                l.noise.push(samples.relative_error());
             }
         }
         e
