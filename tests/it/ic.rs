@@ -31,6 +31,20 @@ fn small() -> IcSettings {
 /// pixel order (irr-render's `passes` module).
 #[test]
 fn ic_images_are_identical_for_any_thread_count() {
+    identical_for_any_thread_count(small());
+}
+
+/// The same with adaptive gathers: the extra rays' numbers depend only on the record's key, the
+/// stratum and the sample's index, and the plan only on the gather's own first rays.
+#[test]
+fn adaptive_gathers_are_identical_for_any_thread_count() {
+    identical_for_any_thread_count(IcSettings {
+        gather_error: 0.02,
+        ..small()
+    });
+}
+
+fn identical_for_any_thread_count(ic: IcSettings) {
     let loaded = cornell();
     let mut images = Vec::new();
     for threads in [1, 2, 8] {
@@ -42,7 +56,7 @@ fn ic_images_are_identical_for_any_thread_count() {
             threads,
         };
         let camera = loaded.camera_for(20, 20);
-        let (image, records) = ic_image(&loaded.scene, &camera, small(), &settings);
+        let (image, records) = ic_image(&loaded.scene, &camera, ic, &settings);
         assert!(records > 10, "{records} records");
         images.push(
             image
@@ -597,7 +611,8 @@ fn cached_bounces_converge_too() {
     }
 }
 
-/// `max_depth` counts reflections the same way for the cache as for the path tracer: the white
+/// `max_depth` counts reflections the same way for the cache as for the path tracer, with or
+/// without adaptive gathers: the white
 /// furnace (assets/furnace.glb: a closed sphere of albedo ρ = 0.8 emitting Le = 1 from both
 /// faces) reads Le·(1 − ρ^(d+1))/(1 − ρ) at every pixel with at most d reflections, whether the
 /// indirect light comes from path-traced continuations or from a cached bounce level. The
@@ -617,9 +632,17 @@ fn the_depth_limits_the_cache_as_it_limits_the_path_tracer() {
         .unwrap_or_else(|e| panic!("{e}"));
     let (rho, le) = (0.8f64, 1.0f64);
     let camera = loaded.camera_for(12, 12);
-    for (bounce_mode, depths) in [
-        (irr_render::BounceMode::PathTraced, &[0u32, 1, 2, 3][..]),
-        (irr_render::BounceMode::Cached, &[2, 3][..]),
+    for (bounce_mode, depths, gather_error) in [
+        (
+            irr_render::BounceMode::PathTraced,
+            &[0u32, 1, 2, 3][..],
+            0.0,
+        ),
+        (irr_render::BounceMode::Cached, &[2, 3][..], 0.0),
+        // Adaptive gathers (nearly every record above 1 % spends its budget): a stratum's count
+        // never depends on its own samples, so E stays unbiased.
+        (irr_render::BounceMode::PathTraced, &[2, 3][..], 0.01),
+        (irr_render::BounceMode::Cached, &[3][..], 0.01),
     ] {
         for &depth in depths {
             let means: Vec<f64> = (0..16u64)
@@ -627,6 +650,7 @@ fn the_depth_limits_the_cache_as_it_limits_the_path_tracer() {
                     let ic = IcSettings {
                         strata_m: 4,
                         strata_n: 16,
+                        gather_error,
                         bounce_mode,
                         path: PathSettings {
                             max_depth: depth,
@@ -652,7 +676,7 @@ fn the_depth_limits_the_cache_as_it_limits_the_path_tracer() {
             let band = 5.0 * sd / k.sqrt() + 1e-5 * expected;
             assert!(
                 (mean - expected).abs() <= band,
-                "{bounce_mode:?}, depth {depth}: mean {mean} vs {expected} (band {band:e})"
+                "{bounce_mode:?}, depth {depth}, gather error {gather_error}: mean {mean} vs {expected} (band {band:e})"
             );
         }
     }

@@ -116,6 +116,15 @@ pub struct IcArgs {
     /// Light samples per camera hit for the direct light (≥ 1)
     #[arg(long, default_value_t = IcSettings::default().direct_samples)]
     pub direct_samples: u32,
+    /// Adaptive gathers: the target relative standard error of a record's irradiance (e.g.
+    /// 0.05), estimated from its strata; a gather above it spends more rays on its noisiest
+    /// strata. Deeper levels loosen it as they loosen --error. 0: one ray per stratum
+    #[arg(long, default_value_t = IcSettings::default().gather_error, allow_negative_numbers = true)]
+    pub gather_error: f32,
+    /// With --gather-error: the most extra rays of a gather, as a multiple of its strata (0 to
+    /// 64)
+    #[arg(long, default_value_t = IcSettings::default().gather_budget, allow_negative_numbers = true)]
+    pub gather_budget: f32,
     /// Also build records at every camera sample's own hit, not only at pixel centres (the final
     /// pass then almost never gathers for itself)
     #[arg(long)]
@@ -169,6 +178,8 @@ impl IcArgs {
             },
             cached_bounces: self.bounces,
             direct_samples: self.direct_samples,
+            gather_error: self.gather_error,
+            gather_budget: self.gather_budget,
             fill_samples: self.fill_samples,
             path: PathSettings {
                 max_depth,

@@ -16,6 +16,10 @@
 //! - A gather's own noise ([`GatherSamples::irradiance_variance`],
 //!   [`GatherSamples::relative_error`]): the variance of E from the differences of neighbouring
 //!   cells, with no ray more (the `noise` module's source derives it).
+//! - Super-sampled gathers: [`CellSamples`] (a cell's samples, accumulated),
+//!   [`GatherSamples::from_cells`] (their means and nearest hits, the form every estimator
+//!   reads) and [`plan_extra_samples`] (which cells get more samples to meet a noise target,
+//!   chosen without reading a cell's own value; the `cells` module's source derives both).
 //! - [`GatherValue`]: the value type (f32, RGB `Vec3`, …), this crate's own, generic.
 //!
 //! Gradients are computed in the **local frame** of the gather (normal = +z, the frame in which
@@ -58,6 +62,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod cells;
 mod gradient;
 mod noise;
 mod samples;
@@ -72,6 +77,7 @@ mod known_answers;
 #[cfg(test)]
 mod scene_tests;
 
+pub use cells::{CellSamples, plan_extra_samples};
 pub use gradient::{Gradients, TranslationGradient, directional, rotate_to_world};
 pub use samples::{GatherError, GatherSamples};
 pub use value::GatherValue;

@@ -26,7 +26,10 @@ use crate::value::GatherValue;
 
 impl<V: GatherValue> GatherSamples<V> {
     /// The estimated variance of channel `channel` of [`GatherSamples::irradiance`] (see the
-    /// module docs); 0 for a single cell, which has nothing to be compared with.
+    /// module docs); 0 for a single cell, which has nothing to be compared with. A cell with k
+    /// samples ([`GatherSamples::from_cells`]) adds its own sample variance over k; a cell with
+    /// one sample adds its share of the differences with its neighbours (a quarter of the two
+    /// squared differences along φ: over a row of one-sample cells, the cyclic sum above).
     pub fn irradiance_variance(&self, channel: usize) -> f64 {
         let strata = self.strata();
         let (m, n) = (strata.m() as usize, strata.n() as usize);
@@ -37,8 +40,18 @@ impl<V: GatherValue> GatherSamples<V> {
             for j in 0..m {
                 let row = j * n;
                 for k in 0..n {
-                    let d = y(row + (k + 1) % n) - y(row + k);
-                    sum += 0.5 * d * d;
+                    let i = row + k;
+                    match &self.cells {
+                        Some(c) if c.counts[i] >= 2 => {
+                            sum +=
+                                f64::from(c.variance[i].channel(channel)) / f64::from(c.counts[i]);
+                        }
+                        _ => {
+                            let before = y(i) - y(row + (k + n - 1) % n);
+                            let after = y(row + (k + 1) % n) - y(i);
+                            sum += 0.25 * (before * before + after * after);
+                        }
+                    }
                 }
             }
         } else if m >= 2 {

@@ -77,6 +77,17 @@ pub struct GatherSamples<V> {
     /// ([`GatherSamples::with_cos_theta`]); the distance statistics that skip near-horizon hits
     /// use them.
     cos_theta: Option<Vec<f32>>,
+    /// With several samples in some cells ([`GatherSamples::from_cells`]): each cell's sample
+    /// count and the sample variance of its values (0 where it has one sample); `None` for one
+    /// sample per cell.
+    pub(crate) cells: Option<CellSpread<V>>,
+}
+
+/// How many samples each cell of a super-sampled gather has and how they spread.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct CellSpread<V> {
+    pub(crate) counts: Vec<u32>,
+    pub(crate) variance: Vec<V>,
 }
 
 impl<V: GatherValue> GatherSamples<V> {
@@ -122,6 +133,7 @@ impl<V: GatherValue> GatherSamples<V> {
             radiance,
             distance,
             cos_theta: None,
+            cells: None,
         })
     }
 

@@ -20,6 +20,9 @@ pub trait GatherValue:
     /// Channel `i` (`i < CHANNELS`).
     fn channel(self, i: usize) -> f32;
 
+    /// The channel-wise product (for a cell's sum of squared deviations).
+    fn hadamard(self, other: Self) -> Self;
+
     /// Whether every channel is finite (no NaN, no infinity).
     #[inline]
     fn is_finite(self) -> bool {
@@ -34,6 +37,11 @@ impl GatherValue for f32 {
     fn channel(self, _i: usize) -> f32 {
         self
     }
+
+    #[inline]
+    fn hadamard(self, other: Self) -> Self {
+        self * other
+    }
 }
 
 impl GatherValue for Vec3 {
@@ -42,6 +50,11 @@ impl GatherValue for Vec3 {
     #[inline]
     fn channel(self, i: usize) -> f32 {
         self[i]
+    }
+
+    #[inline]
+    fn hadamard(self, other: Self) -> Self {
+        self * other
     }
 }
 
@@ -52,6 +65,11 @@ impl GatherValue for Vec3A {
     fn channel(self, i: usize) -> f32 {
         self[i]
     }
+
+    #[inline]
+    fn hadamard(self, other: Self) -> Self {
+        self * other
+    }
 }
 
 impl GatherValue for Vec4 {
@@ -60,6 +78,11 @@ impl GatherValue for Vec4 {
     #[inline]
     fn channel(self, i: usize) -> f32 {
         self[i]
+    }
+
+    #[inline]
+    fn hadamard(self, other: Self) -> Self {
+        self * other
     }
 }
 

@@ -8,8 +8,8 @@
 //!    source). relMSE between the halves / 4 is its own noise, printed beside every error.
 //! 2. Runs, all with seed [`RUN_SEED`]: the path tracer over spp, raw and denoised by OIDN; the
 //!    irradiance cache along its κ ladder, raw and denoised; and the cache's ablations (other
-//!    strata, gradients, clamping, bounce modes, radius statistic). A denoised run's time
-//!    includes the auxiliary images and the denoiser.
+//!    strata, gradients, clamping, bounce modes, radius statistic, adaptive gathers). A
+//!    denoised run's time includes the auxiliary images and the denoiser.
 //! 3. A report in target/compare/<scene>/ (`runs.csv`, `report.md`, `plot.svg`, heat maps,
 //!    crops): each method's front along its primary series, and at each error level which of
 //!    the four methods is fastest, with FLIP beside relMSE ([`figures`]).
@@ -281,6 +281,13 @@ fn ic_sweep(quick: bool) -> Vec<Sweep> {
             "radius-statistic=harmonic",
             IcSettings {
                 radius_statistic: RadiusStatistic::HarmonicMean,
+                ..base
+            },
+        ),
+        (
+            "gather-error=0.05",
+            IcSettings {
+                gather_error: 0.05,
                 ..base
             },
         ),

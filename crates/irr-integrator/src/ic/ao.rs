@@ -60,13 +60,15 @@ impl CachedAmbientOcclusion {
         rays: &mut RayCounter,
     ) -> Option<(GatherSamples<f32>, Frame)> {
         let max = self.max_distance;
-        self.core.gather(scene, strata, x, key, rays, |traced, _| {
-            let value = |hit: &Option<SurfacePoint>| match hit {
-                Some(s) if (s.position - x.position).length() < max => 0.0,
-                _ => FRAC_1_PI,
-            };
-            traced.iter().map(|(hit, _, _)| value(hit)).collect()
-        })
+        self.core
+            .gather(scene, (strata, None), x, key, rays, |traced, _| {
+                let value = |hit: &Option<SurfacePoint>| match hit {
+                    Some(s) if (s.position - x.position).length() < max => 0.0,
+                    _ => FRAC_1_PI,
+                };
+                traced.iter().map(|(hit, _, _)| value(hit)).collect()
+            })
+            .map(|(samples, _, frame)| (samples, frame))
     }
 }
 
@@ -112,7 +114,10 @@ impl CacheBuilder for CachedAmbientOcclusion {
         let (samples, frame) =
             self.occlusion_gather(scene, strata, &probe.x, probe.key, &mut spent)?;
         *rays += spent;
-        Some(self.core.candidate(probe, &samples, &frame, spent))
+        Some(
+            self.core
+                .candidate(probe, (&samples, &samples), &frame, spent),
+        )
     }
 
     forward_to_core!();

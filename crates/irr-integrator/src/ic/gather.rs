@@ -12,99 +12,172 @@ use crate::scene::Scene;
 use glam::Vec3;
 use irr_cache::{RadiusInputs, Record};
 use irr_geometry::{Ray, SurfacePoint};
-use irr_gradients::{GatherSamples, Gradients, TranslationGradient};
-use irr_sampling::{Frame, HemisphereStrata, SampleKey};
+use irr_gradients::{
+    CellSamples, GatherSamples, Gradients, TranslationGradient, plan_extra_samples,
+};
+use irr_sampling::{Cell, Frame, HemisphereStrata, SampleKey};
 
 /// A gather cell's traced ray: what it hit (`None`: it left the scene), its direction and the
 /// cell's sample key.
 pub(super) type Traced = (Option<SurfacePoint>, Vec3, SampleKey);
 
+/// More rays for a gather's noisiest strata until its estimated relative error reaches a
+/// target (irr-gradients' `plan_extra_samples`): the target and the most extra rays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct SuperSampling {
+    pub(super) target: f32,
+    pub(super) cap: u32,
+}
+
 impl<V: IcValue> Core<V> {
-    /// The gather at `x` for `level`: per cell, what its ray brings back and the hit distance.
-    /// `values(traced, rays)` gives the cells' values at once (so that it can trace what they
-    /// need in batches) for the cells with a ray, in cell order, each as (hit, direction, key),
-    /// the hit `None` where the ray escaped; it returns one value per entry. Returns the
-    /// samples (with each sample's cos θ) and the gather's frame.
+    /// The super-sampling of `level`'s gathers: `gather_error` loosened by `level_loosening`
+    /// per level, at most `gather_budget` times the level's strata; `None` when off.
+    pub(super) fn super_sampling(&self, level: usize) -> Option<SuperSampling> {
+        let s = &self.settings;
+        let strata = self.levels.get(level)?.strata;
+        (s.gather_error > 0.0 && s.gather_budget > 0.0).then(|| SuperSampling {
+            target: s.gather_error * s.level_loosening.powi(level as i32),
+            cap: (s.gather_budget * strata.len() as f32) as u32,
+        })
+    }
+
+    /// The gather at `x` for `level`: per cell, what its rays bring back and the hit distance.
+    /// `values(traced, rays)` gives the values of a batch of rays at once (so that it can trace
+    /// what they need in batches), in order, each ray as (hit, direction, key), the hit `None`
+    /// where the ray escaped; it returns one value per entry. First one ray per cell; then, with
+    /// `more`, the extra rays its plan gives the noisiest cells, in one batch (cell, then sample
+    /// order). Returns the samples (each cell's mean and nearest hit; each first sample's cos θ),
+    /// the first rays' samples alone (the record's radius comes from those, so that
+    /// super-sampling does not move records) and the gather's frame.
+    #[expect(
+        clippy::type_complexity,
+        reason = "the gather, the pilot's samples and the frame, used together by each caller"
+    )]
     pub(super) fn gather(
         &self,
         scene: &Scene,
-        strata: HemisphereStrata,
+        (strata, more): (HemisphereStrata, Option<SuperSampling>),
         x: &ShadingPoint,
         key: SampleKey,
         rays: &mut RayCounter,
-        values: impl FnOnce(&[Traced], &mut RayCounter) -> Vec<V::Gathered>,
-    ) -> Option<(GatherSamples<V::Gathered>, Frame)> {
+        mut values: impl FnMut(&[Traced], &mut RayCounter) -> Vec<V::Gathered>,
+    ) -> Option<(
+        GatherSamples<V::Gathered>,
+        GatherSamples<V::Gathered>,
+        Frame,
+    )> {
         let frame = Frame::from_normal(x.ns);
-        let cells = strata.len();
-        let mut radiance = Vec::with_capacity(cells);
-        let mut distance = Vec::with_capacity(cells);
-        let mut cos_theta = Vec::with_capacity(cells);
         let seed = key.bits(0);
-        // The cells' rays first, then the values of all cells at once (`values` can then trace
-        // what they need in batches), in cell order. Below the geometric surface (a shading
-        // normal tilted away) a cell has no ray.
-        let mut directions = Vec::with_capacity(cells);
-        let mut batch = Vec::with_capacity(cells);
-        for cell in strata.cells() {
-            // Independent hashed numbers per cell: the strata already stratify the directions,
-            // and a per-gather Sobol sequence did not pay for its cost (docs/performance.md,
-            // "Sobol sampler").
-            let cell_key = SampleKey::new(seed, u64::from(cell.index(&strata)), 0);
+        // The ray of sample `index` of `cell`, or `None` below the geometric surface (a shading
+        // normal tilted away): nothing arrives from there. Independent hashed numbers per cell
+        // and sample: the strata already stratify the directions, and a per-gather Sobol
+        // sequence did not pay for its cost (docs/performance.md, "Sobol sampler").
+        let ray_of = |cell: Cell, index: u64| {
+            let cell_key = SampleKey::new(seed, u64::from(cell.index(&strata)), index);
             let local = strata.sample(cell, cell_key.uniform_2d(0));
             let w = frame.to_world(local);
-            cos_theta.push(local.z.clamp(0.0, 1.0));
-            let above = w.dot(x.ng) > 0.0;
-            if above {
-                batch.push(Ray::spawn(x.position, x.ng, w));
+            let ray = (w.dot(x.ng) > 0.0).then(|| Ray::spawn(x.position, x.ng, w));
+            (ray, w, cell_key, local.z.clamp(0.0, 1.0))
+        };
+        // Traces `batch` (cell index, ray, direction, key) and returns each ray's (value,
+        // distance), in order. A gather's rays share their origin and neighbouring cells' rays
+        // cross the same nodes: one at a time in cell order (`intersect_many`) rather than as a
+        // stream, which gained nothing here (docs/performance.md, "Batched paths").
+        let mut trace = |batch: &[(Ray, Vec3, SampleKey)], rays: &mut RayCounter| {
+            rays.closest += batch.len() as u64;
+            let just_rays: Vec<Ray> = batch.iter().map(|b| b.0).collect();
+            let mut hits = vec![None; batch.len()];
+            scene.geometry().intersect_many(&just_rays, &mut hits);
+            let traced: Vec<Traced> = batch
+                .iter()
+                .zip(hits)
+                .map(|(&(ray, w, key), hit)| {
+                    (hit.map(|h| scene.geometry().surface(&ray, &h)), w, key)
+                })
+                .collect();
+            let v = values(&traced, rays);
+            traced
+                .iter()
+                .zip(v)
+                .map(|((surface, _, _), value)| {
+                    let distance = surface.as_ref().map_or(f32::INFINITY, |s| {
+                        (s.position - x.position).length().max(f32::MIN_POSITIVE)
+                    });
+                    (value, distance)
+                })
+                .collect::<Vec<_>>()
+        };
+        // The first ray of every cell.
+        let mut cos_theta = Vec::with_capacity(strata.len());
+        let mut below = Vec::with_capacity(strata.len());
+        let mut batch = Vec::with_capacity(strata.len());
+        for cell in strata.cells() {
+            let (ray, w, k, cos) = ray_of(cell, 0);
+            cos_theta.push(cos);
+            below.push(ray.is_none());
+            if let Some(ray) = ray {
+                batch.push((ray, w, k));
             }
-            directions.push((w, cell_key, above));
         }
-        rays.closest += batch.len() as u64;
-        // A gather's rays share their origin and neighbouring cells' rays cross the same nodes:
-        // one at a time in cell order (`intersect_many`) rather than as a stream, which gained
-        // nothing here (docs/performance.md, "Batched paths").
-        let mut hits = vec![None; batch.len()];
-        scene.geometry().intersect_many(&batch, &mut hits);
-        let above = directions.iter().filter(|d| d.2);
-        let traced: Vec<Traced> = batch
+        let mut traced = trace(&batch, rays).into_iter();
+        let mut cells: Vec<CellSamples<V::Gathered>> = below
             .iter()
-            .zip(hits)
-            .zip(above)
-            .map(|((ray, hit), &(w, key, _))| {
-                let surface = hit.map(|h| scene.geometry().surface(ray, &h));
-                (surface, w, key)
+            .map(|&b| {
+                let (value, distance) = if b {
+                    (V::Gathered::default(), f32::INFINITY)
+                } else {
+                    traced
+                        .next()
+                        .unwrap_or((V::Gathered::default(), f32::INFINITY))
+                };
+                CellSamples::first(value, distance)
             })
             .collect();
-        let mut traced_values = values(&traced, rays).into_iter();
-        let mut traced = traced.iter();
-        for &(_, _, above) in &directions {
-            let value = above
-                .then(|| traced.next().zip(traced_values.next()))
-                .flatten();
-            let Some(((surface, _, _), value)) = value else {
-                // Nothing arrives from below the surface.
-                radiance.push(V::Gathered::default());
-                distance.push(f32::INFINITY);
-                continue;
-            };
-            radiance.push(value);
-            distance.push(surface.as_ref().map_or(f32::INFINITY, |s| {
-                (s.position - x.position).length().max(f32::MIN_POSITIVE)
-            }));
+        let pilot = GatherSamples::from_cells(strata, &cells)
+            .and_then(|g| g.with_cos_theta(cos_theta.clone()))
+            .ok()?;
+        let Some(more) = more else {
+            return Some((pilot.clone(), pilot, frame));
+        };
+        // The extra rays of the plan, all in one batch.
+        let plan = plan_extra_samples(&pilot, &below, more.target, more.cap);
+        let mut extra = Vec::new();
+        let mut owner = Vec::new();
+        for (cell, &count) in strata.cells().zip(&plan) {
+            let i = cell.index(&strata) as usize;
+            for index in 1..=u64::from(count) {
+                match ray_of(cell, index) {
+                    (Some(ray), w, k, _) => {
+                        extra.push((ray, w, k));
+                        owner.push(i);
+                    }
+                    // Part of a cell can lie below the geometric surface: nothing arrives
+                    // from there.
+                    (None, ..) => cells[i].push(V::Gathered::default(), f32::INFINITY),
+                }
+            }
         }
-        let samples = GatherSamples::new(strata, radiance, distance)
+        if extra.is_empty() {
+            return Some((pilot.clone(), pilot, frame));
+        }
+        for (&i, (value, distance)) in owner.iter().zip(trace(&extra, rays)) {
+            cells[i].push(value, distance);
+        }
+        let samples = GatherSamples::from_cells(strata, &cells)
             .and_then(|g| g.with_cos_theta(cos_theta))
             .ok()?;
-        Some((samples, frame))
+        Some((samples, pilot, frame))
     }
 
-    /// A record of `level` at `x` from a gather, with its radius inputs and leak-guard distance.
+    /// A record of `level` at `x` from a gather, with its radius inputs and leak-guard distance:
+    /// E and the gradients from all its `samples`, the radius from its `pilot`'s (the first ray
+    /// of each cell: super-sampling does not move records), the guard's nearest hit from all.
     /// (Its noise is the gather's: `GatherSamples::relative_error`.)
     pub(super) fn record_from(
         &self,
         level: u32,
         x: &ShadingPoint,
-        samples: &GatherSamples<V::Gathered>,
+        (samples, pilot): (&GatherSamples<V::Gathered>, &GatherSamples<V::Gathered>),
         frame: &Frame,
         spacing: f32,
     ) -> (Record<V>, RadiusInputs, f32) {
@@ -130,7 +203,7 @@ impl<V: IcValue> Core<V> {
             }
         };
         let inputs = RadiusInputs {
-            distance: self.settings.radius_statistic.of(samples),
+            distance: self.settings.radius_statistic.of(pilot),
             limits: self.limits(level, spacing),
             neighbour_clamping: self.settings.neighbour_clamping,
         };
@@ -144,12 +217,17 @@ impl<V: IcValue> Core<V> {
     pub(super) fn candidate(
         &self,
         probe: &Probe,
-        samples: &GatherSamples<V::Gathered>,
+        (samples, pilot): (&GatherSamples<V::Gathered>, &GatherSamples<V::Gathered>),
         frame: &Frame,
         rays: RayCounter,
     ) -> Candidate {
-        let (record, inputs, nearest_hit) =
-            self.record_from(probe.level, &probe.x, samples, frame, probe.spacing);
+        let (record, inputs, nearest_hit) = self.record_from(
+            probe.level,
+            &probe.x,
+            (samples, pilot),
+            frame,
+            probe.spacing,
+        );
         Candidate {
             level: probe.level,
             record: to_rgb_record(&record),

@@ -376,16 +376,19 @@ impl CacheBuilder for IrradianceCacheIntegrator {
     fn complete(&self, scene: &Scene, probe: &Probe, rays: &mut RayCounter) -> Option<Candidate> {
         let li = probe.level as usize;
         let mut spent = RayCounter::default();
-        let (samples, frame) = self.core.gather(
+        let (samples, pilot, frame) = self.core.gather(
             scene,
-            self.core.levels[li].strata,
+            (self.core.levels[li].strata, self.core.super_sampling(li)),
             &probe.x,
             probe.key,
             &mut spent,
             |traced, r| self.gather_radiances(scene, li, traced, r),
         )?;
         *rays += spent;
-        Some(self.core.candidate(probe, &samples, &frame, spent))
+        Some(
+            self.core
+                .candidate(probe, (&samples, &pilot), &frame, spent),
+        )
     }
 
     forward_to_core!();
@@ -477,11 +480,11 @@ mod tests {
         let (mut e_sum, mut e2_sum, mut v_sum, mut v2_sum) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         for g in 0..k {
             let mut rays = RayCounter::default();
-            let (samples, _) = ic
+            let (samples, ..) = ic
                 .core
                 .gather(
                     &scene,
-                    strata,
+                    (strata, None),
                     &x,
                     SampleKey::new(5, g, 0),
                     &mut rays,

@@ -242,9 +242,9 @@ impl IrradianceCacheIntegrator {
         // so it depends only on the sample (the pixel, the index, the seed).
         let key = SampleKey::new(dims.key().bits(dims.position()), FALLBACK_STREAM, 0);
         self.core.fallbacks.fetch_add(1, Ordering::Relaxed);
-        let Some((samples, frame)) = self.core.gather(
+        let Some((samples, _, frame)) = self.core.gather(
             scene,
-            self.core.fallback_strata,
+            (self.core.fallback_strata, None),
             x,
             key,
             rays,
@@ -255,7 +255,9 @@ impl IrradianceCacheIntegrator {
         // The pixel's record: sized by its gather and the world limits, and at least as large as
         // the pixel's points on its triangle ask (it serves this pixel's samples only, as a
         // record of the pixel's footprint would: no sample of the pixel's surface gathers twice).
-        let (record, mut inputs, nearest_hit) = self.core.record_from(0, x, &samples, &frame, 0.0);
+        let (record, mut inputs, nearest_hit) =
+            self.core
+                .record_from(0, x, (&samples, &samples), &frame, 0.0);
         let e = Vec3::from_array(record.value.0);
         if let Some(first) = self.core.levels.first() {
             let needed = reach / first.cache.metric().influence_radius(1.0);

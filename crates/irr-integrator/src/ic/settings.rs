@@ -163,6 +163,15 @@ pub struct IcSettings {
     pub level_loosening: f32,
     /// Light samples (NEE) per camera hit for the direct light. Default: 2. Range: ≥ 1.
     pub direct_samples: u32,
+    /// Adaptive super-sampling of a record's gather: the target relative standard error of its
+    /// irradiance, as estimated from its strata (irr-gradients' `GatherSamples::relative_error`).
+    /// A gather above it spends more rays on its noisiest strata (`plan_extra_samples`), at
+    /// most `gather_budget` times its strata in all. Deeper levels loosen it by
+    /// `level_loosening` per level, as κ. Default: 0, off (one ray per stratum). Range: [0, ∞).
+    pub gather_error: f32,
+    /// The most extra rays of a super-sampled gather, as a multiple of its strata (M·N).
+    /// Default: 3. Range: [0, 64].
+    pub gather_budget: f32,
     /// Construction also probes every camera sample's own hit (not only the repair passes'
     /// lattice), so the final pass almost never gathers for itself, at the cost of a probe per
     /// sample. Default: off.
@@ -191,6 +200,8 @@ impl Default for IcSettings {
             cached_bounces: 1,
             level_loosening: 2.0,
             direct_samples: 2,
+            gather_error: 0.0,
+            gather_budget: 3.0,
             fill_samples: false,
             path: PathSettings::default(),
         }
@@ -268,6 +279,18 @@ impl IcSettings {
         if self.direct_samples == 0 {
             return Err(setting_error("--direct-samples", "must be at least 1"));
         }
+        if !(self.gather_error.is_finite() && self.gather_error >= 0.0) {
+            return Err(setting_error(
+                "--gather-error",
+                format!("must be finite and non-negative, got {}", self.gather_error),
+            ));
+        }
+        if !(0.0..=64.0).contains(&self.gather_budget) {
+            return Err(setting_error(
+                "--gather-budget",
+                format!("must lie in [0, 64], got {}", self.gather_budget),
+            ));
+        }
         Ok(())
     }
 
@@ -322,7 +345,7 @@ mod tests {
     fn nonsense_settings_name_the_option() {
         let base = IcSettings::default();
         assert!(base.validate().is_ok());
-        let cases: [(IcSettings, &str); 10] = [
+        let cases: [(IcSettings, &str); 13] = [
             (IcSettings { error: 0.0, ..base }, "--error"),
             (
                 IcSettings {
@@ -389,6 +412,27 @@ mod tests {
                     ..base
                 },
                 "--direct-samples",
+            ),
+            (
+                IcSettings {
+                    gather_error: -0.1,
+                    ..base
+                },
+                "--gather-error",
+            ),
+            (
+                IcSettings {
+                    gather_error: f32::NAN,
+                    ..base
+                },
+                "--gather-error",
+            ),
+            (
+                IcSettings {
+                    gather_budget: 65.0,
+                    ..base
+                },
+                "--gather-budget",
             ),
         ];
         for (s, option) in cases {
