@@ -130,6 +130,21 @@ pub(crate) fn polygon(c: Vec3, r: f32, sides: u32, facing_y: f32, material: u32)
     }
 }
 
+/// A grey sphere of radius 2 at the origin (albedo 0.6, outward winding; reflection is
+/// two-sided) with a light disk (radiance 5, radius 0.3) at y = 1.5 facing down inside it.
+pub(crate) fn sphere_with_light() -> Scene {
+    scene(
+        &[
+            icosphere(Vec3::ZERO, 2.0, 2, 0),
+            polygon(Vec3::new(0.0, 1.5, 0.0), 0.3, 16, -1.0, 1),
+        ],
+        vec![
+            Material::diffuse(Vec3::splat(0.6)),
+            Material::emitter(Vec3::splat(5.0)),
+        ],
+    )
+}
+
 pub(crate) fn scene(meshes: &[TriangleMesh], materials: Vec<Material>) -> Scene {
     let geometry = Geometry::build(meshes).unwrap_or_else(|e| panic!("{e}"));
     Scene::new(geometry, materials).unwrap_or_else(|e| panic!("{e}"))
@@ -379,16 +394,7 @@ fn first_hits_come_with_the_answers_at_no_extra_ray_where_the_integrator_finds_t
     use crate::{FirstHit, IcSettings, IrradianceCacheIntegrator, Radiance, first_hit};
     // A grey sphere with a light disk inside, and rays from its centre, one of them through a
     // gap: the icosphere is closed, so the miss is a ray from outside pointing away.
-    let scene = scene(
-        &[
-            icosphere(Vec3::ZERO, 2.0, 2, 0),
-            polygon(Vec3::new(0.0, 1.5, 0.0), 0.3, 16, -1.0, 1),
-        ],
-        vec![
-            Material::diffuse(Vec3::splat(0.6)),
-            Material::emitter(Vec3::splat(5.0)),
-        ],
-    );
+    let scene = sphere_with_light();
     let rays: Vec<Ray> = (0..24)
         .map(|i| {
             let a = i as f32 * 0.7;

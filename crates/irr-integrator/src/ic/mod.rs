@@ -398,24 +398,14 @@ impl CacheBuilder for IrradianceCacheIntegrator {
 mod tests {
     use super::*;
     use crate::Material;
-    use crate::tests::{icosphere, polygon, scene};
+    use crate::tests::{icosphere, scene, sphere_with_light};
 
     /// In cached mode a gather ray whose hit the next level does not cover brings back a
     /// path-traced continuation, whose own light sample is the hit's direct light: the light
     /// there is sampled once, so the value and the rays are exactly the continuation's.
     #[test]
     fn a_cached_gather_ray_without_a_record_samples_the_light_once() {
-        // Inside a grey sphere (outward winding; reflection is two-sided), a light disk.
-        let scene = scene(
-            &[
-                icosphere(Vec3::ZERO, 2.0, 2, 0),
-                polygon(Vec3::new(0.0, 1.5, 0.0), 0.3, 16, -1.0, 1),
-            ],
-            vec![
-                Material::diffuse(Vec3::splat(0.6)),
-                Material::emitter(Vec3::splat(5.0)),
-            ],
-        );
+        let scene = sphere_with_light();
         let ic = IrradianceCacheIntegrator::new(IcSettings {
             bounce_mode: BounceMode::Cached,
             ..IcSettings::default()
