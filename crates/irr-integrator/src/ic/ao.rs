@@ -114,10 +114,7 @@ impl CacheBuilder for CachedAmbientOcclusion {
         let (samples, frame) =
             self.occlusion_gather(scene, strata, &probe.x, probe.key, &mut spent)?;
         *rays += spent;
-        Some(
-            self.core
-                .candidate(probe, (&samples, &samples), &frame, spent),
-        )
+        Some(self.core.candidate(probe, (&samples, None), &frame, spent))
     }
 
     forward_to_core!();

@@ -47,8 +47,8 @@ impl<V: IcValue> Core<V> {
     /// where the ray escaped; it returns one value per entry. First one ray per cell; then, with
     /// `more`, the extra rays its plan gives the noisiest cells, in one batch (cell, then sample
     /// order). Returns the samples (each cell's mean and nearest hit; each first sample's cos θ),
-    /// the first rays' samples alone (the record's radius comes from those, so that
-    /// super-sampling does not move records) and the gather's frame.
+    /// the first rays' samples alone if there were more (the record's radius comes from those,
+    /// so that super-sampling does not move records) and the gather's frame.
     #[expect(
         clippy::type_complexity,
         reason = "the gather, the pilot's samples and the frame, used together by each caller"
@@ -63,7 +63,7 @@ impl<V: IcValue> Core<V> {
         mut values: impl FnMut(&[Traced], &mut RayCounter) -> Vec<V::Gathered>,
     ) -> Option<(
         GatherSamples<V::Gathered>,
-        GatherSamples<V::Gathered>,
+        Option<GatherSamples<V::Gathered>>,
         Frame,
     )> {
         let frame = Frame::from_normal(x.ns);
@@ -79,8 +79,8 @@ impl<V: IcValue> Core<V> {
             let ray = (w.dot(x.ng) > 0.0).then(|| Ray::spawn(x.position, x.ng, w));
             (ray, w, cell_key, local.z.clamp(0.0, 1.0))
         };
-        // Traces `batch` (cell index, ray, direction, key) and returns each ray's (value,
-        // distance), in order. A gather's rays share their origin and neighbouring cells' rays
+        // Traces `batch` (ray, direction, key) and returns each ray's (value, distance), in
+        // order. A gather's rays share their origin and neighbouring cells' rays
         // cross the same nodes: one at a time in cell order (`intersect_many`) rather than as a
         // stream, which gained nothing here (docs/performance.md, "Batched paths").
         let mut trace = |batch: &[(Ray, Vec3, SampleKey)], rays: &mut RayCounter| {
@@ -120,25 +120,32 @@ impl<V: IcValue> Core<V> {
             }
         }
         let mut traced = trace(&batch, rays).into_iter();
-        let mut cells: Vec<CellSamples<V::Gathered>> = below
+        let (radiance, distance): (Vec<_>, Vec<_>) = below
             .iter()
             .map(|&b| {
-                let (value, distance) = if b {
+                if b {
                     (V::Gathered::default(), f32::INFINITY)
                 } else {
                     traced
                         .next()
                         .unwrap_or((V::Gathered::default(), f32::INFINITY))
-                };
-                CellSamples::first(value, distance)
+                }
             })
+            .unzip();
+        let Some(more) = more else {
+            let pilot = GatherSamples::new(strata, radiance, distance)
+                .and_then(|g| g.with_cos_theta(cos_theta))
+                .ok()?;
+            return Some((pilot, None, frame));
+        };
+        let mut cells: Vec<CellSamples<V::Gathered>> = radiance
+            .into_iter()
+            .zip(distance)
+            .map(|(value, distance)| CellSamples::first(value, distance))
             .collect();
         let pilot = GatherSamples::from_cells(strata, &cells)
             .and_then(|g| g.with_cos_theta(cos_theta.clone()))
             .ok()?;
-        let Some(more) = more else {
-            return Some((pilot.clone(), pilot, frame));
-        };
         // The extra rays of the plan, all in one batch.
         let plan = plan_extra_samples(&pilot, &below, more.target, more.cap);
         let mut extra = Vec::new();
@@ -158,7 +165,7 @@ impl<V: IcValue> Core<V> {
             }
         }
         if extra.is_empty() {
-            return Some((pilot.clone(), pilot, frame));
+            return Some((pilot, None, frame));
         }
         for (&i, (value, distance)) in owner.iter().zip(trace(&extra, rays)) {
             cells[i].push(value, distance);
@@ -166,18 +173,22 @@ impl<V: IcValue> Core<V> {
         let samples = GatherSamples::from_cells(strata, &cells)
             .and_then(|g| g.with_cos_theta(cos_theta))
             .ok()?;
-        Some((samples, pilot, frame))
+        Some((samples, Some(pilot), frame))
     }
 
     /// A record of `level` at `x` from a gather, with its radius inputs and leak-guard distance:
-    /// E and the gradients from all its `samples`, the radius from its `pilot`'s (the first ray
-    /// of each cell: super-sampling does not move records), the guard's nearest hit from all.
-    /// (Its noise is the gather's: `GatherSamples::relative_error`.)
+    /// E and the gradients from all its `samples`, the radius from its `pilot`'s if it was
+    /// super-sampled (the first ray of each cell: super-sampling does not move records), the
+    /// guard's nearest hit from all. (Its noise is the gather's:
+    /// `GatherSamples::relative_error`.)
     pub(super) fn record_from(
         &self,
         level: u32,
         x: &ShadingPoint,
-        (samples, pilot): (&GatherSamples<V::Gathered>, &GatherSamples<V::Gathered>),
+        (samples, pilot): (
+            &GatherSamples<V::Gathered>,
+            Option<&GatherSamples<V::Gathered>>,
+        ),
         frame: &Frame,
         spacing: f32,
     ) -> (Record<V>, RadiusInputs, f32) {
@@ -203,7 +214,7 @@ impl<V: IcValue> Core<V> {
             }
         };
         let inputs = RadiusInputs {
-            distance: self.settings.radius_statistic.of(pilot),
+            distance: self.settings.radius_statistic.of(pilot.unwrap_or(samples)),
             limits: self.limits(level, spacing),
             neighbour_clamping: self.settings.neighbour_clamping,
         };
@@ -217,7 +228,10 @@ impl<V: IcValue> Core<V> {
     pub(super) fn candidate(
         &self,
         probe: &Probe,
-        (samples, pilot): (&GatherSamples<V::Gathered>, &GatherSamples<V::Gathered>),
+        (samples, pilot): (
+            &GatherSamples<V::Gathered>,
+            Option<&GatherSamples<V::Gathered>>,
+        ),
         frame: &Frame,
         rays: RayCounter,
     ) -> Candidate {

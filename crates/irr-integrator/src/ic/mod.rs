@@ -387,7 +387,7 @@ impl CacheBuilder for IrradianceCacheIntegrator {
         *rays += spent;
         Some(
             self.core
-                .candidate(probe, (&samples, &pilot), &frame, spent),
+                .candidate(probe, (&samples, pilot.as_ref()), &frame, spent),
         )
     }
 
