@@ -255,6 +255,15 @@ def write_gltf(path, doc):
         f.write("\n")
 
 
+def write_scene(b, stem, note):
+    """Writes the builder's document as <stem>.gltf with its buffer in <stem>.bin, next to this
+    script."""
+    doc = b.document(note, stem + ".bin")
+    write_gltf(os.path.join(HERE, stem + ".gltf"), doc)
+    with open(os.path.join(HERE, stem + ".bin"), "wb") as f:
+        f.write(bytes(b.data))
+
+
 def write_glb(path, doc, data):
     """A binary glTF: 12-byte header, a JSON chunk padded with spaces, a BIN chunk padded with 0."""
     text = json.dumps(doc, sort_keys=True, separators=(",", ":")).encode("utf-8")
@@ -387,14 +396,15 @@ def cornell_camera(b):
     )
 
 
-def cornell_box():
-    b = Builder()
-    white = b.material("white", WHITE)
-    red = b.material("red", RED)
-    green = b.material("green", GREEN)
-    # Single-sided: the light emits from its front face only, downwards into the box.
-    light = b.material("light", LIGHT_ALBEDO, emission=LIGHT_RADIANCE, double_sided=False)
-    surfaces = [
+def cornell_colours(b):
+    """The Cornell box's white, red and green materials, added to `b` in that order."""
+    return b.material("white", WHITE), b.material("red", RED), b.material("green", GREEN)
+
+
+def room_surfaces(white, red, green):
+    """The Cornell box's room and blocks (every surface but the light), with the materials the
+    published data gives them."""
+    return [
         ("floor", white),
         ("ceiling", white),
         ("back_wall", white),
@@ -402,17 +412,27 @@ def cornell_box():
         ("left_wall", red),
         ("short_block", white),
         ("tall_block", white),
-        ("light", light),
     ]
-    for name, material in surfaces:
+
+
+def add_cornell_surfaces(b, surfaces):
+    """Adds each (name, material[, uv mapping]) of `surfaces` as a mesh of CORNELL_MM's quads,
+    after checking their winding; the mapping, if any, gives the mesh's TEXCOORD_0."""
+    for name, material, *mapping in surfaces:
         points, triangles = quads_to_mesh(CORNELL_MM[name])
         check_winding(name, points, triangles)
-        b.mesh(name, points, triangles, material, component_type=5123)
+        uvs = mapping[0](points) if mapping and mapping[0] else None
+        b.mesh(name, points, triangles, material, component_type=5123, uvs=uvs)
+
+
+def cornell_box():
+    b = Builder()
+    white, red, green = cornell_colours(b)
+    # Single-sided: the light emits from its front face only, downwards into the box.
+    light = b.material("light", LIGHT_ALBEDO, emission=LIGHT_RADIANCE, double_sided=False)
+    add_cornell_surfaces(b, room_surfaces(white, red, green) + [("light", light)])
     cornell_camera(b)
-    doc = b.document("Cornell Box Data (Cornell University PCG), metres", "cornell-box.bin")
-    write_gltf(os.path.join(HERE, "cornell-box.gltf"), doc)
-    with open(os.path.join(HERE, "cornell-box.bin"), "wb") as f:
-        f.write(bytes(b.data))
+    write_scene(b, "cornell-box", "Cornell Box Data (Cornell University PCG), metres")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -458,24 +478,11 @@ INDIRECT_RADIANCE = tuple(INDIRECT_GAIN * c for c in LIGHT_RADIANCE)
 
 def indirect_room():
     b = Builder()
-    white = b.material("white", WHITE)
-    red = b.material("red", RED)
-    green = b.material("green", GREEN)
+    white, red, green = cornell_colours(b)
     # Single-sided: the emitter's front face looks up at the ceiling; its back emits nothing.
     light = b.material("light", LIGHT_ALBEDO, emission=INDIRECT_RADIANCE, double_sided=False)
     housing = b.material("light housing", LIGHT_ALBEDO)
-    for name, material in [
-        ("floor", white),
-        ("ceiling", white),
-        ("back_wall", white),
-        ("right_wall", green),
-        ("left_wall", red),
-        ("short_block", white),
-        ("tall_block", white),
-    ]:
-        points, triangles = quads_to_mesh(CORNELL_MM[name])
-        check_winding(name, points, triangles)
-        b.mesh(name, points, triangles, material, component_type=5123)
+    add_cornell_surfaces(b, room_surfaces(white, red, green))
 
     (x0, x1), (z0, z1) = PANEL_X_MM, PANEL_Z_MM
     top = INDIRECT_PANEL_Y_MM
@@ -520,14 +527,12 @@ def indirect_room():
 
     cornell_camera(b)
     radiance = " ".join("%g" % c for c in INDIRECT_RADIANCE)
-    doc = b.document(
+    write_scene(
+        b,
+        "indirect-room",
         "Cornell box lit only indirectly: a %g x %g mm panel %g mm under the ceiling emitting "
         "%s upwards, metres" % (x1 - x0, z1 - z0, INDIRECT_GAP_MM, radiance),
-        "indirect-room.bin",
     )
-    write_gltf(os.path.join(HERE, "indirect-room.gltf"), doc)
-    with open(os.path.join(HERE, "indirect-room.bin"), "wb") as f:
-        f.write(bytes(b.data))
 
 
 # The textured room: the Cornell box with its ceiling light (direct light, as in cornell-box),
@@ -738,9 +743,7 @@ def textured_room():
     write_texture("textured-room-back-wall.png", back_wall_texture())
     write_texture("textured-room-blocks.png", block_texture())
     # A textured material's baseColorFactor is white: the albedo is the texture's colour.
-    white = b.material("white", WHITE)
-    red = b.material("red", RED)
-    green = b.material("green", GREEN)
+    white, red, green = cornell_colours(b)
     parquet = b.material("parquet", (1.0, 1.0, 1.0), texture=floor_tex)
     poster = b.material("glyphs and stripes", (1.0, 1.0, 1.0), texture=wall_tex)
     checker = b.material("checker", (1.0, 1.0, 1.0), texture=block_tex)
@@ -760,19 +763,13 @@ def textured_room():
         ("tall_block", checker, block_uvs),
         ("light", light, None),
     ]
-    for name, material, mapping in surfaces:
-        points, triangles = quads_to_mesh(CORNELL_MM[name])
-        check_winding(name, points, triangles)
-        uvs = mapping(points) if mapping else None
-        b.mesh(name, points, triangles, material, component_type=5123, uvs=uvs)
+    add_cornell_surfaces(b, surfaces)
     cornell_camera(b)
-    doc = b.document(
+    write_scene(
+        b,
+        "textured-room",
         "Cornell box with base-colour textures (parquet, glyphs, checker), metres",
-        "textured-room.bin",
     )
-    write_gltf(os.path.join(HERE, "textured-room.gltf"), doc)
-    with open(os.path.join(HERE, "textured-room.bin"), "wb") as f:
-        f.write(bytes(b.data))
 
 
 # ---------------------------------------------------------------------------------------------

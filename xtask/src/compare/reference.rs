@@ -23,14 +23,6 @@ pub const NOISE_SEEDS: [u64; 2] = [101, 202];
 /// another build of the renderer is not reused.
 pub const RENDERER_DIGEST: &str = env!("IRR_RENDERER_DIGEST");
 
-/// FNV-1a of `bytes`.
-fn fnv(bytes: &[u8], mut h: u64) -> u64 {
-    for &b in bytes {
-        h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    h
-}
-
 /// What decides the reference's pixels, as text (written beside the image, and hashed into
 /// its file name): every byte the scene was read from, the size, the samples, the seeds, the
 /// path tracer's settings and the renderer's source.
@@ -52,7 +44,7 @@ pub fn reference(
     fresh: bool,
 ) -> Result<(Image, f64, PathBuf), String> {
     let key = reference_key(loaded, base.width, base.height, spp);
-    let hash = fnv(key.as_bytes(), 0xcbf2_9ce4_8422_2325);
+    let hash = irr_render::fingerprint(&[key.as_bytes()]);
     let path = cache_dir.join(format!("reference-{hash:016x}.exr"));
     let noise_path = cache_dir.join(format!("reference-{hash:016x}.noise"));
     let key_path = cache_dir.join(format!("reference-{hash:016x}.key"));

@@ -79,20 +79,21 @@ impl<V: IcValue> Core<V> {
             let ray = (w.dot(x.ng) > 0.0).then(|| Ray::spawn(x.position, x.ng, w));
             (ray, w, cell_key, local.z.clamp(0.0, 1.0))
         };
-        // Traces `batch` (ray, direction, key) and returns each ray's (value, distance), in
-        // order. A gather's rays share their origin and neighbouring cells' rays
-        // cross the same nodes: one at a time in cell order (`intersect_many`) rather than as a
-        // stream, which gained nothing here (docs/performance.md, "Batched paths").
-        let mut trace = |batch: &[(Ray, Vec3, SampleKey)], rays: &mut RayCounter| {
+        // Traces `batch` (each ray's direction and key in `meta`) and returns each ray's
+        // (value, distance), in order. A gather's rays share their origin and neighbouring
+        // cells' rays cross the same nodes: one at a time in cell order (`intersect_many`)
+        // rather than as a stream, which gained nothing here (docs/performance.md, "Batched
+        // paths").
+        let mut trace = |batch: &[Ray], meta: &[(Vec3, SampleKey)], rays: &mut RayCounter| {
             rays.closest += batch.len() as u64;
-            let just_rays: Vec<Ray> = batch.iter().map(|b| b.0).collect();
             let mut hits = vec![None; batch.len()];
-            scene.geometry().intersect_many(&just_rays, &mut hits);
+            scene.geometry().intersect_many(batch, &mut hits);
             let traced: Vec<Traced> = batch
                 .iter()
                 .zip(hits)
-                .map(|(&(ray, w, key), hit)| {
-                    (hit.map(|h| scene.geometry().surface(&ray, &h)), w, key)
+                .zip(meta)
+                .map(|((ray, hit), &(w, key))| {
+                    (hit.map(|h| scene.geometry().surface(ray, &h)), w, key)
                 })
                 .collect();
             let v = values(&traced, rays);
@@ -111,15 +112,17 @@ impl<V: IcValue> Core<V> {
         let mut cos_theta = Vec::with_capacity(strata.len());
         let mut below = Vec::with_capacity(strata.len());
         let mut batch = Vec::with_capacity(strata.len());
+        let mut meta = Vec::with_capacity(strata.len());
         for cell in strata.cells() {
             let (ray, w, k, cos) = ray_of(cell, 0);
             cos_theta.push(cos);
             below.push(ray.is_none());
             if let Some(ray) = ray {
-                batch.push((ray, w, k));
+                batch.push(ray);
+                meta.push((w, k));
             }
         }
-        let mut traced = trace(&batch, rays).into_iter();
+        let mut traced = trace(&batch, &meta, rays).into_iter();
         let (radiance, distance): (Vec<_>, Vec<_>) = below
             .iter()
             .map(|&b| {
@@ -148,14 +151,14 @@ impl<V: IcValue> Core<V> {
             .ok()?;
         // The extra rays of the plan, all in one batch.
         let plan = plan_extra_samples(&pilot, &below, more.target, more.cap);
-        let mut extra = Vec::new();
-        let mut owner = Vec::new();
+        let (mut extra, mut extra_meta, mut owner) = (Vec::new(), Vec::new(), Vec::new());
         for (cell, &count) in strata.cells().zip(&plan) {
             let i = cell.index(&strata) as usize;
             for index in 1..=u64::from(count) {
                 match ray_of(cell, index) {
                     (Some(ray), w, k, _) => {
-                        extra.push((ray, w, k));
+                        extra.push(ray);
+                        extra_meta.push((w, k));
                         owner.push(i);
                     }
                     // Part of a cell can lie below the geometric surface: nothing arrives
@@ -167,7 +170,7 @@ impl<V: IcValue> Core<V> {
         if extra.is_empty() {
             return Some((pilot, None, frame));
         }
-        for (&i, (value, distance)) in owner.iter().zip(trace(&extra, rays)) {
+        for (&i, (value, distance)) in owner.iter().zip(trace(&extra, &extra_meta, rays)) {
             cells[i].push(value, distance);
         }
         let samples = GatherSamples::from_cells(strata, &cells)
