@@ -1,0 +1,323 @@
+//! The glTF 2.0 metallic-roughness material (specification, Appendix B): its evaluation, its two
+//! lobes, and their importance sampling.
+
+use crate::fresnel::{DIELECTRIC_F0, dielectric_diffuse_albedo, schlick, schlick_weight};
+use crate::microfacet::{ggx_d, sample_visible_normal, smith_g1, visibility};
+use glam::{Vec2, Vec3};
+use irr_sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
+use std::f32::consts::FRAC_1_PI;
+
+/// The smallest GGX width α = roughness² the material uses: rougher values are kept, smoother
+/// ones (roughness below √1e-3 ≈ 0.032, including 0) are raised to it.
+///
+/// At α = 0 the distribution D is a Dirac delta (its formula gives 0/0 at the peak), which a
+/// function returning finite values cannot represent; a perfectly specular (delta) lobe is out of
+/// this crate's scope. pbrt-v4 treats α < 1e-3 as effectively smooth and switches to such a delta
+/// lobe; here the glossy lobe is kept rough down to α = 1e-3 instead: a lobe ~0.1° wide, a mirror
+/// to the eye, whose peak D = 1/(π α²) ≈ 3.2e5 is finite and whose sampled weights f·cos/pdf stay
+/// ≤ 1, so every estimator of the renderer keeps working unchanged.
+pub const MIN_ALPHA: f32 = 1e-3;
+
+/// The parameters of the glTF 2.0 metallic-roughness material at one shading point, clamped into
+/// their ranges: base colour (linear RGB) in [0, 1]³, metallic and roughness in [0, 1].
+///
+/// Immutable: the constructor clamps, and derives the GGX width and the specular reflectance at
+/// normal incidence once.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MetallicRoughness {
+    base_color: Vec3,
+    metallic: f32,
+    roughness: f32,
+    alpha: f32,
+    f0: Vec3,
+}
+
+/// One of the material's two lobes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Lobe {
+    /// The Lambertian base of the dielectric, weighted by (1 − metallic)(1 − F).
+    Diffuse,
+    /// The GGX microfacet reflection of both the dielectric and the metal.
+    Glossy,
+}
+
+/// The BRDF split into its lobes; their sum is the BRDF.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lobes {
+    /// (1 − metallic) · (1 − F_dielectric(|wo·h|)) · base_color / π.
+    pub diffuse: Vec3,
+    /// F(|wo·h|) · D(h) · ν(wo, wi), with F Schlick's at f0 = mix(0.04, base_color, metallic).
+    pub glossy: Vec3,
+}
+
+impl Lobes {
+    /// Both lobes zero.
+    pub const ZERO: Self = Self {
+        diffuse: Vec3::ZERO,
+        glossy: Vec3::ZERO,
+    };
+
+    /// The BRDF: diffuse + glossy.
+    #[inline]
+    pub fn total(self) -> Vec3 {
+        self.diffuse + self.glossy
+    }
+}
+
+/// A direction drawn by one of the samplers, with what an estimator needs: its contribution is
+/// `f * wi.z / pdf` times the incident radiance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BsdfSample {
+    /// The incident direction (local frame, unit, above the surface).
+    pub wi: Vec3,
+    /// The BRDF value that the sampler stands for (the whole BRDF for
+    /// [`MetallicRoughness::sample`], one lobe for [`MetallicRoughness::sample_glossy`]).
+    pub f: Vec3,
+    /// The density of `wi` per unit solid angle, positive.
+    pub pdf: f32,
+    /// The lobe that was sampled.
+    pub lobe: Lobe,
+}
+
+/// A number clamped into [0, 1], with NaN read as 0.
+#[inline]
+fn unit_interval(x: f32) -> f32 {
+    if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) }
+}
+
+/// Rec. 709 luminance of a linear RGB colour: the weight that lobe selection compares.
+#[inline]
+fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+impl MetallicRoughness {
+    /// The material with these parameters, each clamped into [0, 1] (NaN read as 0). The GGX
+    /// width is α = max(roughness², [`MIN_ALPHA`]).
+    pub fn new(base_color: Vec3, metallic: f32, roughness: f32) -> Self {
+        let base_color = Vec3::new(
+            unit_interval(base_color.x),
+            unit_interval(base_color.y),
+            unit_interval(base_color.z),
+        );
+        let metallic = unit_interval(metallic);
+        let roughness = unit_interval(roughness);
+        Self {
+            base_color,
+            metallic,
+            roughness,
+            alpha: (roughness * roughness).max(MIN_ALPHA),
+            // Schlick's F is affine in f0, so mix(F(0.04), F(base), metallic) = F(mix(0.04, base,
+            // metallic)): the dielectric's and the metal's specular terms share one lobe.
+            f0: Vec3::splat(DIELECTRIC_F0).lerp(base_color, metallic),
+        }
+    }
+
+    /// The base colour, linear RGB in [0, 1]³.
+    pub fn base_color(&self) -> Vec3 {
+        self.base_color
+    }
+
+    /// The metallic factor in [0, 1].
+    pub fn metallic(&self) -> f32 {
+        self.metallic
+    }
+
+    /// The (perceptual) roughness in [0, 1], as given after clamping.
+    pub fn roughness(&self) -> f32 {
+        self.roughness
+    }
+
+    /// The GGX width α = max(roughness², [`MIN_ALPHA`]).
+    pub fn alpha(&self) -> f32 {
+        self.alpha
+    }
+
+    /// The glossy lobe's reflectance at normal incidence, mix(0.04, base_color, metallic).
+    pub fn specular_f0(&self) -> Vec3 {
+        self.f0
+    }
+
+    /// Both lobes for half vector `wm` and |wo·wm| = `cos_vh`.
+    #[inline]
+    fn lobes_at(&self, wo: Vec3, wi: Vec3, wm: Vec3, cos_vh: f32) -> Lobes {
+        let w = schlick_weight(cos_vh);
+        let dielectric_fresnel = DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * w;
+        Lobes {
+            diffuse: self.base_color
+                * ((1.0 - self.metallic) * (1.0 - dielectric_fresnel) * FRAC_1_PI),
+            glossy: (self.f0 + (Vec3::ONE - self.f0) * w)
+                * (ggx_d(wm, self.alpha) * visibility(wo, wi, self.alpha)),
+        }
+    }
+
+    /// The BRDF's two lobes for unit directions `wo` (towards the viewer) and `wi` (towards the
+    /// light), both pointing away from the surface in the local frame (normal +z). Zero unless
+    /// both lie strictly above the surface.
+    ///
+    /// The half vector h = (wo + wi)/|wo + wi| and |V·H| = |wo·h| = |wo + wi|/2 (equal for unit
+    /// vectors) are computed from the sum only, so the result is reciprocal bit for bit:
+    /// `eval_lobes(wo, wi) == eval_lobes(wi, wo)`.
+    #[inline]
+    pub fn eval_lobes(&self, wo: Vec3, wi: Vec3) -> Lobes {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return Lobes::ZERO;
+        }
+        let sum = wo + wi;
+        let len = sum.length();
+        self.lobes_at(wo, wi, sum / len, (0.5 * len).min(1.0))
+    }
+
+    /// The BRDF f(wo, wi) (not multiplied by cos θi): `eval_lobes(wo, wi).total()`.
+    #[inline]
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.eval_lobes(wo, wi).total()
+    }
+
+    /// The directional albedo of the diffuse lobe, ∫ f_diffuse(wo, wi) cos θi dωi =
+    /// (1 − metallic) · base_color · ρ(cos θo) with ρ = [`crate::dielectric_diffuse_albedo`]
+    /// (zero for `wo` below the surface): the factor by which an irradiance cache multiplies its
+    /// cached irradiance E, as `diffuse_albedo(wo) / π · E`, to stand for the diffuse lobe's
+    /// reflected indirect light.
+    ///
+    /// That stand-in replaces the lobe's h-dependent (1 − F(|wo·h|)) by its cosine-weighted mean
+    /// over wi. It is exact when the incident light is uniform; the crate documentation gives its
+    /// error otherwise.
+    #[inline]
+    pub fn diffuse_albedo(&self, wo: Vec3) -> Vec3 {
+        if wo.z <= 0.0 {
+            return Vec3::ZERO;
+        }
+        self.base_color * ((1.0 - self.metallic) * dielectric_diffuse_albedo(wo.z))
+    }
+
+    /// The probability with which [`sample`](Self::sample) chooses the glossy lobe for `wo`:
+    /// the share of the glossy lobe in an estimate of the two lobes' albedos, by luminance. The
+    /// glossy estimate is Schlick's F at cos θo with the material's f0 (the GGX lobe reflects
+    /// about F at low roughness, less when rough); the diffuse one is the exact
+    /// [`diffuse_albedo`](Self::diffuse_albedo).
+    ///
+    /// Positive whenever the glossy lobe can be non-zero (f0 > 0), below 1 whenever the diffuse
+    /// lobe can be (metallic < 1 and a non-black base colour): each lobe is sampled wherever it
+    /// contributes, so the mixture estimator is unbiased.
+    #[inline]
+    pub fn glossy_probability(&self, wo: Vec3) -> f32 {
+        let cos_o = wo.z.clamp(0.0, 1.0);
+        let glossy = luminance(schlick(self.f0, cos_o));
+        let diffuse = luminance(self.diffuse_albedo(wo));
+        let total = glossy + diffuse;
+        if total > 0.0 { glossy / total } else { 1.0 }
+    }
+
+    /// The density, per unit solid angle of wi, of reflecting a visible normal wm drawn for `wo`:
+    /// D_wo(wm) / (4 |wo·wm|) (Walter et al. 2007, eq. 14) = G1(wo) D(wm) / (4 cos θo), since
+    /// D_wo(wm) = G1(wo) (wo·wm) D(wm) / cos θo.
+    #[inline]
+    fn reflected_pdf(&self, wo: Vec3, wm: Vec3) -> f32 {
+        smith_g1(wo, self.alpha) * ggx_d(wm, self.alpha) / (4.0 * wo.z)
+    }
+
+    /// Draws the glossy lobe's incident direction for `wo` from `u`: a visible normal wm (Heitz
+    /// 2018) reflected about, wi = 2 (wo·wm) wm − wo. `None` when `wo` is below the surface or
+    /// the reflection goes below it (the lobe's shadowed share: the sample's weight is then zero).
+    ///
+    /// The sample's `f` is the glossy lobe alone, its `pdf` [`glossy_pdf`](Self::glossy_pdf): the
+    /// weight `f * wi.z / pdf` = F · G2(wo, wi) / G1(wo) ≤ F. For an integrator that takes the
+    /// diffuse lobe's indirect light from an irradiance cache and traces the glossy lobe.
+    #[inline]
+    pub fn sample_glossy(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let wm = sample_visible_normal(wo, self.alpha, u);
+        let cos_vh = wo.dot(wm);
+        let wi = 2.0 * cos_vh * wm - wo;
+        if wi.z <= 0.0 || cos_vh <= 0.0 {
+            return None;
+        }
+        // The BRDF and the density both use the sampled normal rather than the half vector
+        // recomputed from wi: D(wm) then cancels exactly in the weight.
+        let pdf = self.reflected_pdf(wo, wm);
+        (pdf > 0.0).then(|| BsdfSample {
+            wi,
+            f: self.lobes_at(wo, wi, wm, cos_vh).glossy,
+            pdf,
+            lobe: Lobe::Glossy,
+        })
+    }
+
+    /// The density of [`sample_glossy`](Self::sample_glossy) at `wi`: G1(wo) D(h) / (4 cos θo)
+    /// with h the half vector; zero unless both directions lie above the surface.
+    #[inline]
+    pub fn glossy_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        self.reflected_pdf(wo, (wo + wi).normalize())
+    }
+
+    /// The mixture density of [`sample`](Self::sample) given the glossy probability.
+    #[inline]
+    fn mixture_pdf(&self, wo: Vec3, wi: Vec3, glossy_probability: f32) -> f32 {
+        glossy_probability * self.glossy_pdf(wo, wi)
+            + (1.0 - glossy_probability) * cosine_hemisphere_pdf(wi.z)
+    }
+
+    /// Draws an incident direction for `wo` from the whole BRDF: `u_lobe` chooses the glossy
+    /// lobe with probability [`glossy_probability`](Self::glossy_probability), else the diffuse
+    /// one; `u` then draws wi from that lobe: a reflected visible normal (as
+    /// [`sample_glossy`](Self::sample_glossy)) or a cosine-weighted direction
+    /// (irr-sampling's `sample_cosine_hemisphere`).
+    ///
+    /// The sample's `f` is the whole BRDF and its `pdf` the mixture density of both lobes (as
+    /// [`pdf`](Self::pdf) gives), so `f * wi.z / pdf` is the one-sample estimator's weight and
+    /// `pdf` is what multiple importance sampling needs. `None` when `wo` is below the surface or
+    /// the glossy reflection goes below it.
+    #[inline]
+    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let glossy_probability = self.glossy_probability(wo);
+        if u_lobe < glossy_probability {
+            let wm = sample_visible_normal(wo, self.alpha, u);
+            let cos_vh = wo.dot(wm);
+            let wi = 2.0 * cos_vh * wm - wo;
+            if wi.z <= 0.0 || cos_vh <= 0.0 {
+                return None;
+            }
+            // As in sample_glossy, the glossy lobe's value and density use the sampled normal.
+            let pdf = glossy_probability * self.reflected_pdf(wo, wm)
+                + (1.0 - glossy_probability) * cosine_hemisphere_pdf(wi.z);
+            (pdf > 0.0).then(|| BsdfSample {
+                wi,
+                f: self.lobes_at(wo, wi, wm, cos_vh).total(),
+                pdf,
+                lobe: Lobe::Glossy,
+            })
+        } else {
+            let wi = sample_cosine_hemisphere(u);
+            let pdf = self.mixture_pdf(wo, wi, glossy_probability);
+            (wi.z > 0.0 && pdf > 0.0).then(|| BsdfSample {
+                wi,
+                f: self.eval(wo, wi),
+                pdf,
+                lobe: Lobe::Diffuse,
+            })
+        }
+    }
+
+    /// The density of [`sample`](Self::sample) at `wi` per unit solid angle: p · glossy_pdf +
+    /// (1 − p) · cos θi / π with p the glossy probability for `wo`. Zero unless both directions
+    /// lie above the surface.
+    #[inline]
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        self.mixture_pdf(wo, wi, self.glossy_probability(wo))
+    }
+}
+
+#[cfg(test)]
+mod tests;
