@@ -76,7 +76,8 @@ impl Default for Setup {
     /// as the 6σ of six renders once the path tracer's noise fell (Sobol samples, roulette from
     /// bounce 5). Tighter settings shrink that bias below the noise, so what remains to be seen
     /// is a real fault (a leak, a lost path, a mishandled normal), which shifts whole regions by
-    /// far more.
+    /// far more. The light cache's cells (the default 1/64 of the diagonal) add their blur: on
+    /// the 10⁻⁶ scene's indirect light it measured −0.43 %, under the 6σ.
     fn default() -> Self {
         Self {
             size: (24, 24),

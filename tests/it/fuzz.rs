@@ -623,6 +623,8 @@ fn tiny_cache() -> IcSettings {
     IcSettings {
         strata_m: 2,
         strata_n: 4,
+        // A light cache as small as the image (its construction still runs in every case).
+        light_cache_paths: 1024,
         ..IcSettings::default()
     }
 }
@@ -831,7 +833,7 @@ fn cache_case(seeds: &[Vec<u8>], seed: u64, k: u64) -> Vec<u8> {
     for _ in 0..rng.below(4) + 1 {
         let inner = inner_part(&bytes);
         let choice = rng.below(4);
-        if choice == 0 && bytes.len() >= 24 {
+        if choice == 0 && bytes.len() >= 32 {
             // A count: of the file's levels (bytes 16..24), of the first level's records
             // (24..32) or of irr-cache's part: a huge, zero or off-by-one value.
             let at = match (&inner, rng.below(3)) {

@@ -31,7 +31,10 @@ fn small() -> IcSettings {
 /// pixel order (irr-render's `passes` module).
 #[test]
 fn ic_images_are_identical_for_any_thread_count() {
-    identical_for_any_thread_count(small());
+    identical_for_any_thread_count(IcSettings {
+        bounce_mode: irr_render::BounceMode::Cached,
+        ..small()
+    });
 }
 
 /// The same with adaptive gathers: the extra rays' numbers depend only on the record's key, the
@@ -42,6 +45,21 @@ fn adaptive_gathers_are_identical_for_any_thread_count() {
         gather_error: 0.02,
         ..small()
     });
+}
+
+/// The same with the light cache: its paths are traced in parallel but added in path order,
+/// in chunks (three here) whose boundaries do not depend on the threads; and with a target,
+/// which stops it after a chunk decided by the deposits alone.
+#[test]
+fn light_cached_images_are_identical_for_any_thread_count() {
+    for light_cache_error in [0.0, 0.3] {
+        identical_for_any_thread_count(IcSettings {
+            bounce_mode: irr_render::BounceMode::LightCache,
+            light_cache_paths: 40_000,
+            light_cache_error,
+            ..small()
+        });
+    }
 }
 
 fn identical_for_any_thread_count(ic: IcSettings) {
@@ -467,7 +485,7 @@ fn the_cache_converges_to_the_path_tracer() {
 }
 
 /// A persistent cache: written after one render and read back for another, the image is the same
-/// bit for bit without a construction pass; a file for another scene or setting (another fingerprint),
+/// bit for bit without a construction pass (the light cache rebuilt); a file for another scene or setting (another fingerprint),
 /// or a corrupt one, is refused with an error naming the file.
 #[test]
 fn a_cache_file_round_trips_and_refuses_strangers() {
@@ -503,6 +521,10 @@ fn a_cache_file_round_trips_and_refuses_strangers() {
     // Every level comes back, so the irr command runs no construction pass on a cache it read:
     // the final pass alone must give the same image.
     second.load_levels(levels).unwrap_or_else(|e| panic!("{e}"));
+    // The file keeps the records, not the light cache: rebuilt from the same seed, as the irr
+    // command does, the same bits.
+    irr_render::build_light_cache(&loaded.scene, &camera, &mut second, &settings)
+        .unwrap_or_else(|e| panic!("{e}"));
     let b = render(&loaded.scene, &camera, &second, &settings, false)
         .unwrap_or_else(|e| panic!("{e}"))
         .image;
@@ -538,7 +560,8 @@ fn a_cache_file_round_trips_and_refuses_strangers() {
 /// the rest and every level tightens with κ, so the error of the indirect part must shrink as κ
 /// grows: from κ = 0.5 to κ = 4 (with M×N growing) the relMSE falls by more than the measured
 /// noise, and the mean bias over four seeds falls in magnitude or is indistinguishable from
-/// zero, for one and for two cached levels.
+/// zero, for one and for two cached levels, and for the light cache, whose cells shrink with κ
+/// (its bias is the cells' blur).
 ///
 /// Tolerance: the bias of a 16×16 image's mean is itself noisy (its records are few and shared
 /// by many pixels), so a single image's bias can cross zero at a loose κ. The four seeds' image
@@ -547,7 +570,7 @@ fn a_cache_file_round_trips_and_refuses_strangers() {
 /// shrink (Radiance's +1.1 %, or irr's +2.5 % before its deeper levels had their own density)
 /// is many standard errors (~0.1 % here) from zero and fails.
 #[test]
-fn cached_bounces_converge_too() {
+fn cached_bounces_and_the_light_cache_converge_too() {
     let loaded = cornell();
     let (w, h) = (16u32, 16u32);
     let camera = loaded.camera_for(w, h);
@@ -560,14 +583,23 @@ fn cached_bounces_converge_too() {
     };
     let (reference, reference_noise) = indirect_reference(&loaded.scene, &camera, &settings);
     let seeds = [5u64, 1005, 2005, 3005];
-    for bounces in [1u32, 2] {
+    for (mode, bounces) in [
+        (irr_render::BounceMode::Cached, 1u32),
+        (irr_render::BounceMode::Cached, 2),
+        (irr_render::BounceMode::LightCache, 1),
+    ] {
         let at = |kappa: f32, m: u32, n: u32, seed: u64| {
             let ic = IcSettings {
                 error: kappa,
                 strata_m: m,
                 strata_n: n,
-                bounce_mode: irr_render::BounceMode::Cached,
+                bounce_mode: mode,
                 cached_bounces: bounces,
+                // The light cache's cells shrink with κ (8× narrower from κ 0.5 to 4), and
+                // its paths grow with their number (64×), so the deposits per cell stay alike.
+                light_cache_cell: 1.0 / (16.0 * kappa),
+                light_cache_paths: (4096.0 * (kappa / 0.5).powi(2)) as u32,
+                light_cache_error: 0.0,
                 ..IcSettings::default()
             };
             ic_indirect(
@@ -594,7 +626,7 @@ fn cached_bounces_converge_too() {
         };
         let ((b0, se0), (b1, se1)) = (biases(&loose), biases(&tight));
         println!(
-            "{bounces} cached level(s): κ 0.5: relMSE {e0:.3e}, bias {:+.3} ± {:.3} %; κ 4: relMSE {e1:.3e}, bias {:+.3} ± {:.3} %; noise {noise:.3e}",
+            "{mode:?}, {bounces} level(s): κ 0.5: relMSE {e0:.3e}, bias {:+.3} ± {:.3} %; κ 4: relMSE {e1:.3e}, bias {:+.3} ± {:.3} %; noise {noise:.3e}",
             100.0 * b0,
             100.0 * se0,
             100.0 * b1,
@@ -602,11 +634,11 @@ fn cached_bounces_converge_too() {
         );
         assert!(
             e1 + 2.0 * noise < e0,
-            "{bounces}: the error did not fall beyond the noise"
+            "{mode:?}, {bounces}: the error did not fall beyond the noise"
         );
         assert!(
             b1.abs() < b0.abs() || b1.abs() < 3.0 * se1,
-            "{bounces}: the bias did not shrink: {b0} -> {b1} (standard error {se1})"
+            "{mode:?}, {bounces}: the bias did not shrink: {b0} -> {b1} (standard error {se1})"
         );
     }
 }
@@ -639,6 +671,9 @@ fn the_depth_limits_the_cache_as_it_limits_the_path_tracer() {
             0.0,
         ),
         (irr_render::BounceMode::Cached, &[2, 3][..], 0.0),
+        // The light cache's cells all hold the same irradiance here: its deposits are unbiased
+        // with the depth limit, and so is the cell mean a gather ray reads.
+        (irr_render::BounceMode::LightCache, &[2, 3][..], 0.0),
         // Adaptive gathers (nearly every record above 1 % spends its budget): a stratum's count
         // never depends on its own samples, so E stays unbiased.
         (irr_render::BounceMode::PathTraced, &[2, 3][..], 0.01),

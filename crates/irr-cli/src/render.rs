@@ -10,10 +10,10 @@ use irr_render::{
     AmbientOcclusion, AoSettings, Aov, BounceMode, CacheBuilder, CachedAmbientOcclusion, Camera,
     DENOISER, DENOISER_AOVS, ExrMetadata, GradientMode, IcSettings, Integrator,
     IrradianceCacheIntegrator, LeakGuard, LoadOptions, MetricKind, NO_DENOISER, PathSettings,
-    PathTracer, RadiusStatistic, RenderSettings, build_cache, check_exposure, check_output,
-    check_output_file, denoise, fingerprint, load_scene_with, mark_records, mean_of_samples,
-    pixel_samples, read_cache_file, remove_partial_outputs_on_signals, render_with_aovs,
-    write_cache_file, write_exr_and_png, write_render,
+    PathTracer, RadiusStatistic, RenderSettings, build_cache, build_light_cache, check_exposure,
+    check_output, check_output_file, denoise, fingerprint, load_scene_with, mark_records,
+    mean_of_samples, pixel_samples, read_cache_file, remove_partial_outputs_on_signals,
+    render_with_aovs, write_cache_file, write_exr_and_png, write_render,
 };
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -68,6 +68,8 @@ pub enum BounceChoice {
     PathTraced,
     /// The next bounce level's cache (Radiance's -ab)
     Cached,
+    /// The light cache: cell means of the irradiance that camera-launched paths deposit
+    LightCache,
 }
 
 /// Options of the irradiance-cache integrators (`ic`, `ic-ao`); defaults from `IcSettings`.
@@ -81,7 +83,7 @@ pub struct IcArgs {
     #[arg(long, default_value_t = IcSettings::default().error, allow_negative_numbers = true)]
     pub error: f32,
     /// Hemisphere strata M×N of a gather (M along θ, N along φ)
-    #[arg(long, value_name = "MxN", default_value = "12x48", value_parser = parse_strata)]
+    #[arg(long, value_name = "MxN", default_value = "16x64", value_parser = parse_strata)]
     pub strata: (u32, u32),
     /// Record radius limits in pixels, MIN,MAX (the metric's distance scale on screen)
     #[arg(long, value_name = "MIN,MAX", default_value = "1.5,10", value_parser = parse_pair)]
@@ -107,12 +109,25 @@ pub struct IcArgs {
     /// Turn the leak guard (a visibility test between query and record) off
     #[arg(long)]
     pub no_leak_guard: bool,
-    /// What a gather ray brings back beyond the direct light at its hit
-    #[arg(long, value_enum, default_value_t = BounceChoice::Cached)]
+    /// What a gather ray brings back from the point it hits
+    #[arg(long, value_enum, default_value_t = BounceChoice::LightCache)]
     pub bounce_mode: BounceChoice,
     /// With --bounce-mode cached: cache levels below the first (1 to 8)
     #[arg(long, default_value_t = IcSettings::default().cached_bounces)]
     pub bounces: u32,
+    /// With --bounce-mode light-cache: the most camera-launched paths that fill it (1 to
+    /// 4194304)
+    #[arg(long, default_value_t = IcSettings::default().light_cache_paths)]
+    pub light_cache_paths: u32,
+    /// With --bounce-mode light-cache: its target, the relative standard error of its cells'
+    /// means; paths are added until they reach it or --light-cache-paths are spent (0: always
+    /// spend them)
+    #[arg(long, default_value_t = IcSettings::default().light_cache_error, allow_negative_numbers = true)]
+    pub light_cache_error: f32,
+    /// With --bounce-mode light-cache: its cells' width as a fraction of the scene's
+    /// bounding-box diagonal (2^-16 to 1; smaller is sharper and needs more paths)
+    #[arg(long, default_value_t = IcSettings::default().light_cache_cell, allow_negative_numbers = true)]
+    pub light_cache_cell: f32,
     /// Light samples per camera hit for the direct light (≥ 1)
     #[arg(long, default_value_t = IcSettings::default().direct_samples)]
     pub direct_samples: u32,
@@ -175,7 +190,11 @@ impl IcArgs {
             bounce_mode: match self.bounce_mode {
                 BounceChoice::PathTraced => BounceMode::PathTraced,
                 BounceChoice::Cached => BounceMode::Cached,
+                BounceChoice::LightCache => BounceMode::LightCache,
             },
+            light_cache_paths: self.light_cache_paths,
+            light_cache_error: self.light_cache_error,
+            light_cache_cell: self.light_cache_cell,
             cached_bounces: self.bounces,
             direct_samples: self.direct_samples,
             gather_error: self.gather_error,
@@ -553,6 +572,18 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
     };
     if let Some(b) = builder.as_deref_mut() {
         b.preprocess(&loaded.scene);
+    }
+    // A cache read back keeps its records, not its light cache: rebuilt (the same bits, from
+    // the same seed) for the final pass's own gathers.
+    if let Some(b) = builder.as_deref_mut()
+        && cache_read
+        && let Some(light) =
+            build_light_cache(&loaded.scene, &camera, b, &settings).map_err(|e| e.to_string())?
+    {
+        eprintln!(
+            "rebuilt the light cache for the final pass: {} paths in {:.2} s",
+            light.counts.paths, light.seconds
+        );
     }
     if let Some(b) = builder.as_deref_mut()
         && !cache_read

@@ -70,7 +70,8 @@ pub use ao::{AmbientOcclusion, AoSettings};
 pub use ic::{
     BounceMode, CacheBuilder, CachedAmbientOcclusion, CachedLevel, Candidate, CommitStats,
     DisplayRecord, GradientMode, GuardRecord, IcMetric, IcSettings, IcSettingsError,
-    IrradianceCacheIntegrator, LeakGuard, MetricKind, Probe, RadiusStatistic,
+    IrradianceCacheIntegrator, LeakGuard, LightCacheCounts, LightDeposit, MetricKind, Probe,
+    RadiusStatistic,
 };
 pub use integrator::{Batching, FirstHit, Integrator, PIXEL_BATCH, RayCounter, first_hit};
 pub use light::{LightSample, LightSampler};

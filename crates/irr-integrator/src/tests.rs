@@ -145,6 +145,28 @@ pub(crate) fn sphere_with_light() -> Scene {
     )
 }
 
+/// A white furnace: a closed icosphere of radius 2 at the origin that reflects `rho` and emits
+/// `le` from both faces, so every direction inside sees the same radiance.
+pub(crate) fn furnace(rho: f32, le: f32) -> Scene {
+    let material = Material {
+        albedo: Vec3::splat(rho),
+        emission: Vec3::splat(le),
+        two_sided: true,
+        albedo_texture: None,
+        emission_texture: None,
+    };
+    scene(&[icosphere(Vec3::ZERO, 2.0, 2, 0)], vec![material])
+}
+
+/// The surface point where `ray` first meets `scene` (the test's geometry must hold one).
+pub(crate) fn first_surface(scene: &Scene, ray: &Ray) -> irr_geometry::SurfacePoint {
+    scene
+        .geometry()
+        .intersect(ray)
+        .map(|h| scene.geometry().surface(ray, &h))
+        .unwrap_or_else(|| panic!("the ray {ray:?} meets nothing"))
+}
+
 pub(crate) fn scene(meshes: &[TriangleMesh], materials: Vec<Material>) -> Scene {
     let geometry = Geometry::build(meshes).unwrap_or_else(|e| panic!("{e}"));
     Scene::new(geometry, materials).unwrap_or_else(|e| panic!("{e}"))

@@ -94,7 +94,10 @@ pub use output::{
     remove_partial_outputs, remove_partial_outputs_on_signals, tone_map, write_exr_and_png,
     write_render,
 };
-pub use passes::{CacheBuildStats, PassStats, build_cache, mark_records, pixel_spread};
+pub use passes::{
+    CacheBuildStats, LightCacheStats, PassStats, build_cache, build_light_cache, mark_records,
+    pixel_spread,
+};
 pub use render::{
     DEFAULT_ASPECT_RATIO, MAX_DIMENSION, MAX_THREADS, RenderOutput, RenderSettings, RenderStats,
     TILE_SIZE, mean_of_samples, pixel_samples, raster_position, render, render_with_aovs,

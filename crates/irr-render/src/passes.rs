@@ -36,7 +36,8 @@ use crate::render::RenderSettings;
 use glam::Vec2;
 use irr_geometry::Ray;
 use irr_integrator::{
-    CacheBuilder, Candidate, CommitStats, DisplayRecord, Probe, RayCounter, Scene,
+    CacheBuilder, Candidate, CommitStats, DisplayRecord, LightCacheCounts, LightDeposit, Probe,
+    RayCounter, Scene,
 };
 use irr_sampling::SampleKey;
 use rayon::prelude::*;
@@ -87,6 +88,85 @@ pub const CACHE_STREAM: u64 = 0x1c_0000;
 /// The stream of the repair passes' keys.
 const REPAIR_STREAM: u64 = CACHE_STREAM + 0xfe;
 
+/// The streams of the light cache's paths: path i's bounces draw from
+/// (`LIGHT_CACHE_STREAM`, i), its point on the image from (`LIGHT_CACHE_STREAM` + 1, i).
+const LIGHT_CACHE_STREAM: u64 = CACHE_STREAM + 0x1c00;
+
+/// Light-cache paths traced between two hand-overs to the integrator: the deposits held at
+/// once stay bounded (at most 16 per path, about 8 MB) whatever the path count.
+const LIGHT_CACHE_CHUNK: u32 = 1 << 14;
+
+/// Fills the integrator's light cache, if it has one ([`CacheBuilder::light_paths`]), on
+/// `settings.threads` threads: what [`build_cache`] does first, and all a render from a cache
+/// file read back needs to rebuild (the file keeps the records, not the light cache, which the
+/// final pass's own gathers read). The same bits as [`build_cache`]'s, for the same seed.
+pub fn build_light_cache(
+    scene: &Scene,
+    camera: &Camera,
+    builder: &mut dyn CacheBuilder,
+    settings: &RenderSettings,
+) -> Result<Option<LightCacheStats>, RenderError> {
+    settings.validate()?;
+    let paths = builder.light_paths();
+    if paths == 0 {
+        return Ok(None);
+    }
+    let (stats, _) = crate::render::with_threads(settings.threads, || {
+        trace_light_cache(scene, camera, builder, settings, paths)
+    })?;
+    Ok(Some(stats))
+}
+
+/// Fills the integrator's light cache with at most `paths` camera-launched paths, each from a
+/// uniformly random point of the image, in chunks of [`LIGHT_CACHE_CHUNK`] until the integrator
+/// says it has converged: traced in parallel, added in path order (so the cells' sums, and the
+/// chunk it stops after, are the same for any thread count).
+fn trace_light_cache(
+    scene: &Scene,
+    camera: &Camera,
+    builder: &mut dyn CacheBuilder,
+    settings: &RenderSettings,
+    paths: u32,
+) -> LightCacheStats {
+    let start = Instant::now();
+    let mut rays = RayCounter::default();
+    let size = Vec2::new(settings.width as f32, settings.height as f32);
+    let mut first = 0u32;
+    while first < paths {
+        let last = paths.min(first.saturating_add(LIGHT_CACHE_CHUNK));
+        let shared: &dyn CacheBuilder = builder;
+        let traced: Vec<(Vec<LightDeposit>, RayCounter)> = (first..last)
+            .into_par_iter()
+            .with_min_len(64)
+            .map(|i| {
+                let raster = SampleKey::new(settings.seed, LIGHT_CACHE_STREAM + 1, u64::from(i))
+                    .uniform_2d(0)
+                    * size;
+                let ray = camera_ray(camera, settings, raster);
+                let key = SampleKey::new(settings.seed, LIGHT_CACHE_STREAM, u64::from(i));
+                let mut r = RayCounter::default();
+                (shared.trace_light_path(scene, &ray, key, &mut r), r)
+            })
+            .collect();
+        let mut deposits = Vec::with_capacity(traced.len());
+        for (d, r) in traced {
+            rays += r;
+            deposits.push(d);
+        }
+        builder.add_light_paths(deposits);
+        first = last;
+        if builder.light_cache_converged() {
+            break;
+        }
+    }
+    LightCacheStats {
+        counts: builder.light_cache_counts(),
+        error: builder.light_cache_error(),
+        rays,
+        seconds: start.elapsed().as_secs_f64(),
+    }
+}
+
 /// One construction pass.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PassStats {
@@ -120,12 +200,27 @@ pub struct CacheBuildStats {
     /// Per level, the median and the 90th percentile of its records' noise: the estimated
     /// relative standard error of each record's irradiance (its gather's own).
     pub noise: Vec<(f32, f32)>,
+    /// The light cache, when the integrator has one: what it holds, its rays and seconds.
+    pub light: Option<LightCacheStats>,
+}
+
+/// What building the light cache did (`BounceMode::LightCache`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LightCacheStats {
+    /// Paths, deposits and cells.
+    pub counts: LightCacheCounts,
+    /// The relative standard error of its cells' means (`LightCache::relative_error`).
+    pub error: f64,
+    /// The paths' rays.
+    pub rays: RayCounter,
+    /// Wall-clock seconds.
+    pub seconds: f64,
 }
 
 impl CacheBuildStats {
     /// All rays traced during construction.
     pub fn rays(&self) -> RayCounter {
-        let mut r = RayCounter::default();
+        let mut r = self.light.map_or_else(RayCounter::default, |l| l.rays);
         for p in &self.passes {
             r += p.rays;
             r.shadow += p.commit.guard_rays;
@@ -133,10 +228,12 @@ impl CacheBuildStats {
         r
     }
 
-    /// The share of candidate rays spent on candidates that were dropped at commit.
+    /// The share of the passes' rays spent on candidates that were dropped at commit (the
+    /// light cache's rays are not the passes').
     pub fn wasted_share(&self) -> f64 {
         let dropped: u64 = self.passes.iter().map(|p| p.commit.dropped_rays).sum();
-        let all = self.rays().total();
+        let light = self.light.map_or(0, |l| l.rays.total());
+        let all = self.rays().total() - light;
         if all == 0 {
             0.0
         } else {
@@ -169,7 +266,17 @@ impl CacheBuildStats {
             self.rays().total() as f64 / 1e6,
             dropped,
             100.0 * self.wasted_share()
-        )
+        ) + &self.light.map_or_else(String::new, |l| {
+            format!(
+                "; light cache: {} paths, {} deposits in {} cells ({} used, {:.1} % error), {:.2} s",
+                l.counts.paths,
+                l.counts.deposits,
+                l.counts.cells,
+                l.counts.used_cells,
+                100.0 * l.error,
+                l.seconds
+            )
+        })
     }
 }
 
@@ -342,6 +449,11 @@ pub fn build_cache(
     };
     let (w, h) = (settings.width, settings.height);
     crate::render::with_threads(settings.threads, || {
+        let paths = builder.light_paths();
+        if paths > 0 {
+            bar.set_message(format!("building the light cache: {paths} paths"));
+            stats.light = Some(trace_light_cache(scene, camera, builder, settings, paths));
+        }
         let centre_jobs = |level: u32, pixels: &[(u32, u32)]| -> Vec<(Ray, f32, SampleKey)> {
             pixels
                 .iter()

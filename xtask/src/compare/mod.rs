@@ -77,10 +77,10 @@ pub struct CompareArgs {
     #[arg(long, default_value_t = IcSettings::default().direct_samples)]
     pub direct_samples: u32,
     /// Keep only the runs whose method and settings ("path spp=16", "ic+oidn kappa=1
-    /// strata=12x48", …) contain this text
+    /// strata=16x64", …) contain this text
     #[arg(long)]
     pub only: Option<String>,
-    /// More irradiance-cache settings to run, as KAPPA:MxN[:cached|:path] (the bounce mode;
+    /// More irradiance-cache settings to run, as KAPPA:MxN[:cached|:path|:light-cache] (the bounce mode;
     /// default: the default render's), comma-separated
     #[arg(long, value_delimiter = ',')]
     pub extra: Vec<String>,
@@ -200,11 +200,11 @@ fn ladder(quick: bool) -> &'static [(f32, u32, u32)] {
         &[(0.5, 6, 24), (1.0, 8, 32), (2.0, 12, 48)]
     } else {
         &[
-            (0.25, 6, 24),
-            (0.5, 8, 32),
-            (1.0, 12, 48),
-            (2.0, 16, 64),
-            (4.0, 24, 96),
+            (0.25, 8, 32),
+            (0.5, 12, 48),
+            (1.0, 16, 64),
+            (2.0, 24, 96),
+            (4.0, 32, 128),
         ]
     }
 }
@@ -229,7 +229,7 @@ fn ic_sweep(quick: bool) -> Vec<Sweep> {
     if quick {
         return out;
     }
-    for &(m, n) in &[(8u32, 32u32), (16, 64), (32, 128)] {
+    for &(m, n) in &[(12u32, 48u32), (24, 96), (32, 128)] {
         out.push(Sweep {
             label: format!("strata={m}x{n}"),
             group: Group::Strata,
@@ -271,9 +271,25 @@ fn ic_sweep(quick: bool) -> Vec<Sweep> {
             },
         ),
         (
-            "bounces=2",
+            "bounce=cached",
             IcSettings {
+                bounce_mode: BounceMode::Cached,
+                ..base
+            },
+        ),
+        (
+            "bounce=cached bounces=2",
+            IcSettings {
+                bounce_mode: BounceMode::Cached,
                 cached_bounces: 2,
+                ..base
+            },
+        ),
+        (
+            "light-cache-cell=1/128",
+            IcSettings {
+                light_cache_cell: 1.0 / 128.0,
+                light_cache_paths: 4 * base.light_cache_paths,
                 ..base
             },
         ),
@@ -303,10 +319,10 @@ fn ic_sweep(quick: bool) -> Vec<Sweep> {
     out
 }
 
-/// An extra setting KAPPA:MxN[:cached|:path].
+/// An extra setting KAPPA:MxN[:cached|:path|:light-cache].
 fn parse_extra(text: &str) -> Result<IcSettings, String> {
     let parts: Vec<&str> = text.split(':').collect();
-    let bad = || format!("--extra: expected KAPPA:MxN[:cached|:path], got '{text}'");
+    let bad = || format!("--extra: expected KAPPA:MxN[:cached|:path|:light-cache], got '{text}'");
     let kappa: f32 = parts.first().and_then(|k| k.parse().ok()).ok_or_else(bad)?;
     let (m, n) = parts
         .get(1)
@@ -317,6 +333,7 @@ fn parse_extra(text: &str) -> Result<IcSettings, String> {
         None => IcSettings::default().bounce_mode,
         Some(&"cached") => BounceMode::Cached,
         Some(&"path") => BounceMode::PathTraced,
+        Some(&"light-cache") => BounceMode::LightCache,
         Some(_) => return Err(bad()),
     };
     let s = IcSettings {

@@ -16,6 +16,7 @@
 //! of its own, used and not stored.
 
 use super::guard::GuardRecord;
+use super::light_cache::{LightCacheCounts, LightDeposit};
 use crate::integrator::{Integrator, RayCounter};
 use crate::path::ShadingPoint;
 use crate::scene::Scene;
@@ -169,6 +170,49 @@ pub trait CacheBuilder: Integrator + Send {
 
     /// Records per level.
     fn record_counts(&self) -> Vec<usize>;
+
+    /// How many camera-launched paths fill the light cache before the first pass (0: the
+    /// integrator has none; `BounceMode::LightCache`).
+    fn light_paths(&self) -> u32 {
+        0
+    }
+
+    /// One light-cache path from the camera ray `ray`, all its randomness from `key`: its
+    /// vertices' deposits, to hand to [`CacheBuilder::add_light_paths`] in path order. Read-only,
+    /// so the renderer traces paths in parallel.
+    fn trace_light_path(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        key: SampleKey,
+        rays: &mut RayCounter,
+    ) -> Vec<LightDeposit> {
+        let _ = (scene, ray, key, rays);
+        Vec::new()
+    }
+
+    /// Adds traced paths to the light cache, in the order given (the renderer gives path
+    /// order, so the cell sums are the same bits for any thread count).
+    fn add_light_paths(&mut self, paths: Vec<Vec<LightDeposit>>) {
+        let _ = paths;
+    }
+
+    /// What the light cache holds.
+    fn light_cache_counts(&self) -> LightCacheCounts {
+        LightCacheCounts::default()
+    }
+
+    /// The relative standard error of the light cache's cells (`LightCache::relative_error`).
+    fn light_cache_error(&self) -> f64 {
+        0.0
+    }
+
+    /// Whether the light cache has met its target (`LightCache::converged`): the renderer adds
+    /// no more paths. Asked after each chunk of paths, so the answer, and the cache, depend on
+    /// the paths alone, never on the threads.
+    fn light_cache_converged(&self) -> bool {
+        true
+    }
 
     /// What the final pass found that no record covered so far.
     fn final_pass_misses(&self) -> FinalPassMisses;

@@ -18,15 +18,19 @@
 //!
 //! A record's gather at x traces one cosine-distributed ray per cell of an M×N
 //! [`HemisphereStrata`]; the radiance a ray brings back from the point x₁ it hits is what x₁
-//! *reflects* towards x (its emission excluded: that is x's `direct`): NEE at x₁ plus x₁'s own
-//! indirect part, either path-traced ([`BounceMode::PathTraced`], `PathTracer::reflected`) or
-//! looked up in the cache of the next bounce level ([`BounceMode::Cached`], Radiance's `-ab`).
+//! *reflects* towards x (its emission excluded: that is x's `direct`): (ρ(x₁)/π) times the
+//! irradiance of x₁'s cell in the light cache ([`BounceMode::LightCache`], the default; module
+//! `light_cache`), or NEE at x₁ plus x₁'s own indirect part, either path-traced
+//! ([`BounceMode::PathTraced`], `PathTracer::reflected`) or looked up in the cache of the next
+//! bounce level ([`BounceMode::Cached`], Radiance's `-ab`).
 //! A ray that hits nothing brings back the background B. Punctual lights reach the gathers
 //! through the NEE at x₁ (`sample_light`, shared with the path tracer).
-//! The deepest cached level's gathers always path-trace the rest, so no bounce is cut off and
-//! the image converges to the path tracer's as the error parameter tightens.
+//! The deepest cached level's gathers always path-trace the rest, and a light-cache cell too
+//! sparse to be read is path-traced through, so no bounce is cut off and the image converges to
+//! the path tracer's as the error parameter (and the light cache's cell) tightens.
 //!
 //! Files: `settings` (the options), `builder` (the interface construction runs through),
+//! `light_cache` (the continuations' light cache),
 //! `levels` (the cache levels, walks, selection, commits), `gather` (a record's hemisphere
 //! gather), `radius` (limits and predicted radii), `lookup` and `guard` (interpolation and the
 //! leak guard), `value` (the cached value types), `ao` (cached ambient occlusion).
@@ -36,6 +40,7 @@ pub use builder::{
     CacheBuilder, Candidate, CommitStats, DisplayRecord, FinalPassMisses, PROBE_M, PROBE_N, Probe,
 };
 pub use guard::GuardRecord;
+pub use light_cache::{LightCache, LightCacheCounts, LightDeposit, MIN_DEPOSITS};
 pub use radius::HORIZON_CUT_COS;
 pub use settings::{
     BounceMode, GradientMode, IcMetric, IcSettings, IcSettingsError, LeakGuard, MetricKind,
@@ -64,6 +69,7 @@ mod builder;
 mod gather;
 mod guard;
 mod levels;
+mod light_cache;
 mod lookup;
 mod pixel;
 mod radius;
@@ -114,6 +120,9 @@ pub fn direct_nee(
 #[derive(Debug)]
 pub struct IrradianceCacheIntegrator {
     core: Core<Rgb>,
+    /// With `BounceMode::LightCache`, the continuations' cache (empty until the renderer fills
+    /// it through [`CacheBuilder::add_light_paths`]).
+    light: LightCache,
 }
 
 impl IrradianceCacheIntegrator {
@@ -121,6 +130,7 @@ impl IrradianceCacheIntegrator {
     pub fn new(settings: IcSettings) -> Result<Self, IcSettingsError> {
         Ok(Self {
             core: Core::new(settings)?,
+            light: LightCache::default(),
         })
     }
 
@@ -203,9 +213,8 @@ impl IrradianceCacheIntegrator {
     }
 
     /// What the gather rays of `level` bring back ([`IrradianceCacheIntegrator::gather_radiance`]
-    /// for each); where the geometry streams (`Geometry::streams`), path-traced continuations
-    /// (`BounceMode::PathTraced`, and on the deepest level) all at once, with
-    /// `PathTracer::reflected_many`.
+    /// for each); where the geometry streams (`Geometry::streams`) and every continuation is
+    /// path-traced (`path_traced`), all at once, with `PathTracer::reflected_many`.
     fn gather_radiances(
         &self,
         scene: &Scene,
@@ -252,11 +261,15 @@ impl IrradianceCacheIntegrator {
         })
     }
 
-    /// Whether a gather ray of `level` continues as a path-traced path (`BounceMode::PathTraced`,
-    /// and on the deepest level) rather than through the next level's cache.
+    /// Whether every gather ray of `level` continues as a path-traced path
+    /// (`BounceMode::PathTraced`; the deepest level of `BounceMode::Cached`; and
+    /// `BounceMode::LightCache` while its light cache is empty) rather than through a cache.
     fn path_traced(&self, level: usize) -> bool {
-        self.core.settings.bounce_mode == BounceMode::PathTraced
-            || level + 1 >= self.core.levels.len()
+        match self.core.settings.bounce_mode {
+            BounceMode::PathTraced => true,
+            BounceMode::LightCache => self.light.is_empty(),
+            BounceMode::Cached => level + 1 >= self.core.levels.len(),
+        }
     }
 
     /// What a gather ray of `level` brings back from `hit` travelling against `w`: what the
@@ -277,10 +290,23 @@ impl IrradianceCacheIntegrator {
         let mut dims = Dimensions::starting_at(key, 1);
         let x = ShadingPoint::new(surface, -w);
         let albedo = scene.albedo(x.triangle, x.b1, x.b2);
+        // Light cache: what the hit reflects is (ρ/π)·E from its cell, direct light included.
+        // Where the cell is too sparse, the path-traced continuation below.
+        if self.core.settings.bounce_mode == BounceMode::LightCache {
+            if albedo == Vec3::ZERO {
+                return Vec3::ZERO;
+            }
+            if let Some(e) = self.light.irradiance(&x) {
+                return albedo * FRAC_1_PI * e;
+            }
+        }
         // Cached: NEE at the hit plus its indirect light from the next level's cache. Where that
         // cache has no record (or on the deepest level), a path-traced continuation instead,
         // which brings its own NEE: the light at the hit is sampled once either way.
-        let cached = if self.path_traced(level) || albedo == Vec3::ZERO {
+        let cached = if self.path_traced(level)
+            || albedo == Vec3::ZERO
+            || self.core.settings.bounce_mode != BounceMode::Cached
+        {
             None
         } else {
             self.core.lookup(scene, level + 1, &Query::from(&x), rays)
@@ -306,6 +332,7 @@ impl Integrator for IrradianceCacheIntegrator {
 
     fn preprocess(&mut self, scene: &Scene) {
         self.core.set_scene(scene);
+        self.light = LightCache::new(self.core.diagonal * self.core.settings.light_cache_cell);
     }
 
     fn li(&self, scene: &Scene, ray: &Ray, dims: &mut Dimensions, rays: &mut RayCounter) -> Vec3 {
@@ -391,14 +418,57 @@ impl CacheBuilder for IrradianceCacheIntegrator {
         )
     }
 
+    fn light_paths(&self) -> u32 {
+        match self.core.settings.bounce_mode {
+            BounceMode::LightCache => self.core.settings.light_cache_paths,
+            BounceMode::PathTraced | BounceMode::Cached => 0,
+        }
+    }
+
+    fn trace_light_path(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        key: SampleKey,
+        rays: &mut RayCounter,
+    ) -> Vec<LightDeposit> {
+        let path = self.core.settings.path;
+        light_cache::trace_light_path(
+            &self.light,
+            scene,
+            ray,
+            key,
+            (path.max_depth, path.rr_start),
+            rays,
+        )
+    }
+
+    fn add_light_paths(&mut self, paths: Vec<Vec<LightDeposit>>) {
+        for p in &paths {
+            self.light.add_path(p);
+        }
+    }
+
+    fn light_cache_counts(&self) -> LightCacheCounts {
+        self.light.counts()
+    }
+
+    fn light_cache_error(&self) -> f64 {
+        self.light.relative_error()
+    }
+
+    fn light_cache_converged(&self) -> bool {
+        let target = self.core.settings.light_cache_error;
+        target > 0.0 && self.light.converged(f64::from(target))
+    }
+
     forward_to_core!();
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Material;
-    use crate::tests::{icosphere, scene, sphere_with_light};
+    use crate::tests::{first_surface, furnace, sphere_with_light};
 
     /// In cached mode a gather ray whose hit the next level does not cover brings back a
     /// path-traced continuation, whose own light sample is the hit's direct light: the light
@@ -413,11 +483,7 @@ mod tests {
         .unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(ic.core.levels.len(), 2);
         let ray = Ray::new(Vec3::ZERO, Vec3::new(0.3, -1.0, 0.2).normalize());
-        let hit = scene
-            .geometry()
-            .intersect(&ray)
-            .map(|h| scene.geometry().surface(&ray, &h))
-            .unwrap_or_else(|| panic!("the sphere surrounds the origin"));
+        let hit = first_surface(&scene, &ray);
         for k in 0..64 {
             let key = SampleKey::new(9, k, 0);
             let mut gathered = RayCounter::default();
@@ -433,6 +499,53 @@ mod tests {
         }
     }
 
+    /// In light-cache mode a gather ray brings back (ρ/π)·Ē from its hit's cell, with no ray
+    /// of its own, once the cell holds enough deposits; before any path has filled the cache it
+    /// brings back the path-traced continuation, value and rays exactly.
+    #[test]
+    fn a_light_cached_gather_ray_reads_its_cell_or_path_traces() {
+        let scene = sphere_with_light();
+        let mut ic = IrradianceCacheIntegrator::new(IcSettings {
+            bounce_mode: BounceMode::LightCache,
+            ..IcSettings::default()
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+        ic.preprocess(&scene);
+        let ray = Ray::new(Vec3::ZERO, Vec3::new(0.3, -1.0, 0.2).normalize());
+        let hit = first_surface(&scene, &ray);
+        let key = SampleKey::new(9, 1, 0);
+        let mut gathered = RayCounter::default();
+        let value = ic.gather_radiance(&scene, 0, Some(&hit), ray.direction, key, &mut gathered);
+        let mut traced = RayCounter::default();
+        let mut dims = Dimensions::starting_at(key, 1);
+        let r = ic
+            .continuation(0)
+            .reflected(&scene, &hit, -ray.direction, &mut dims, &mut traced);
+        assert_eq!(value, r.direct + r.indirect);
+        assert_eq!(gathered, traced);
+        // Paths from the same ray all start in the hit's cell.
+        let paths: Vec<Vec<LightDeposit>> = (0..MIN_DEPOSITS as u64)
+            .map(|i| {
+                ic.trace_light_path(
+                    &scene,
+                    &ray,
+                    SampleKey::new(9, i, 0),
+                    &mut RayCounter::default(),
+                )
+            })
+            .collect();
+        ic.add_light_paths(paths);
+        let x = ShadingPoint::new(&hit, -ray.direction);
+        let e = ic
+            .light
+            .irradiance(&x)
+            .unwrap_or_else(|| panic!("the hit's cell holds {MIN_DEPOSITS} deposits"));
+        let mut read = RayCounter::default();
+        let value = ic.gather_radiance(&scene, 0, Some(&hit), ray.direction, key, &mut read);
+        assert_eq!(value, Vec3::splat(0.6) * FRAC_1_PI * e);
+        assert_eq!(read, RayCounter::default());
+    }
+
     /// A record's noise is calibrated: in a white furnace (a closed sphere that emits Le and
     /// reflects ρ everywhere) every direction sees the same mean radiance, so the estimator's
     /// structure term is 0 and E[V̂] is the variance of E exactly (irr-gradients' `noise`
@@ -443,14 +556,7 @@ mod tests {
     #[test]
     fn a_records_noise_is_the_spread_of_its_irradiance() {
         let rho = 0.6f32;
-        let furnace = Material {
-            albedo: Vec3::splat(rho),
-            emission: Vec3::splat(1.0),
-            two_sided: true,
-            albedo_texture: None,
-            emission_texture: None,
-        };
-        let scene = scene(&[icosphere(Vec3::ZERO, 2.0, 2, 0)], vec![furnace]);
+        let scene = furnace(rho, 1.0);
         let ic = IrradianceCacheIntegrator::new(IcSettings {
             bounce_mode: BounceMode::PathTraced,
             strata_m: 6,
@@ -459,11 +565,7 @@ mod tests {
         })
         .unwrap_or_else(|e| panic!("{e}"));
         let ray = Ray::new(Vec3::ZERO, Vec3::new(0.3, -1.0, 0.2).normalize());
-        let hit = scene
-            .geometry()
-            .intersect(&ray)
-            .map(|h| scene.geometry().surface(&ray, &h))
-            .unwrap_or_else(|| panic!("the sphere surrounds the origin"));
+        let hit = first_surface(&scene, &ray);
         let x = ShadingPoint::new(&hit, -ray.direction);
         let strata = ic.core.levels[0].strata;
         let k = 2000u64;

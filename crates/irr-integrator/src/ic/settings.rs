@@ -87,16 +87,27 @@ impl RadiusStatistic {
     }
 }
 
-/// What a gather ray brings back beyond the direct light at its hit.
+/// The smallest light-cache cell, as a fraction of the scene's diagonal
+/// ([`IcSettings::light_cache_cell`]).
+pub const MIN_LIGHT_CACHE_CELL: f32 = 1.0 / 65536.0;
+
+/// What a gather ray brings back from the point it hits.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum BounceMode {
     /// The hit point's own indirect light by a path-traced continuation (unbiased).
     PathTraced,
     /// The hit point's indirect light from the cache of the next bounce level (Radiance's
-    /// `-ab`); the deepest level path-traces the rest. The default: its gathers are smoother
-    /// (an interpolated value where a path-traced one is a single noisy path).
-    #[default]
+    /// `-ab`); the deepest level path-traces the rest. Its gathers are smoother than
+    /// path-traced ones (an interpolated value where a path-traced one is a single noisy path).
     Cached,
+    /// The hit point's reflected light from the light cache (module `light_cache`): cell means
+    /// of the irradiance that camera-launched paths deposit, built before the first pass; a
+    /// gather ray costs one closest-hit ray and a hash lookup. Consistent, not unbiased: the
+    /// cell's blur shrinks with [`IcSettings::light_cache_cell`]. The default: on the scenes
+    /// in assets/ it has less error than `Cached` in less time (docs/performance.md,
+    /// "Continuations").
+    #[default]
+    LightCache,
 }
 
 /// How records are kept from lighting points they cannot see.
@@ -118,13 +129,13 @@ pub struct IcSettings {
     /// The error parameter: κ for Tabellion & Lamorlette (larger is stricter; default 1, range
     /// (0, ∞)), or a for Ward (smaller is stricter; typical 0.1–0.3).
     pub error: f32,
-    /// M, strata along θ of a first-level gather. Default: 12. Range: ≥ 1 (M·N ≤ 2²⁰).
+    /// M, strata along θ of a first-level gather. Default: 16. Range: ≥ 1 (M·N ≤ 2²⁰).
     ///
-    /// The defaults (κ = 1, 12×48, one cached bounce, 2 light samples, with 36 camera samples
-    /// per pixel in the `irr` command) were chosen by measurement on the Cornell box at 256²:
-    /// see docs/performance.md, "The cache's defaults".
+    /// The defaults (κ = 1, 16×64, the light cache, 2 light samples, with 36 camera samples
+    /// per pixel in the `irr` command) were chosen by measurement on the Cornell box and the
+    /// indirect-lit room at 256²: see docs/performance.md, "The cache's defaults".
     pub strata_m: u32,
-    /// N, strata along φ. Default: 48. Range: ≥ 1.
+    /// N, strata along φ. Default: 64. Range: ≥ 1.
     pub strata_n: u32,
     /// Smallest record radius scale on screen, in pixels (see irr-cache's `PixelRange`).
     /// Default: 1.5. Range: (0, `pixel_max`].
@@ -152,8 +163,7 @@ pub struct IcSettings {
     pub neighbour_clamping: bool,
     /// The leak guard. Default: visibility.
     pub leak_guard: LeakGuard,
-    /// What a gather ray brings back. Default: cached (one level below the first, whose
-    /// gathers path-trace the rest).
+    /// What a gather ray brings back. Default: the light cache.
     pub bounce_mode: BounceMode,
     /// With [`BounceMode::Cached`]: how many cache levels below the first (≥ 1). Default: 1.
     pub cached_bounces: u32,
@@ -172,6 +182,19 @@ pub struct IcSettings {
     /// The most extra rays of a super-sampled gather, as a multiple of its strata (M·N).
     /// Default: 3. Range: [0, 64].
     pub gather_budget: f32,
+    /// With [`BounceMode::LightCache`]: the most camera-launched paths that fill the light
+    /// cache. Default: 2¹⁹ = 524288. Range: 1 to 2²² (each path deposits at most 16 times, and
+    /// a cell takes about 64 bytes: at most 4 GiB at the bound, with cells as small as they go).
+    pub light_cache_paths: u32,
+    /// With [`BounceMode::LightCache`]: the light cache's target, the relative standard error
+    /// of its cells' means (`LightCache::relative_error`). Paths are added in chunks of 2¹⁴
+    /// until the cells reach it and hold nearly all deposits (`LightCache::converged`), or
+    /// `light_cache_paths` are spent. 0: always spend them. Default: 0.12. Range: [0, ∞).
+    pub light_cache_error: f32,
+    /// With [`BounceMode::LightCache`]: the width of the light cache's cells, as a fraction of
+    /// the scene's bounding-box diagonal (smaller is sharper and needs more paths). Default:
+    /// 1/64. Range: [2⁻¹⁶, 1].
+    pub light_cache_cell: f32,
     /// Construction also probes every camera sample's own hit (not only the repair passes'
     /// lattice), so the final pass almost never gathers for itself, at the cost of a probe per
     /// sample. Default: off.
@@ -185,8 +208,8 @@ impl Default for IcSettings {
         Self {
             metric: MetricKind::TabellionLamorlette,
             error: 1.0,
-            strata_m: 12,
-            strata_n: 48,
+            strata_m: 16,
+            strata_n: 64,
             pixel_min: 1.5,
             pixel_max: 10.0,
             influence_floor: 1.25,
@@ -196,12 +219,15 @@ impl Default for IcSettings {
             radius_statistic: RadiusStatistic::Minimum,
             neighbour_clamping: true,
             leak_guard: LeakGuard::Visibility,
-            bounce_mode: BounceMode::Cached,
+            bounce_mode: BounceMode::LightCache,
             cached_bounces: 1,
             level_loosening: 2.0,
             direct_samples: 2,
             gather_error: 0.0,
             gather_budget: 3.0,
+            light_cache_paths: 1 << 19,
+            light_cache_error: 0.12,
+            light_cache_cell: 1.0 / 64.0,
             fill_samples: false,
             path: PathSettings::default(),
         }
@@ -291,6 +317,30 @@ impl IcSettings {
                 format!("must lie in [0, 64], got {}", self.gather_budget),
             ));
         }
+        if !(1..=1 << 22).contains(&self.light_cache_paths) {
+            return Err(setting_error(
+                "--light-cache-paths",
+                format!("must lie in 1..=4194304, got {}", self.light_cache_paths),
+            ));
+        }
+        if !(self.light_cache_error.is_finite() && self.light_cache_error >= 0.0) {
+            return Err(setting_error(
+                "--light-cache-error",
+                format!(
+                    "must be finite and non-negative, got {}",
+                    self.light_cache_error
+                ),
+            ));
+        }
+        if !(MIN_LIGHT_CACHE_CELL..=1.0).contains(&self.light_cache_cell) {
+            return Err(setting_error(
+                "--light-cache-cell",
+                format!(
+                    "must lie in [2^-16, 1] (a fraction of the scene's diagonal), got {}",
+                    self.light_cache_cell
+                ),
+            ));
+        }
         Ok(())
     }
 
@@ -299,7 +349,7 @@ impl IcSettings {
     /// reaching the camera, so a depth below 2 needs no cache at all.
     pub fn levels(&self) -> u32 {
         let wanted = match self.bounce_mode {
-            BounceMode::PathTraced => 1,
+            BounceMode::PathTraced | BounceMode::LightCache => 1,
             BounceMode::Cached => 1 + self.cached_bounces,
         };
         wanted.min(self.path.max_depth.saturating_sub(1))
@@ -463,7 +513,7 @@ mod tests {
         let sizes: Vec<(u32, u32)> = (0..4)
             .map(|l| s.strata_at(l).map(|st| (st.m(), st.n())).unwrap_or((0, 0)))
             .collect();
-        assert_eq!(sizes, vec![(12, 48), (6, 24), (4, 12), (4, 8)]);
+        assert_eq!(sizes, vec![(16, 64), (8, 32), (4, 16), (4, 8)]);
         match (s.metric_at(0), s.metric_at(2)) {
             (Ok(IcMetric::TabellionLamorlette(a)), Ok(IcMetric::TabellionLamorlette(b))) => {
                 assert_eq!((a.kappa(), b.kappa()), (1.0, 0.25));

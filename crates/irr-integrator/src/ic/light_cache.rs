@@ -1,0 +1,559 @@
+//! The light cache: a dense, cheap estimate of the irradiance at any surface point, for the
+//! gather rays' continuations (V-Ray's light cache, Corona's UHD cache).
+//!
+//! # What it stores
+//! Camera-launched paths ([`trace_light_path`]) deposit, at every vertex v they reach, an
+//! estimate of the irradiance E(v) there: the direct part by one light sample (as the cache's
+//! `direct_nee`), plus the indirect part carried back from the rest of the same path
+//! (π·L_reflected(v₊₁)/q with q the Russian-roulette probability of continuing, or π·B/q when
+//! the path left the scene). Each estimate is unbiased for E(v) (with the path tracer's limit
+//! on reflections), and a path's vertices share its suffix, so a vertex costs about one
+//! closest-hit ray and one shadow ray.
+//!
+//! The deposits are averaged in cells of a world-space grid, keyed by the cell and by the
+//! shading normal's dominant axis and sign (six buckets), so that the two sides of a thin wall,
+//! or a floor and the wall beside it, never share a cell.
+//!
+//! # What a gather ray takes from it
+//! A gather ray that hits x₁ brings back (ρ(x₁)/π)·Ē(cell of x₁): no light sample and no
+//! continuation at all. A cell with fewer than [`MIN_DEPOSITS`] deposits is not used: the
+//! gather ray path-traces its continuation as in `BounceMode::PathTraced`, so no light is lost
+//! where the camera's paths never went.
+//!
+//! # Its error
+//! The cell mean is an average of E over the cell's surface (weighted by where paths landed),
+//! not E(x₁): one lookup errs by O(h·|∇E|) for cells of width h, and a gather, whose rays land
+//! all over its cells, by O(h²·∇²E) where E is smooth and O(h) along a crease or a shadow edge,
+//! seen through one more diffuse reflection. It shrinks with the cell. Its noise is frozen:
+//! every gather ray that hits a cell reads the same mean, so it is shared by neighbouring
+//! records and shows as a smooth tint, not as record-sized splotches. docs/performance.md,
+//! "Continuations", has the measured bias against the path tracer.
+
+use crate::integrator::RayCounter;
+use crate::path::{ShadingPoint, sample_light};
+use crate::scene::Scene;
+use glam::{DVec3, Vec3};
+use irr_geometry::Ray;
+use irr_sampling::rng::Dimensions;
+use irr_sampling::{Frame, SampleKey, sample_cosine_hemisphere};
+use std::collections::HashMap;
+use std::collections::hash_map::DefaultHasher;
+use std::f32::consts::PI;
+use std::hash::BuildHasherDefault;
+
+/// The fewest deposits a cell must hold to be used. Below it the cell's mean rests on a few
+/// paths, shared by every gather ray that hits the cell, and a path-traced continuation (one
+/// path, but independent per ray) is the better estimate.
+pub const MIN_DEPOSITS: u32 = 8;
+
+/// The least probability that a light-cache path goes on past `rr_start` vertices (see
+/// [`trace_light_path`]): each step's weight 1/q stays at most 2.
+pub const MIN_CONTINUATION: f32 = 0.5;
+
+/// The share of the deposits that cells holding at least [`MIN_DEPOSITS`] must have before the
+/// cache counts as converged: below it, too many gather rays would find a sparse cell and
+/// path-trace their continuation.
+pub const CONVERGED_SHARE: f64 = 0.95;
+
+/// A cell of the grid: its integer coordinates and the shading normal's bucket (0–5: the
+/// dominant axis, times 2, plus 1 if it points the negative way).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct CellKey {
+    x: i32,
+    y: i32,
+    z: i32,
+    bucket: u8,
+}
+
+impl CellKey {
+    /// The cell of `position` with shading normal `ns`, for cells of size 1/`inv_cell`.
+    fn of(position: Vec3, ns: Vec3, inv_cell: f32) -> Self {
+        // Coordinates beyond i32 saturate (`as` on floats does): a scene so far from the origin
+        // (2³¹ cells) shares its outermost cells, caching worse there, never indexing wrong.
+        let c = (position * inv_cell).floor();
+        let a = ns.abs();
+        let axis = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        let bucket = 2 * axis + u8::from(ns[axis as usize] < 0.0);
+        Self {
+            x: c.x as i32,
+            y: c.y as i32,
+            z: c.z as i32,
+            bucket,
+        }
+    }
+}
+
+/// One path vertex's estimate of the irradiance at its point, filed under its cell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightDeposit {
+    key: CellKey,
+    irradiance: Vec3,
+}
+
+/// A cell's running sums (in f64: a cell may take millions of deposits), and the sum of its
+/// deposits' squared luminances, for the standard error of its mean.
+#[derive(Clone, Copy, Debug, Default)]
+struct CellSums {
+    sum: DVec3,
+    squares: f64,
+    count: u32,
+}
+
+impl CellSums {
+    /// The squared relative standard error of the cell's mean luminance (0 for a black cell).
+    fn relative_variance(&self) -> f64 {
+        let n = f64::from(self.count);
+        let mean = luminance(self.sum) / n;
+        if self.count < 2 || mean <= 0.0 {
+            return 0.0;
+        }
+        let var = ((self.squares - n * mean * mean) / (n - 1.0)).max(0.0);
+        var / (n * mean * mean)
+    }
+}
+
+/// Rec. 709 luminance.
+fn luminance(v: DVec3) -> f64 {
+    v.dot(DVec3::new(0.2126, 0.7152, 0.0722))
+}
+
+/// The light cache: cell means of the irradiance deposited by camera-launched paths.
+#[derive(Clone, Debug, Default)]
+pub struct LightCache {
+    inv_cell: f32,
+    /// A fixed hasher (SipHash with zero keys, not the per-process random one): the cells'
+    /// iteration order, and so the float sums over them (`relative_error`), depend on the
+    /// deposits alone.
+    cells: HashMap<CellKey, CellSums, BuildHasherDefault<DefaultHasher>>,
+    deposits: u64,
+    paths: u64,
+}
+
+impl LightCache {
+    /// An empty cache of cells `cell` wide (world units, > 0).
+    pub fn new(cell: f32) -> Self {
+        Self {
+            inv_cell: 1.0 / cell,
+            ..Self::default()
+        }
+    }
+
+    /// Whether nothing was deposited yet.
+    pub fn is_empty(&self) -> bool {
+        self.cells.is_empty()
+    }
+
+    /// The cell of `x`, as deposits and lookups file it.
+    fn key(&self, x: &ShadingPoint) -> CellKey {
+        CellKey::of(x.position, x.ns, self.inv_cell)
+    }
+
+    /// Adds one path's deposits. The sums depend on the order of the calls, so the renderer
+    /// adds paths in their index order whatever thread traced them.
+    pub fn add_path(&mut self, deposits: &[LightDeposit]) {
+        self.paths += 1;
+        self.deposits += deposits.len() as u64;
+        for d in deposits {
+            let c = self.cells.entry(d.key).or_default();
+            let e = d.irradiance.as_dvec3();
+            c.sum += e;
+            c.squares += luminance(e).powi(2);
+            c.count += 1;
+        }
+    }
+
+    /// The mean irradiance deposited in `x`'s cell, if it holds at least [`MIN_DEPOSITS`].
+    pub fn irradiance(&self, x: &ShadingPoint) -> Option<Vec3> {
+        let c = self.cells.get(&self.key(x))?;
+        (c.count >= MIN_DEPOSITS).then(|| (c.sum / f64::from(c.count)).as_vec3())
+    }
+
+    /// The relative standard error of the used cells' means (luminance), their root mean
+    /// square weighted by deposits (a cell's deposits stand for how often rays reach it).
+    pub fn relative_error(&self) -> f64 {
+        let (mut weighted, mut deposits) = (0.0, 0.0);
+        for c in self.cells.values().filter(|c| c.count >= MIN_DEPOSITS) {
+            weighted += f64::from(c.count) * c.relative_variance();
+            deposits += f64::from(c.count);
+        }
+        if deposits > 0.0 {
+            (weighted / deposits).sqrt()
+        } else {
+            0.0
+        }
+    }
+
+    /// Whether the cells' [`relative_error`](Self::relative_error) is at most `target` and
+    /// the cells in use hold at least [`CONVERGED_SHARE`] of the deposits.
+    pub fn converged(&self, target: f64) -> bool {
+        let used: u64 = self
+            .cells
+            .values()
+            .filter(|c| c.count >= MIN_DEPOSITS)
+            .map(|c| u64::from(c.count))
+            .sum();
+        self.deposits > 0
+            && used as f64 >= CONVERGED_SHARE * self.deposits as f64
+            && self.relative_error() <= target
+    }
+
+    /// Paths added, deposits, cells, and cells holding at least [`MIN_DEPOSITS`].
+    pub fn counts(&self) -> LightCacheCounts {
+        LightCacheCounts {
+            paths: self.paths,
+            deposits: self.deposits,
+            cells: self.cells.len() as u64,
+            used_cells: self
+                .cells
+                .values()
+                .filter(|c| c.count >= MIN_DEPOSITS)
+                .count() as u64,
+        }
+    }
+}
+
+/// What a light cache holds (see [`LightCache::counts`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LightCacheCounts {
+    /// Paths traced.
+    pub paths: u64,
+    /// Vertices deposited.
+    pub deposits: u64,
+    /// Cells with a deposit.
+    pub cells: u64,
+    /// Cells with enough deposits to be used ([`MIN_DEPOSITS`]).
+    pub used_cells: u64,
+}
+
+/// The most vertices of one path that deposit (its first ones): a path's deposits, and the work
+/// of summing them, stay bounded whatever `max_depth` is. Which vertices deposit is fixed before
+/// the path is traced, so the choice biases nothing.
+pub const DEPOSITS_PER_PATH: usize = 16;
+
+/// One depositing vertex's estimate while the path goes on.
+struct Slot {
+    key: CellKey,
+    /// The product of the factors ρ(vⱼ)/q(vⱼ₋₁) from the slot's vertex to the current one.
+    factor: Vec3,
+    irradiance: Vec3,
+    /// Black vertices reflect nothing, so no gather reads their cell for them: not deposited
+    /// (their walk ends there, so their estimate would lack its indirect part).
+    deposit: bool,
+}
+
+/// Follows a camera ray through the scene by cosine-weighted bounces (Russian roulette on the
+/// albedo, at least [`MIN_CONTINUATION`], from vertex `rr_start` on) and returns the estimate of
+/// the irradiance at each of its first [`DEPOSITS_PER_PATH`] vertices, filed under its cell of
+/// `cache`. All randomness comes from `key`, so the deposits do not depend on the thread that
+/// traces them.
+///
+/// The estimate at vertex k unrolls E(v) = d(v) + (ρ(v₊₁)/q(v))·E(v₊₁), d(v) the light arriving
+/// at v with no reflection beyond it (its light sample's irradiance, and π·B/q(v) when the path
+/// left the scene from v): the d of each later vertex, carried back by the factors between. A
+/// gather ray's hit is the second reflection from the camera at least, so what it reflects may
+/// reflect at most `max_depth` − 2 more times: every vertex's estimate takes the d of itself
+/// and of the `max_depth` − 2 vertices after it, whatever its own depth on its path, so the
+/// cache obeys the path tracer's depth limit. The walk goes no further than the last depositing
+/// vertex's window needs.
+pub fn trace_light_path(
+    cache: &LightCache,
+    scene: &Scene,
+    ray: &Ray,
+    key: SampleKey,
+    (max_depth, rr_start): (u32, u32),
+    rays: &mut RayCounter,
+) -> Vec<LightDeposit> {
+    let Some(after) = max_depth.checked_sub(2) else {
+        return Vec::new();
+    };
+    let after = after as usize;
+    // Vertex j counts for slot k when k ≤ j ≤ k + after.
+    let cap = (DEPOSITS_PER_PATH - 1).saturating_add(after);
+    let geometry = scene.geometry();
+    let mut dims = Dimensions::new(key);
+    let mut slots: Vec<Slot> = Vec::with_capacity(DEPOSITS_PER_PATH);
+    // Adds light arriving at vertex j with no further reflection to every slot whose window
+    // holds j.
+    let add = |slots: &mut Vec<Slot>, j: usize, light: Vec3| {
+        for (k, slot) in slots.iter_mut().enumerate() {
+            if j - k <= after {
+                slot.irradiance += slot.factor * light;
+            }
+        }
+    };
+    let mut ray = *ray;
+    // 1/q of the vertex before the one being reached.
+    let mut inv_q = 1.0f32;
+    let mut j = 0usize;
+    loop {
+        rays.closest += 1;
+        let Some(hit) = geometry.intersect(&ray) else {
+            // The background's light, found by a cosine-distributed direction with probability
+            // q of having gone on: irradiance π·B/q at the vertex it left from, vertex j − 1.
+            if j > 0 {
+                add(&mut slots, j - 1, PI * inv_q * scene.background());
+            }
+            break;
+        };
+        // Past every window: this ray was traced only to see whether vertex `cap` escaped.
+        if j > cap {
+            break;
+        }
+        let surface = geometry.surface(&ray, &hit);
+        let x = ShadingPoint::new(&surface, -ray.direction);
+        let albedo = scene.albedo(x.triangle, x.b1, x.b2);
+        // This vertex's worth, as irradiance at the one before.
+        let carry = albedo * inv_q;
+        for (k, slot) in slots.iter_mut().enumerate() {
+            if j - k <= after {
+                slot.factor *= carry;
+            }
+        }
+        if j < DEPOSITS_PER_PATH {
+            slots.push(Slot {
+                key: cache.key(&x),
+                factor: Vec3::ONE,
+                irradiance: Vec3::ZERO,
+                deposit: albedo != Vec3::ZERO,
+            });
+        }
+        // The direct irradiance by one light sample: Le·cos θ / pdf (the next vertex's emission
+        // is never added, so no light is counted twice).
+        let direct = sample_light(scene, &x, &mut dims, rays)
+            .map_or(Vec3::ZERO, |a| a.le * (a.cos_surface / a.pdf));
+        add(&mut slots, j, direct);
+        // Russian roulette. Every vertex deposits its own estimate, in which the rest of the
+        // path counts at full weight (ρ(v) multiplies it only for the vertices before), so the
+        // probability of going on is never below MIN_CONTINUATION: a dark wall (ρ = 10⁻⁶) would
+        // otherwise almost never carry the light beyond it to its own deposit, an unbiased but so
+        // heavy-tailed estimate that its finite means read low.
+        let q = if j as u64 + 1 >= u64::from(rr_start) {
+            albedo.max_element().clamp(MIN_CONTINUATION, 1.0)
+        } else {
+            1.0
+        };
+        let u_rr = dims.next_1d();
+        let w = Frame::from_normal(x.ns).to_world(sample_cosine_hemisphere(dims.next_2d()));
+        // A direction below the geometric surface carries no light (as in the path tracer).
+        if albedo == Vec3::ZERO || u_rr >= q || w.dot(x.ng) <= 0.0 {
+            break;
+        }
+        inv_q = 1.0 / q;
+        ray = Ray::spawn(x.position, x.ng, w);
+        j += 1;
+    }
+    slots
+        .into_iter()
+        .filter(|s| s.deposit && s.irradiance.is_finite())
+        .map(|s| LightDeposit {
+            key: s.key,
+            irradiance: s.irradiance,
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Material;
+    use crate::tests::{assert_close, first_surface, furnace, scene};
+    use irr_sampling::sample_uniform_sphere;
+
+    /// Every deposit is an unbiased estimate of the irradiance at its vertex, with the depth
+    /// limit: in a white furnace (a closed sphere that emits Le from both faces and reflects ρ)
+    /// the radiance arriving after at most L further reflections is Le·Σᵢ₌₀ᴸ ρⁱ from every
+    /// direction, so E = π·Le·Σᵢ₌₀ᴸ ρⁱ at every point, with L = `max_depth` − 2. The k-th
+    /// deposits of independent paths are independent (given that the path reached vertex k, its
+    /// future does not depend on its past), so their mean is tested against E within 6
+    /// standard errors (the crate's known-answer tolerance, `crate::tests`), for every vertex
+    /// that deposits (those that 1000 paths or more reached), with Russian roulette from the
+    /// second vertex (q = ρ) and from the fifth (the default; a depth limit of 3 gives each
+    /// vertex a window of one further reflection, and the walk goes on past the last window).
+    #[test]
+    fn a_deposit_is_the_irradiance_in_a_furnace() {
+        let (rho, le) = (0.6f32, 1.0f32);
+        let scene = furnace(rho, le);
+        let cache = LightCache::new(0.25);
+        for (max_depth, rr_start) in [(3u32, 5u32), (4, 64), (64, 2)] {
+            let limit = max_depth as i32 - 2;
+            let expected =
+                f64::from(PI * le) * (0..=limit).map(|i| f64::from(rho).powi(i)).sum::<f64>();
+            let n = 20_000u64;
+            let paths: Vec<Vec<LightDeposit>> = (0..n)
+                .map(|i| {
+                    let key = SampleKey::new(3, i, 0);
+                    let d = sample_uniform_sphere(SampleKey::new(4, i, 0).uniform_2d(0));
+                    let mut rays = RayCounter::default();
+                    trace_light_path(
+                        &cache,
+                        &scene,
+                        &Ray::new(Vec3::ZERO, d),
+                        key,
+                        (max_depth, rr_start),
+                        &mut rays,
+                    )
+                })
+                .collect();
+            for k in 0..DEPOSITS_PER_PATH {
+                let values: Vec<f64> = paths
+                    .iter()
+                    .filter_map(|p| p.get(k).map(|d| f64::from(d.irradiance.x)))
+                    .collect();
+                let m = values.len() as f64;
+                if k < 3 {
+                    assert!(m > 1000.0, "depth {max_depth}, vertex {k}: {m} deposits");
+                } else if m < 1000.0 {
+                    // Too few paths lived this long for the normal approximation.
+                    continue;
+                }
+                let mean = values.iter().sum::<f64>() / m;
+                let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (m - 1.0);
+                assert_close(
+                    &format!("depth {max_depth}, vertex {k}"),
+                    (mean, (var / m).sqrt()),
+                    expected,
+                );
+            }
+        }
+    }
+
+    /// A path whose limit allows no light after a gather's hit (`max_depth` < 2: the cache has
+    /// no gathers then) deposits nothing. Without Russian roulette in the furnace (no escape,
+    /// no black surface) a path of `max_depth` 3 deposits its first DEPOSITS_PER_PATH vertices
+    /// and walks one vertex past the last one's window (one further reflection), then traces one
+    /// more ray to see whether that vertex escaped: 16 + 1 vertices with a light sample each,
+    /// 16 + 2 closest-hit rays.
+    #[test]
+    fn a_path_walks_as_far_as_its_last_window() {
+        let scene = furnace(0.5, 1.0);
+        let cache = LightCache::new(0.25);
+        let ray = Ray::new(Vec3::ZERO, Vec3::Y);
+        let key = SampleKey::new(1, 2, 3);
+        let mut rays = RayCounter::default();
+        assert!(trace_light_path(&cache, &scene, &ray, key, (1, 64), &mut rays).is_empty());
+        assert_eq!(rays, RayCounter::default());
+        let deposits = trace_light_path(&cache, &scene, &ray, key, (3, 64), &mut rays);
+        assert_eq!(deposits.len(), DEPOSITS_PER_PATH);
+        assert_eq!(rays.shadow, DEPOSITS_PER_PATH as u64 + 1);
+        assert_eq!(rays.closest, DEPOSITS_PER_PATH as u64 + 2);
+    }
+
+    /// A deposit is what a gather ray's path-traced continuation estimates, divided by ρ/π, in
+    /// an open scene where paths escape to a background B (the π·B/q term) after bouncing
+    /// between a floor and a reflective canopy lit by a disk: at a fixed floor point, the mean
+    /// of (ρ/π)·E over first deposits against the mean of `PathTracer::reflected` with the
+    /// gather's depth limit (`max_depth` − 1), for depths 2, 3 and 64. The two means are
+    /// independent estimates of one value: 6 standard errors of their difference (the crate's
+    /// tolerance).
+    #[test]
+    fn a_deposit_is_what_a_continuation_estimates() {
+        use crate::tests::polygon;
+        use crate::{PathSettings, PathTracer};
+        let scene = scene(
+            &[
+                polygon(Vec3::ZERO, 2.0, 24, 1.0, 0),
+                polygon(Vec3::new(0.0, 2.0, 0.0), 1.2, 24, -1.0, 1),
+                polygon(Vec3::new(0.4, 1.5, 0.0), 0.3, 16, -1.0, 2),
+            ],
+            vec![
+                Material::diffuse(Vec3::splat(0.5)),
+                Material::diffuse(Vec3::splat(0.8)),
+                Material::emitter(Vec3::splat(5.0)),
+            ],
+        )
+        .with_background(Vec3::splat(0.4))
+        .unwrap_or_else(|e| panic!("{e}"));
+        let cache = LightCache::new(0.25);
+        let ray = Ray::new(
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(0.3, -1.0, 0.2).normalize(),
+        );
+        let hit = first_surface(&scene, &ray);
+        let n = 40_000u32;
+        for max_depth in [2u32, 3, 64] {
+            let cached = crate::tests::estimate(n, |i| {
+                let key = SampleKey::new(7, u64::from(i), 0);
+                let d = trace_light_path(
+                    &cache,
+                    &scene,
+                    &ray,
+                    key,
+                    (max_depth, 5),
+                    &mut RayCounter::default(),
+                );
+                d.first().map_or(Vec3::ZERO, |d| 0.5 / PI * d.irradiance)
+            });
+            let tracer = PathTracer::new(PathSettings {
+                max_depth: max_depth - 1,
+                ..PathSettings::default()
+            });
+            let traced = crate::tests::estimate(n, |i| {
+                let mut dims = Dimensions::new(SampleKey::new(8, u64::from(i), 0));
+                let r = tracer.reflected(
+                    &scene,
+                    &hit,
+                    -ray.direction,
+                    &mut dims,
+                    &mut RayCounter::default(),
+                );
+                r.direct + r.indirect
+            });
+            let band = 6.0 * (cached.1.powi(2) + traced.1.powi(2)).sqrt();
+            assert!(
+                (cached.0 - traced.0).abs() < band,
+                "depth {max_depth}: light cache {:.5} ± {:.1e}, path tracer {:.5} ± {:.1e}",
+                cached.0,
+                cached.1,
+                traced.0,
+                traced.1
+            );
+        }
+    }
+
+    /// Cells: the same cell for points within a cell that face the same way, different cells
+    /// for the two faces of a wall and for a floor and the wall beside it; the mean of a cell is
+    /// used from MIN_DEPOSITS deposits on, and is the mean of its deposits.
+    #[test]
+    fn cells_keep_faces_apart_and_average_their_deposits() {
+        let inv = 4.0;
+        let a = CellKey::of(Vec3::new(0.1, 0.0, 0.1), Vec3::Y, inv);
+        assert_eq!(a, CellKey::of(Vec3::new(0.2, 0.01, 0.2), Vec3::Y, inv));
+        assert_ne!(a, CellKey::of(Vec3::new(0.1, 0.0, 0.1), -Vec3::Y, inv));
+        assert_ne!(a, CellKey::of(Vec3::new(0.1, 0.0, 0.1), Vec3::X, inv));
+        assert_ne!(a, CellKey::of(Vec3::new(0.3, 0.0, 0.1), Vec3::Y, inv));
+        let mut cache = LightCache::new(0.25);
+        let x = ShadingPoint {
+            position: Vec3::new(0.1, 0.0, 0.1),
+            ng: Vec3::Y,
+            ns: Vec3::Y,
+            triangle: 0,
+            b1: 0.0,
+            b2: 0.0,
+        };
+        for i in 0..MIN_DEPOSITS {
+            assert_eq!(cache.irradiance(&x), None, "{i} deposits");
+            cache.add_path(&[LightDeposit {
+                key: cache.key(&x),
+                irradiance: Vec3::splat(i as f32),
+            }]);
+        }
+        let mean = (MIN_DEPOSITS - 1) as f32 / 2.0;
+        assert_eq!(cache.irradiance(&x), Some(Vec3::splat(mean)));
+        let counts = cache.counts();
+        assert_eq!(
+            counts,
+            LightCacheCounts {
+                paths: u64::from(MIN_DEPOSITS),
+                deposits: u64::from(MIN_DEPOSITS),
+                cells: 1,
+                used_cells: 1
+            }
+        );
+    }
+}
