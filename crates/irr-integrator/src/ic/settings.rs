@@ -177,7 +177,9 @@ pub struct IcSettings {
     /// irradiance, as estimated from its strata (irr-gradients' `GatherSamples::relative_error`).
     /// A gather above it spends more rays on its noisiest strata (`plan_extra_samples`), at
     /// most `gather_budget` times its strata in all. Deeper levels loosen it by
-    /// `level_loosening` per level, as κ. Default: 0, off (one ray per stratum). Range: [0, ∞).
+    /// `level_loosening` per level, as κ. 0: off (one ray per stratum). Default: 0.05, the
+    /// error a user asks for, with the strata as the first pass and `gather_budget` as the
+    /// bound (docs/performance.md, "Continuations"). Range: [0, ∞).
     pub gather_error: f32,
     /// The most extra rays of a super-sampled gather, as a multiple of its strata (M·N).
     /// Default: 3. Range: [0, 64].
@@ -223,7 +225,7 @@ impl Default for IcSettings {
             cached_bounces: 1,
             level_loosening: 2.0,
             direct_samples: 2,
-            gather_error: 0.0,
+            gather_error: 0.05,
             gather_budget: 3.0,
             light_cache_paths: 1 << 19,
             light_cache_error: 0.12,
