@@ -229,14 +229,7 @@ impl MetallicRoughness {
         if wo.z <= 0.0 {
             return None;
         }
-        let wm = sample_visible_normal(wo, self.alpha, u);
-        let cos_vh = wo.dot(wm);
-        let wi = 2.0 * cos_vh * wm - wo;
-        if wi.z <= 0.0 || cos_vh <= 0.0 {
-            return None;
-        }
-        // The BRDF and the density both use the sampled normal rather than the half vector
-        // recomputed from wi: D(wm) then cancels exactly in the weight.
+        let (wi, wm, cos_vh) = self.reflect_visible_normal(wo, u)?;
         let pdf = self.reflected_pdf(wo, wm);
         (pdf > 0.0).then(|| BsdfSample {
             wi,
@@ -244,6 +237,18 @@ impl MetallicRoughness {
             pdf,
             lobe: Lobe::Glossy,
         })
+    }
+
+    /// A visible normal wm drawn for `wo` from `u` (Heitz 2018) and `wo` reflected about it:
+    /// (wi, wm, wo·wm), or `None` when the reflection goes below the surface (the lobe's
+    /// shadowed share). The glossy lobe's value and density are then taken at wm rather than at
+    /// the half vector recomputed from wi, so D(wm) cancels exactly in the sample's weight.
+    #[inline]
+    fn reflect_visible_normal(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
+        let wm = sample_visible_normal(wo, self.alpha, u);
+        let cos_vh = wo.dot(wm);
+        let wi = 2.0 * cos_vh * wm - wo;
+        (wi.z > 0.0 && cos_vh > 0.0).then_some((wi, wm, cos_vh))
     }
 
     /// The density of [`sample_glossy`](Self::sample_glossy) at `wi`: G1(wo) D(h) / (4 cos θo)
@@ -280,13 +285,7 @@ impl MetallicRoughness {
         }
         let glossy_probability = self.glossy_probability(wo);
         if u_lobe < glossy_probability {
-            let wm = sample_visible_normal(wo, self.alpha, u);
-            let cos_vh = wo.dot(wm);
-            let wi = 2.0 * cos_vh * wm - wo;
-            if wi.z <= 0.0 || cos_vh <= 0.0 {
-                return None;
-            }
-            // As in sample_glossy, the glossy lobe's value and density use the sampled normal.
+            let (wi, wm, cos_vh) = self.reflect_visible_normal(wo, u)?;
             let pdf = glossy_probability * self.reflected_pdf(wo, wm)
                 + (1.0 - glossy_probability) * cosine_hemisphere_pdf(wi.z);
             (pdf > 0.0).then(|| BsdfSample {

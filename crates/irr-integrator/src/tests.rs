@@ -145,9 +145,9 @@ pub(crate) fn sphere_with_light() -> Scene {
     )
 }
 
-/// A white furnace: a closed icosphere of radius 2 at the origin that reflects `rho` and emits
-/// `le` from both faces, so every direction inside sees the same radiance.
-pub(crate) fn furnace(rho: f32, le: f32) -> Scene {
+/// A white furnace: a closed icosphere of radius 2 centred at `c` that reflects `rho` and
+/// emits `le` from both faces, so every direction inside sees the same radiance.
+pub(crate) fn furnace(c: Vec3, rho: f32, le: f32) -> Scene {
     let material = Material {
         albedo: Vec3::splat(rho),
         emission: Vec3::splat(le),
@@ -155,7 +155,7 @@ pub(crate) fn furnace(rho: f32, le: f32) -> Scene {
         albedo_texture: None,
         emission_texture: None,
     };
-    scene(&[icosphere(Vec3::ZERO, 2.0, 2, 0)], vec![material])
+    scene(&[icosphere(c, 2.0, 2, 0)], vec![material])
 }
 
 /// The surface point where `ray` first meets `scene` (the test's geometry must hold one).
@@ -193,17 +193,7 @@ fn white_furnace_unbounded_depth_with_roulette() {
     // Le + ρ·Le + ρ²·Le + … = Le/(1 − ρ) everywhere, for any closed shape.
     for rho in [0.3f32, 0.8] {
         let le = 1.0f32;
-        let material = Material {
-            albedo: Vec3::splat(rho),
-            emission: Vec3::splat(le),
-            two_sided: true,
-            albedo_texture: None,
-            emission_texture: None,
-        };
-        let s = scene(
-            &[icosphere(Vec3::new(0.5, -2.0, 3.0), 2.0, 2, 0)],
-            vec![material],
-        );
+        let s = furnace(Vec3::new(0.5, -2.0, 3.0), rho, le);
         let pt = PathTracer::new(PathSettings {
             max_depth: u32::MAX,
             rr_start: 0,

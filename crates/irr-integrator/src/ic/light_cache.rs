@@ -378,7 +378,7 @@ mod tests {
     #[test]
     fn a_deposit_is_the_irradiance_in_a_furnace() {
         let (rho, le) = (0.6f32, 1.0f32);
-        let scene = furnace(rho, le);
+        let scene = furnace(Vec3::ZERO, rho, le);
         let cache = LightCache::new(0.25);
         for (max_depth, rr_start) in [(3u32, 5u32), (4, 64), (64, 2)] {
             let limit = max_depth as i32 - 2;
@@ -431,7 +431,7 @@ mod tests {
     /// 16 + 2 closest-hit rays.
     #[test]
     fn a_path_walks_as_far_as_its_last_window() {
-        let scene = furnace(0.5, 1.0);
+        let scene = furnace(Vec3::ZERO, 0.5, 1.0);
         let cache = LightCache::new(0.25);
         let ray = Ray::new(Vec3::ZERO, Vec3::Y);
         let key = SampleKey::new(1, 2, 3);

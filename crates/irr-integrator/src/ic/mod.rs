@@ -556,7 +556,7 @@ mod tests {
     #[test]
     fn a_records_noise_is_the_spread_of_its_irradiance() {
         let rho = 0.6f32;
-        let scene = furnace(rho, 1.0);
+        let scene = furnace(Vec3::ZERO, rho, 1.0);
         let ic = IrradianceCacheIntegrator::new(IcSettings {
             bounce_mode: BounceMode::PathTraced,
             strata_m: 6,
