@@ -38,9 +38,14 @@
 //! - dielectric = mix(diffuse, specular, F_dielectric) (`fresnel_mix`); metal = F_metal ·
 //!   specular (`conductor_fresnel`); f = mix(dielectric, metal, metallic).
 //!
+//! `KHR_materials_specular`'s `specularFactor` s ([`MetallicRoughness::with_specular`]) scales
+//! the dielectric's Fresnel term to F_dielectric = s (0.04 + 0.96 w), its implementation section's
+//! F0 = 0.04 s and F90 = s; s = 0 leaves a pure Lambertian base (its `specularColorFactor` and
+//! textures are not modelled).
+//!
 //! Regrouped into lobes: **diffuse** = (1 − metallic)(1 − F_dielectric) base/π and **glossy** =
-//! F(f0) D ν with f0 = mix(0.04, base, metallic) (Schlick's F is affine in f0, so the two
-//! specular terms are one). The glossy lobe is single-scattering: the specification suggests
+//! F D ν with F Schlick's from f0 = mix(0.04 s, base, metallic) to f90 = mix(s, 1, metallic)
+//! (Schlick's F is affine in f0 and f90, so the two specular terms are one). The glossy lobe is single-scattering: the specification suggests
 //! multiple-scattering compensation but does not define it, and this crate leaves it out. The
 //! specification's `fresnel_mix` is not energy conserving (its section B.3.6 says so): a white
 //! dielectric's directional albedo reaches 1.88 at cos θo = 0.01 and α = 1e-3 (the diffuse weight

@@ -1,7 +1,7 @@
 //! The glTF 2.0 metallic-roughness material (specification, Appendix B): its evaluation, its two
 //! lobes, and their importance sampling.
 
-use crate::fresnel::{DIELECTRIC_F0, dielectric_diffuse_albedo, schlick, schlick_weight};
+use crate::fresnel::{DIELECTRIC_F0, dielectric_diffuse_albedo, schlick_weight};
 use crate::microfacet::{ggx_d, sample_visible_normal, smith_g1, visibility};
 use glam::{Vec2, Vec3};
 use irr_sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
@@ -19,17 +19,21 @@ use std::f32::consts::FRAC_1_PI;
 pub const MIN_ALPHA: f32 = 1e-3;
 
 /// The parameters of the glTF 2.0 metallic-roughness material at one shading point, clamped into
-/// their ranges: base colour (linear RGB) in [0, 1]³, metallic and roughness in [0, 1].
+/// their ranges: base colour (linear RGB) in [0, 1]³, metallic, roughness and the dielectric's
+/// specular weight (`KHR_materials_specular`'s `specularFactor`, 1 without the extension) in
+/// [0, 1].
 ///
-/// Immutable: the constructor clamps, and derives the GGX width and the specular reflectance at
-/// normal incidence once.
+/// Immutable: the constructors clamp, and derive the GGX width and the glossy lobe's Fresnel
+/// reflectances at normal and grazing incidence once.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MetallicRoughness {
     base_color: Vec3,
     metallic: f32,
     roughness: f32,
+    specular: f32,
     alpha: f32,
     f0: Vec3,
+    f90: Vec3,
 }
 
 /// One of the material's two lobes.
@@ -44,9 +48,11 @@ pub enum Lobe {
 /// The BRDF split into its lobes; their sum is the BRDF.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Lobes {
-    /// (1 − metallic) · (1 − F_dielectric(|wo·h|)) · base_color / π.
+    /// (1 − metallic) · (1 − F_dielectric(|wo·h|)) · base_color / π, with F_dielectric =
+    /// s·(0.04 + 0.96 (1 − |wo·h|)⁵) for specular weight s.
     pub diffuse: Vec3,
-    /// F(|wo·h|) · D(h) · ν(wo, wi), with F Schlick's at f0 = mix(0.04, base_color, metallic).
+    /// F(|wo·h|) · D(h) · ν(wo, wi), with F Schlick's from f0 = mix(0.04 s, base_color, metallic)
+    /// to f90 = mix(s, 1, metallic).
     pub glossy: Vec3,
 }
 
@@ -92,9 +98,19 @@ fn luminance(c: Vec3) -> f32 {
 }
 
 impl MetallicRoughness {
-    /// The material with these parameters, each clamped into [0, 1] (NaN read as 0). The GGX
-    /// width is α = max(roughness², [`MIN_ALPHA`]).
+    /// The material with these parameters, each clamped into [0, 1] (NaN read as 0), and the
+    /// specification's full specular reflection (specular weight 1). The GGX width is
+    /// α = max(roughness², [`MIN_ALPHA`]).
     pub fn new(base_color: Vec3, metallic: f32, roughness: f32) -> Self {
+        Self::with_specular(base_color, metallic, roughness, 1.0)
+    }
+
+    /// [`new`](Self::new) with the dielectric's specular weight s (`KHR_materials_specular`'s
+    /// `specularFactor`, clamped into [0, 1]), which scales its Fresnel term from F0 = 0.04 s to
+    /// F90 = s: s = 0 leaves the dielectric a pure Lambertian reflector of `base_color`, whose
+    /// glossy lobe is zero (with metallic 0, [`is_lambertian`](Self::is_lambertian)). Metals
+    /// are unaffected.
+    pub fn with_specular(base_color: Vec3, metallic: f32, roughness: f32, specular: f32) -> Self {
         let base_color = Vec3::new(
             unit_interval(base_color.x),
             unit_interval(base_color.y),
@@ -102,14 +118,18 @@ impl MetallicRoughness {
         );
         let metallic = unit_interval(metallic);
         let roughness = unit_interval(roughness);
+        let specular = unit_interval(specular);
         Self {
             base_color,
             metallic,
             roughness,
+            specular,
             alpha: (roughness * roughness).max(MIN_ALPHA),
-            // Schlick's F is affine in f0, so mix(F(0.04), F(base), metallic) = F(mix(0.04, base,
-            // metallic)): the dielectric's and the metal's specular terms share one lobe.
-            f0: Vec3::splat(DIELECTRIC_F0).lerp(base_color, metallic),
+            // Schlick's F is affine in (f0, f90), so mix(F_dielectric, F_metal, metallic) is F
+            // with mixed f0 and f90: the dielectric's and the metal's specular terms share one
+            // lobe.
+            f0: Vec3::splat(DIELECTRIC_F0 * specular).lerp(base_color, metallic),
+            f90: Vec3::splat(specular).lerp(Vec3::ONE, metallic),
         }
     }
 
@@ -128,25 +148,45 @@ impl MetallicRoughness {
         self.roughness
     }
 
+    /// The dielectric's specular weight in [0, 1] (1 unless given by
+    /// [`with_specular`](Self::with_specular)).
+    pub fn specular(&self) -> f32 {
+        self.specular
+    }
+
     /// The GGX width α = max(roughness², [`MIN_ALPHA`]).
     pub fn alpha(&self) -> f32 {
         self.alpha
     }
 
-    /// The glossy lobe's reflectance at normal incidence, mix(0.04, base_color, metallic).
+    /// The glossy lobe's reflectance at normal incidence, mix(0.04 s, base_color, metallic) for
+    /// specular weight s.
     pub fn specular_f0(&self) -> Vec3 {
         self.f0
+    }
+
+    /// The glossy lobe's reflectance at grazing incidence, mix(s, 1, metallic) for specular
+    /// weight s: 1 without `KHR_materials_specular`.
+    pub fn specular_f90(&self) -> Vec3 {
+        self.f90
+    }
+
+    /// Whether the glossy lobe is zero everywhere (a dielectric of specular weight 0): the
+    /// material is then exactly Lambertian, f = base_color/π, and an integrator can shade it as
+    /// such (cosine sampling, no Fresnel).
+    pub fn is_lambertian(&self) -> bool {
+        self.f90 == Vec3::ZERO
     }
 
     /// Both lobes for half vector `wm` and |wo·wm| = `cos_vh`.
     #[inline]
     fn lobes_at(&self, wo: Vec3, wi: Vec3, wm: Vec3, cos_vh: f32) -> Lobes {
         let w = schlick_weight(cos_vh);
-        let dielectric_fresnel = DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * w;
+        let dielectric_fresnel = self.specular * (DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * w);
         Lobes {
             diffuse: self.base_color
                 * ((1.0 - self.metallic) * (1.0 - dielectric_fresnel) * FRAC_1_PI),
-            glossy: (self.f0 + (Vec3::ONE - self.f0) * w)
+            glossy: (self.f0 + (self.f90 - self.f0) * w)
                 * (ggx_d(wm, self.alpha) * visibility(wo, wi, self.alpha)),
         }
     }
@@ -175,8 +215,9 @@ impl MetallicRoughness {
     }
 
     /// The directional albedo of the diffuse lobe, ∫ f_diffuse(wo, wi) cos θi dωi =
-    /// (1 − metallic) · base_color · ρ(cos θo) with ρ = [`crate::dielectric_diffuse_albedo`]
-    /// (zero for `wo` below the surface): the factor by which an irradiance cache multiplies its
+    /// (1 − metallic) · base_color · (1 − s (1 − ρ(cos θo))) with ρ =
+    /// [`crate::dielectric_diffuse_albedo`] and s the specular weight (the lobe's weight
+    /// 1 − s·F is affine in s; zero for `wo` below the surface): the factor by which an irradiance cache multiplies its
     /// cached irradiance E, as `diffuse_albedo(wo) / π · E`, to stand for the diffuse lobe's
     /// reflected indirect light.
     ///
@@ -188,22 +229,23 @@ impl MetallicRoughness {
         if wo.z <= 0.0 {
             return Vec3::ZERO;
         }
-        self.base_color * ((1.0 - self.metallic) * dielectric_diffuse_albedo(wo.z))
+        let weight = 1.0 - self.specular * (1.0 - dielectric_diffuse_albedo(wo.z));
+        self.base_color * ((1.0 - self.metallic) * weight)
     }
 
     /// The probability with which [`sample`](Self::sample) chooses the glossy lobe for `wo`:
     /// the share of the glossy lobe in an estimate of the two lobes' albedos, by luminance. The
-    /// glossy estimate is Schlick's F at cos θo with the material's f0 (the GGX lobe reflects
+    /// glossy estimate is Schlick's F at cos θo with the material's f0 and f90 (the GGX lobe reflects
     /// about F at low roughness, less when rough); the diffuse one is the exact
     /// [`diffuse_albedo`](Self::diffuse_albedo).
     ///
-    /// Positive whenever the glossy lobe can be non-zero (f0 > 0), below 1 whenever the diffuse
+    /// Positive whenever the glossy lobe can be non-zero (f90 > 0), below 1 whenever the diffuse
     /// lobe can be (metallic < 1 and a non-black base colour): each lobe is sampled wherever it
     /// contributes, so the mixture estimator is unbiased.
     #[inline]
     pub fn glossy_probability(&self, wo: Vec3) -> f32 {
         let cos_o = wo.z.clamp(0.0, 1.0);
-        let glossy = luminance(schlick(self.f0, cos_o));
+        let glossy = luminance(self.f0 + (self.f90 - self.f0) * schlick_weight(cos_o));
         let diffuse = luminance(self.diffuse_albedo(wo));
         let total = glossy + diffuse;
         if total > 0.0 { glossy / total } else { 1.0 }

@@ -27,6 +27,20 @@ pub struct SpecBrdf {
 /// Evaluates [`SpecBrdf`] for unit `wo`, `wi` (zero unless both lie above the surface: the BRDF
 /// is one-sided, as irr-bsdf's is). `alpha` is roughness².
 pub fn spec_brdf(base: DVec3, metallic: f64, alpha: f64, wo: DVec3, wi: DVec3) -> SpecBrdf {
+    spec_brdf_specular(base, metallic, alpha, 1.0, wo, wi)
+}
+
+/// [`spec_brdf`] with `KHR_materials_specular`'s specular weight s, as its implementation section
+/// writes the Fresnel term: dielectricSpecularF0 = 0.04 s, dielectricSpecularF90 = s,
+/// F = F0 + (F90 − F0)(1 − |V·H|)⁵, and the metal's unchanged.
+pub fn spec_brdf_specular(
+    base: DVec3,
+    metallic: f64,
+    alpha: f64,
+    specular: f64,
+    wo: DVec3,
+    wi: DVec3,
+) -> SpecBrdf {
     if wo.z <= 0.0 || wi.z <= 0.0 {
         return SpecBrdf {
             diffuse: DVec3::ZERO,
@@ -46,7 +60,8 @@ pub fn spec_brdf(base: DVec3, metallic: f64, alpha: f64, wo: DVec3, wi: DVec3) -
     let fresnel_w = (1.0 - v_dot_h.abs()).powi(5);
     let diffuse_brdf = base / PI;
     let specular_brdf = d * vis;
-    let dielectric_fresnel = 0.04 + (1.0 - 0.04) * fresnel_w;
+    let (f0, f90) = (0.04 * specular, specular);
+    let dielectric_fresnel = f0 + (f90 - f0) * fresnel_w;
     let dielectric_brdf = diffuse_brdf * (1.0 - dielectric_fresnel)
         + DVec3::splat(specular_brdf * dielectric_fresnel);
     let metal_fresnel = base + (DVec3::ONE - base) * fresnel_w;
