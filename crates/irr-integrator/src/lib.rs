@@ -58,6 +58,7 @@
 //! ```
 
 mod ao;
+pub mod bsdf;
 pub mod ic;
 mod integrator;
 mod light;
@@ -67,6 +68,7 @@ mod scene;
 mod texture;
 
 pub use ao::{AmbientOcclusion, AoSettings};
+pub use bsdf::{Bsdf, BsdfDraw};
 pub use ic::{
     BounceMode, CacheBuilder, CachedAmbientOcclusion, CachedLevel, Candidate, CommitStats,
     DisplayRecord, GradientMode, GuardRecord, IcMetric, IcSettings, IcSettingsError,

@@ -1,5 +1,6 @@
 //! The unbiased reference: a path tracer with next-event estimation and multiple importance
-//! sampling on Lambertian surfaces.
+//! sampling, on the glTF metallic-roughness BSDF (module `bsdf`; Lambertian surfaces keep the
+//! Lambertian arithmetic, cosine sampling with weight ρ).
 //!
 //! # Which light paths each part carries
 //! Number the path's surface vertices x₀ (the one the camera ray hits), x₁, x₂, … The light
@@ -23,7 +24,8 @@
 //!   x₂ on, paths `L D D+ E`), and **all the background's light that reflects** (paths `L D+ B`,
 //!   the background's once-reflected light `L D B` included: x₀'s BSDF sample escaping).
 //!
-//! So `indirect` is exactly (ρ(x₀)/π)·E_ind(x₀), where E_ind is the irradiance at x₀ due to all
+//! So `indirect` is exactly ∫ f(x₀) L_ind cos θ dω, which on a Lambertian x₀ is (ρ(x₀)/π)·E_ind(x₀),
+//! where E_ind is the irradiance at x₀ due to all
 //! the radiance arriving there *except* what the light sampler's emitters send straight to it:
 //! the radiance reflected by the surfaces x₀ sees, and the background where x₀ sees no surface.
 //! That is the quantity the irradiance cache stores: its gather rays bring back what the point
@@ -31,13 +33,14 @@
 //! background when they hit nothing. An integrator that takes `emitted` and `direct` from here
 //! and replaces `indirect` by a cache lookup counts every path once.
 
+use crate::bsdf::Bsdf;
 use crate::integrator::{FirstHit, Integrator, RayCounter, li_each};
 use crate::light::LightSample;
 use crate::scene::Scene;
 use glam::Vec3;
 use irr_geometry::{Hit, Ray, SurfacePoint};
+use irr_sampling::cosine_hemisphere_pdf;
 use irr_sampling::rng::Dimensions;
-use irr_sampling::{Frame, cosine_hemisphere_pdf, sample_cosine_hemisphere};
 use std::f32::consts::FRAC_1_PI;
 use std::ops::Add;
 
@@ -117,12 +120,16 @@ pub struct ShadingPoint {
     pub b1: f32,
     /// The point's barycentric coordinate of vertex 2.
     pub b2: f32,
+    /// The unit direction the light leaves towards (back along the ray that found the point).
+    pub wo: Vec3,
 }
 
 impl ShadingPoint {
-    /// Turns the normals of `surface` to the side of `wo` (reflection is two-sided).
+    /// Turns the normals of `surface` to the side of `wo` (reflection is two-sided); `wo` is
+    /// normalised.
     #[inline]
     pub fn new(surface: &SurfacePoint, wo: Vec3) -> Self {
+        let wo = wo.normalize();
         let ng = if surface.geometric_normal.dot(wo) < 0.0 {
             -surface.geometric_normal
         } else {
@@ -140,6 +147,7 @@ impl ShadingPoint {
             triangle: surface.triangle,
             b1: surface.b1,
             b2: surface.b2,
+            wo,
         }
     }
 }
@@ -152,6 +160,8 @@ impl ShadingPoint {
 /// facing it (I·falloff/r², or E) and `pdf` the probability of choosing it.
 #[derive(Clone, Copy, Debug)]
 pub struct LightArrival {
+    /// The unit direction from the shading point towards the light.
+    pub wi: Vec3,
     /// The radiance the emitter sends towards the shading point, or, for a punctual light, the
     /// irradiance it gives a surface at the point facing it.
     pub le: Vec3,
@@ -219,6 +229,7 @@ pub(crate) fn light_sample(
             let pdf = pdf_area * dist2 / cos_light;
             let shadow = Ray::spawn_to(x.position, x.ng, position, normal);
             let arrival = LightArrival {
+                wi,
                 le,
                 cos_surface,
                 pdf,
@@ -245,6 +256,7 @@ pub(crate) fn light_sample(
                 None => Ray::spawn(x.position, x.ng, wi),
             };
             let arrival = LightArrival {
+                wi,
                 le: incidence.irradiance,
                 cos_surface,
                 pdf: probability,
@@ -425,24 +437,38 @@ impl PathTracer {
         // Bounce number depth+1 reflects at x: light arriving here has reflected depth+1
         // times by the time it reaches the camera. Bounce 1 is "direct", later ones "indirect".
         let x = &path.x;
-        let albedo = scene.albedo(x.triangle, x.b1, x.b2);
-        if albedo == Vec3::ZERO {
+        let bsdf = Bsdf::at(scene, x);
+        if bsdf.is_black() {
             return None;
         }
         // Next-event estimation: pick a light by power (and a point on a triangle by area);
         // its light counts if the shadow ray is unoccluded (`end`).
         let (nee, shadow) = light_sample(scene, x, &mut path.dims).unzip();
         rays.shadow += u64::from(shadow.is_some());
-        // BSDF sampling: a cosine-distributed direction.
-        let wi = Frame::from_normal(x.ns).to_world(sample_cosine_hemisphere(path.dims.next_2d()));
-        let pdf_bsdf = cosine_hemisphere_pdf(wi.dot(x.ns));
+        // The BSDF towards the light and the density with which BSDF sampling would have
+        // found that direction, for the power heuristic (a Lambertian surface's: ρ/π and
+        // cos/π).
+        let (nee_f, nee_pdf_bsdf) = match (&bsdf, &nee) {
+            (Bsdf::Lambertian { albedo, .. }, Some(n)) => {
+                (*albedo * FRAC_1_PI, cosine_hemisphere_pdf(n.cos_surface))
+            }
+            (_, Some(n)) => (bsdf.eval(n.wi), bsdf.pdf(n.wi)),
+            (_, None) => (Vec3::ZERO, 0.0),
+        };
+        // BSDF sampling: a cosine-distributed direction on a Lambertian surface, a lobe and a
+        // direction from it on a glossy one.
+        let draw = bsdf.sample(path.dims.next_2d());
         // A shading normal can send the direction under the geometric surface: end the path
         // there rather than let light leak through.
+        let (wi, weight, pdf_bsdf) =
+            draw.map_or((Vec3::ZERO, Vec3::ZERO, 0.0), |d| (d.wi, d.weight, d.pdf));
         let ray = (pdf_bsdf > 0.0 && wi.dot(x.ng) > 0.0).then(|| Ray::spawn(x.position, x.ng, wi));
         rays.closest += u64::from(ray.is_some());
         Some(Bounce {
-            albedo,
+            weight,
             nee,
+            nee_f,
+            nee_pdf_bsdf,
             shadow,
             wi,
             pdf_bsdf,
@@ -462,8 +488,7 @@ impl PathTracer {
         occluded: bool,
         hit: Option<Hit>,
     ) -> bool {
-        let albedo = b.albedo;
-        let f = albedo * FRAC_1_PI;
+        let weight = b.weight;
         let mut contribution = Vec3::ZERO;
         // The light sample, weighted against BSDF sampling by the power heuristic; a punctual
         // light has no BSDF-sampling strategy, so its weight is 1.
@@ -471,19 +496,19 @@ impl PathTracer {
             let w = if nee.delta {
                 1.0
             } else {
-                power_heuristic(nee.pdf, cosine_hemisphere_pdf(nee.cos_surface))
+                power_heuristic(nee.pdf, b.nee_pdf_bsdf)
             };
-            contribution += f * nee.le * (nee.cos_surface * w / nee.pdf);
+            contribution += b.nee_f * nee.le * (nee.cos_surface * w / nee.pdf);
         }
-        // For the Lambertian BSDF, f·cos θ / pdf = ρ, so the throughput is multiplied by the
-        // albedo.
+        // The BSDF sample's weight f·cos θ / pdf multiplies the throughput (for the Lambertian
+        // BSDF it is the albedo).
         let mut next = None;
         let mut escaped = Vec3::ZERO;
         if let Some(ray) = &b.ray {
             match hit {
                 // The ray leaves the scene: the background, found by BSDF sampling alone (no
                 // light sample picks it), so with weight 1.
-                None => escaped = albedo * scene.background(),
+                None => escaped = weight * scene.background(),
                 Some(hit) => {
                     let surface = scene.geometry().surface(ray, &hit);
                     // Emission found by the BSDF sample, weighted against NEE.
@@ -498,7 +523,7 @@ impl PathTracer {
                         } else {
                             0.0
                         };
-                        contribution += albedo * le * w;
+                        contribution += weight * le * w;
                     }
                     next = Some(surface);
                 }
@@ -516,7 +541,7 @@ impl PathTracer {
         path.out.indirect += beta * escaped;
 
         let Some(surface) = next else { return false };
-        path.beta *= albedo;
+        path.beta *= weight;
         path.x = ShadingPoint::new(&surface, -b.wi);
         path.depth += 1;
         // Russian roulette: past rr_start bounces, continue with probability q = min(1, max β)
@@ -554,12 +579,14 @@ impl Path {
     }
 }
 
-/// The rays of one bounce ([`PathTracer::begin`]) and what `end` needs of it: the vertex's
-/// albedo, the light sample and its shadow ray, and the BSDF sample and its ray (none when
-/// the direction is below the surface).
+/// The rays of one bounce ([`PathTracer::begin`]) and what `end` needs of it: the light sample
+/// with the BSDF's value and density towards it, its shadow ray, and the BSDF sample (its
+/// weight f·cos/pdf) and its ray (none when the direction is below the surface).
 struct Bounce {
-    albedo: Vec3,
+    weight: Vec3,
     nee: Option<LightArrival>,
+    nee_f: Vec3,
+    nee_pdf_bsdf: f32,
     shadow: Option<Ray>,
     wi: Vec3,
     pdf_bsdf: f32,

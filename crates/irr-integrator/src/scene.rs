@@ -1,4 +1,5 @@
-//! What an integrator sees of a scene: the geometry, a Lambertian material per id, the
+//! What an integrator sees of a scene: the geometry, a glTF metallic-roughness material per id
+//! (Lambertian as a special case), the
 //! textures those materials read with the texture coordinates of their triangles, the emitters
 //! (emitting triangles and punctual lights) with a sampler over them, and the background.
 
@@ -6,14 +7,29 @@ use crate::light::LightSampler;
 use crate::punctual::PunctualLight;
 use crate::texture::{TexCoords, Texture, TextureRef};
 use glam::{Vec2, Vec3};
+use irr_bsdf::MetallicRoughness;
 use irr_geometry::{Geometry, SurfacePoint};
 use thiserror::Error;
 
-/// A Lambertian surface that may also emit.
+/// A surface's reflection (glTF 2.0's metallic-roughness model, irr-bsdf's
+/// [`MetallicRoughness`]) and emission.
+///
+/// With `metallic` 0 and `specular` 0 the reflection is exactly Lambertian, f = albedo/π
+/// ([`Material::diffuse`]); glTF files get the specification's defaults (specular 1).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {
-    /// Diffuse reflectance ρ per channel, in [0, 1] (glTF `baseColorFactor.rgb`, linear).
+    /// The base colour per channel, in [0, 1] (glTF `baseColorFactor.rgb`, linear): the
+    /// diffuse reflectance ρ of a Lambertian material, a metal's reflectance at normal incidence.
     pub albedo: Vec3,
+    /// glTF `metallicFactor`, in [0, 1]: 0 a dielectric (a diffuse base under a GGX specular
+    /// coat), 1 a metal, mixed linearly between.
+    pub metallic: f32,
+    /// glTF `roughnessFactor`, in [0, 1]: the GGX width is α = roughness² (at least
+    /// irr-bsdf's `MIN_ALPHA`).
+    pub roughness: f32,
+    /// `KHR_materials_specular`'s `specularFactor`, in [0, 1]: the dielectric's specular weight
+    /// (1 without the extension; 0 leaves the dielectric Lambertian).
+    pub specular: f32,
     /// Emitted radiance Le in W·sr⁻¹·m⁻² per channel, the same in every direction of an emitting
     /// side (glTF `emissiveFactor` × `KHR_materials_emissive_strength.emissiveStrength`).
     pub emission: Vec3,
@@ -30,10 +46,13 @@ pub struct Material {
 }
 
 impl Material {
-    /// A non-emitting, untextured diffuse material.
+    /// A non-emitting, untextured Lambertian material: f = albedo/π.
     pub fn diffuse(albedo: Vec3) -> Self {
         Self {
             albedo,
+            metallic: 0.0,
+            roughness: 1.0,
+            specular: 0.0,
             emission: Vec3::ZERO,
             two_sided: true,
             albedo_texture: None,
@@ -45,12 +64,28 @@ impl Material {
     /// (the side their winding faces), as glTF's single-sided emissive materials.
     pub fn emitter(emission: Vec3) -> Self {
         Self {
-            albedo: Vec3::ZERO,
             emission,
             two_sided: false,
-            albedo_texture: None,
-            emission_texture: None,
+            ..Self::diffuse(Vec3::ZERO)
         }
+    }
+
+    /// A non-emitting, untextured glTF metallic-roughness material with the specification's full
+    /// specular reflection (specular weight 1).
+    pub fn metallic_roughness(base_color: Vec3, metallic: f32, roughness: f32) -> Self {
+        Self {
+            metallic,
+            roughness,
+            specular: 1.0,
+            ..Self::diffuse(base_color)
+        }
+    }
+
+    /// Whether the reflection is exactly Lambertian (metallic 0 and specular weight 0), so that
+    /// an integrator shades it with f = albedo/π and cosine sampling.
+    #[inline]
+    pub fn is_lambertian(&self) -> bool {
+        self.metallic == 0.0 && self.specular == 0.0
     }
 
     /// Whether the material's emission factor is non-zero (a texture can still make it black
@@ -137,9 +172,10 @@ pub enum SceneError {
         /// The triangles the texture coordinates cover.
         found: usize,
     },
-    /// A material has a negative or non-finite albedo or emission.
+    /// A material has an albedo, metallic, roughness or specular weight outside [0, 1], or a
+    /// negative or non-finite emission (a scalar is reported in all three channels).
     #[error(
-        "material {index} has an invalid value: {what} = {value} (albedo must lie in [0, 1], emission must be finite and ≥ 0)"
+        "material {index} has an invalid value: {what} = {value} (albedo, metallic, roughness and specular must lie in [0, 1], emission must be finite and ≥ 0)"
     )]
     InvalidMaterial {
         /// The material's index.
@@ -214,6 +250,19 @@ impl Scene {
                     value: m.albedo,
                 });
             }
+            for (what, x) in [
+                ("metallic", m.metallic),
+                ("roughness", m.roughness),
+                ("specular", m.specular),
+            ] {
+                if !(0.0..=1.0).contains(&x) {
+                    return Err(SceneError::InvalidMaterial {
+                        index,
+                        what,
+                        value: Vec3::splat(x),
+                    });
+                }
+            }
             if !(m.emission.is_finite() && m.emission.min_element() >= 0.0) {
                 return Err(SceneError::InvalidMaterial {
                     index,
@@ -253,6 +302,19 @@ impl Scene {
             None => m.albedo,
             Some(t) => m.albedo * self.lookup(triangle, t, b1, b2),
         }
+    }
+
+    /// The reflection at barycentrics (b1, b2) of triangle `triangle`: its material's
+    /// metallic-roughness parameters with the (textured) [`Scene::albedo`] as base colour.
+    #[inline]
+    pub fn reflection(&self, triangle: u32, b1: f32, b2: f32) -> MetallicRoughness {
+        let m = self.material_of(triangle);
+        MetallicRoughness::with_specular(
+            self.albedo(triangle, b1, b2),
+            m.metallic,
+            m.roughness,
+            m.specular,
+        )
     }
 
     /// Radiance emitted from barycentrics (b1, b2) of triangle `triangle`, whose geometric

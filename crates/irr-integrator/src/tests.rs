@@ -152,6 +152,9 @@ pub(crate) fn furnace(c: Vec3, rho: f32, le: f32) -> Scene {
         albedo: Vec3::splat(rho),
         emission: Vec3::splat(le),
         two_sided: true,
+        metallic: 0.0,
+        roughness: 1.0,
+        specular: 0.0,
         albedo_texture: None,
         emission_texture: None,
     };
@@ -223,6 +226,9 @@ fn white_furnace_bounded_depth() {
         albedo: Vec3::splat(rho as f32),
         emission: Vec3::splat(le as f32),
         two_sided: true,
+        metallic: 0.0,
+        roughness: 1.0,
+        specular: 0.0,
         albedo_texture: None,
         emission_texture: None,
     };
@@ -351,6 +357,9 @@ fn light_sampler_is_a_distribution() {
                 albedo: Vec3::ZERO,
                 emission: Vec3::splat(0.1),
                 two_sided: true,
+                metallic: 0.0,
+                roughness: 1.0,
+                specular: 0.0,
                 albedo_texture: None,
                 emission_texture: None,
             },
@@ -471,5 +480,106 @@ fn first_hits_come_with_the_answers_at_no_extra_ray_where_the_integrator_finds_t
             plain_rays.closest + extra_per_ray * rays.len() as u64,
             "{name}"
         );
+    }
+}
+
+/// The directional albedo ∫ f(wo, wi) cos θi dωi of `m` for `wo` (local frame, normal +z) by
+/// midpoint quadrature on n × n cells: the diffuse lobe over wi by the cosine-weighted map
+/// (∫ g cos dω = π · mean of g over the unit square mapped by `sample_cosine_hemisphere`), the
+/// glossy lobe over the microfacet normal wm with wi = reflect(wo, wm) and dωi = 4 |wo·wm| dωm
+/// (Walter et al. 2007, eq. 14) on a grid in θm spaced for the lobe's width α, as irr-bsdf's
+/// own tests integrate it.
+fn directional_albedo(m: &irr_bsdf::MetallicRoughness, wo: Vec3, n: usize) -> f64 {
+    let mut diffuse = 0.0f64;
+    for i in 0..n {
+        for j in 0..n {
+            let u = glam::Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+            let wi = irr_sampling::sample_cosine_hemisphere(u);
+            diffuse += f64::from(m.eval_lobes(wo, wi).diffuse.x);
+        }
+    }
+    diffuse *= PI / (n * n) as f64;
+    let alpha = f64::from(m.alpha());
+    let (dv, dphi) = (1.0 / n as f64, std::f64::consts::TAU / n as f64);
+    let mut glossy = 0.0f64;
+    for i in 0..n {
+        let v = (i as f64 + 0.5) * dv;
+        let theta = (alpha * v / (1.0 - v)).atan();
+        let jacobian = alpha / ((1.0 - v).powi(2) + (alpha * v).powi(2));
+        let (sin_t, cos_t) = theta.sin_cos();
+        for j in 0..n {
+            let (sin_p, cos_p) = ((j as f64 + 0.5) * dphi).sin_cos();
+            let wm = glam::DVec3::new(sin_t * cos_p, sin_t * sin_p, cos_t);
+            let d = wo.as_dvec3().dot(wm);
+            let wi = 2.0 * d * wm - wo.as_dvec3();
+            if d <= 0.0 || wi.z <= 0.0 {
+                continue;
+            }
+            let f = f64::from(m.eval_lobes(wo, wi.as_vec3()).glossy.x);
+            glossy += f * wi.z * 4.0 * d * sin_t * jacobian * dv * dphi;
+        }
+    }
+    diffuse + glossy
+}
+
+/// A glossy white furnace: a closed sphere that emits Le from both faces and reflects by the
+/// glTF metallic-roughness model. With one bounce every point sees Le from every direction, so
+/// the radiance towards the camera is Le (1 + A(wo)), A the directional albedo at the hit's wo
+/// (by quadrature, `directional_albedo`). This checks the path tracer's light sampling, its BSDF
+/// sampling and their power-heuristic weights for glossy lobes together. Tolerance: 6 standard
+/// errors (module docs) plus the quadrature's error, taken as the whole difference between 256²
+/// and 512² cells (second-order midpoint rule: the 512² error is about a third of it).
+#[test]
+fn glossy_furnace_one_bounce() {
+    let le = 1.5f32;
+    for (base, metallic, roughness) in [(0.8f32, 1.0f32, 0.3f32), (0.6, 0.0, 0.5), (0.9, 0.5, 0.15)]
+    {
+        let material = Material {
+            emission: Vec3::splat(le),
+            two_sided: true,
+            ..Material::metallic_roughness(Vec3::splat(base), metallic, roughness)
+        };
+        let s = scene(&[icosphere(Vec3::ZERO, 2.0, 2, 0)], vec![material]);
+        let pt = PathTracer::new(PathSettings {
+            max_depth: 1,
+            rr_start: 5,
+        });
+        // From off-centre, at the wall nearly head-on, obliquely and at a grazing angle.
+        let origin = Vec3::new(1.2, 0.0, 0.0);
+        for (k, dir) in [
+            Vec3::new(1.0, 0.1, 0.05),
+            Vec3::new(0.3, 1.0, 0.2),
+            Vec3::new(0.95, -0.05, 1.0),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let ray = Ray::new(origin, dir.normalize());
+            let surface = first_surface(&s, &ray);
+            let x = crate::path::ShadingPoint::new(&surface, -ray.direction);
+            let frame = irr_sampling::Frame::from_normal(x.ns);
+            let wo = frame.to_local(x.wo);
+            let m = s.reflection(x.triangle, x.b1, x.b2);
+            let (fine, coarse) = (
+                directional_albedo(&m, wo, 512),
+                directional_albedo(&m, wo, 256),
+            );
+            let mut rays = RayCounter::default();
+            let est = estimate(20_000, |i| {
+                let key = SampleKey::new(11, u64::from(i), k as u64);
+                pt.li(&s, &ray, &mut Dimensions::new(key), &mut rays)
+            });
+            let expected = f64::from(le) * (1.0 + fine);
+            let quad_err = f64::from(le) * (fine - coarse).abs();
+            let band = 6.0 * est.1 + quad_err + 1e-6 * expected;
+            assert!(
+                (est.0 - expected).abs() < band,
+                "base {base} metallic {metallic} roughness {roughness} cos θo {}: mean {} vs {expected} \
+                 (se {}, quadrature ±{quad_err})",
+                wo.z,
+                est.0,
+                est.1
+            );
+        }
     }
 }

@@ -486,6 +486,9 @@ mod tests {
             albedo: Vec3::new(0.5, 0.5, 0.05),
             emission: Vec3::splat(2.0),
             two_sided: false,
+            metallic: 0.0,
+            roughness: 1.0,
+            specular: 0.0,
             albedo_texture: Some(TextureRef::new(1, 3)),
             emission_texture: Some(TextureRef {
                 transform: shift,

@@ -535,6 +535,7 @@ mod tests {
             triangle: 0,
             b1: 0.0,
             b2: 0.0,
+            wo: Vec3::Y,
         };
         for i in 0..MIN_DEPOSITS {
             assert_eq!(cache.irradiance(&x), None, "{i} deposits");

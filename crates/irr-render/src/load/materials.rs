@@ -151,6 +151,9 @@ impl Loader<'_> {
                 albedo: clamped_albedo,
                 emission,
                 two_sided: m.double_sided(),
+                metallic: 0.0,
+                roughness: 1.0,
+                specular: 0.0,
                 albedo_texture,
                 emission_texture,
             });

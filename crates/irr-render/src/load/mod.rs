@@ -379,6 +379,9 @@ impl<'a> Loader<'a> {
                 albedo: Vec3::ONE,
                 emission: Vec3::ZERO,
                 two_sided: false,
+                metallic: 0.0,
+                roughness: 1.0,
+                specular: 0.0,
                 albedo_texture: None,
                 emission_texture: None,
             });
