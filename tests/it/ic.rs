@@ -836,3 +836,121 @@ fn records_cover_the_same_screen_area_on_a_slanted_plane() {
         "at 80° {slanted:.4} records per pixel, frontal {frontal:.4} (bound {bound:.2}×)"
     );
 }
+
+/// Glossy surfaces: the cache and the path tracer converge to the same image. A white furnace
+/// (assets/furnace.glb, a closed sphere) whose every triangle emits Le = 1 from both faces and
+/// whose triangles alternate between a Lambertian white and a glossy half-metal: the cache
+/// takes ρ_d/π·E on the glossy triangles and path-traces the rest of their BSDF (its sample
+/// weighted by f − ρ_d/π), gathers path-trace the light of glossy hits, and light-cache paths
+/// carry light through glossy vertices to the Lambertian ones' deposits; every way, the image
+/// mean must match the path tracer's. Four reflections: enough for each of those routes, short
+/// enough to keep the paths' noise low.
+///
+/// Tolerance: the image means of K = 8 seeds per integrator are independent; their difference
+/// must lie within 5 standard errors of it (each side's sample deviation / √K, combined), plus
+/// 1e-5 of the mean for f32 rounding. The sphere keeps the irradiance nearly the same at every
+/// point (by its symmetry, up to the alternation of the triangles), so interpolation adds no
+/// bias measurable at that noise: a wrong weight in any of the routes above (a missing residual,
+/// a double-counted emitter hit, a lost MIS weight) moves the mean by percents.
+#[test]
+fn glossy_surfaces_converge_to_the_path_tracer() {
+    let sphere = load_scene(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/furnace.glb"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let g = sphere.scene.geometry();
+    let mesh = irr_geometry::TriangleMesh {
+        positions: (0..g.triangle_count() as u32)
+            .flat_map(|id| g.triangle(id).p)
+            .collect(),
+        indices: (0..g.triangle_count() as u32)
+            .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+            .collect(),
+        normals: None,
+        material_ids: (0..g.triangle_count() as u32).map(|i| i % 2).collect(),
+    };
+    let glow = |m: Material| Material {
+        emission: Vec3::ONE,
+        two_sided: true,
+        ..m
+    };
+    let materials = vec![
+        glow(Material::diffuse(Vec3::splat(0.7))),
+        glow(Material::metallic_roughness(
+            Vec3::new(0.9, 0.7, 0.5),
+            0.5,
+            0.3,
+        )),
+    ];
+    let scene = Scene::new(
+        Geometry::build(&[mesh]).unwrap_or_else(|e| panic!("{e}")),
+        materials,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let camera = sphere.camera_for(12, 12);
+    let settings = |seed, spp| RenderSettings {
+        width: 12,
+        height: 12,
+        spp,
+        seed,
+        threads: 0,
+    };
+    let path = PathSettings {
+        max_depth: 4,
+        ..PathSettings::default()
+    };
+    let stats = |means: &[f64]| {
+        let k = means.len() as f64;
+        let mean = means.iter().sum::<f64>() / k;
+        let var = means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (k - 1.0);
+        (mean, var / k)
+    };
+    let pt: Vec<f64> = (0..8u64)
+        .map(|seed| {
+            let image = render(
+                &scene,
+                &camera,
+                &PathTracer::new(path),
+                &settings(seed, 64),
+                false,
+            )
+            .unwrap_or_else(|e| panic!("{e}"))
+            .image;
+            f64::from(image.mean().x)
+        })
+        .collect();
+    let (pt_mean, pt_var) = stats(&pt);
+    for bounce_mode in [
+        irr_render::BounceMode::LightCache,
+        irr_render::BounceMode::PathTraced,
+    ] {
+        let ic: Vec<f64> = (0..8u64)
+            .map(|seed| {
+                let ic = IcSettings {
+                    error: 2.0,
+                    strata_m: 8,
+                    strata_n: 32,
+                    bounce_mode,
+                    path,
+                    ..IcSettings::default()
+                };
+                f64::from(
+                    ic_image(&scene, &camera, ic, &settings(100 + seed, 16))
+                        .0
+                        .mean()
+                        .x,
+                )
+            })
+            .collect();
+        let (ic_mean, ic_var) = stats(&ic);
+        let band = 5.0 * (pt_var + ic_var).sqrt() + 1e-5 * pt_mean;
+        println!(
+            "{bounce_mode:?}: cache {ic_mean:.5} vs path {pt_mean:.5} ({:+.3} %, se {:.3} % and {:.3} %)",
+            100.0 * (ic_mean / pt_mean - 1.0),
+            100.0 * ic_var.sqrt() / pt_mean,
+            100.0 * pt_var.sqrt() / pt_mean
+        );
+        assert!(
+            (ic_mean - pt_mean).abs() <= band,
+            "{bounce_mode:?}: cache {ic_mean} vs path {pt_mean} (band {band:e})"
+        );
+    }
+}

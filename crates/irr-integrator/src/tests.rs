@@ -525,8 +525,9 @@ fn directional_albedo(m: &irr_bsdf::MetallicRoughness, wo: Vec3, n: usize) -> f6
 /// A glossy white furnace: a closed sphere that emits Le from both faces and reflects by the
 /// glTF metallic-roughness model. With one bounce every point sees Le from every direction, so
 /// the radiance towards the camera is Le (1 + A(wo)), A the directional albedo at the hit's wo
-/// (by quadrature, `directional_albedo`). This checks the path tracer's light sampling, its BSDF
-/// sampling and their power-heuristic weights for glossy lobes together. Tolerance: 6 standard
+/// (by quadrature, `directional_albedo`). This checks the light sampling, the BSDF sampling and
+/// their power-heuristic weights for glossy lobes together, in the path tracer and in the
+/// cache's direct light (two light samples against one BSDF sample). Tolerance: 6 standard
 /// errors (module docs) plus the quadrature's error, taken as the whole difference between 256²
 /// and 512² cells (second-order midpoint rule: the 512² error is about a third of it).
 #[test]
@@ -540,10 +541,19 @@ fn glossy_furnace_one_bounce() {
             ..Material::metallic_roughness(Vec3::splat(base), metallic, roughness)
         };
         let s = scene(&[icosphere(Vec3::ZERO, 2.0, 2, 0)], vec![material]);
-        let pt = PathTracer::new(PathSettings {
+        let path = PathSettings {
             max_depth: 1,
             rr_start: 5,
-        });
+        };
+        let pt = PathTracer::new(path);
+        // The cache's direct light: its light samples weighted against the BSDF sample it also
+        // traces for the glossy lobe (no cache level at one bounce).
+        let mut ic = crate::IrradianceCacheIntegrator::new(crate::IcSettings {
+            path,
+            ..crate::IcSettings::default()
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+        ic.preprocess(&s);
         // From off-centre, at the wall nearly head-on, obliquely and at a grazing angle.
         let origin = Vec3::new(1.2, 0.0, 0.0);
         for (k, dir) in [
@@ -565,21 +575,24 @@ fn glossy_furnace_one_bounce() {
                 directional_albedo(&m, wo, 256),
             );
             let mut rays = RayCounter::default();
-            let est = estimate(20_000, |i| {
-                let key = SampleKey::new(11, u64::from(i), k as u64);
-                pt.li(&s, &ray, &mut Dimensions::new(key), &mut rays)
-            });
             let expected = f64::from(le) * (1.0 + fine);
             let quad_err = f64::from(le) * (fine - coarse).abs();
-            let band = 6.0 * est.1 + quad_err + 1e-6 * expected;
-            assert!(
-                (est.0 - expected).abs() < band,
-                "base {base} metallic {metallic} roughness {roughness} cos θo {}: mean {} vs {expected} \
-                 (se {}, quadrature ±{quad_err})",
-                wo.z,
-                est.0,
-                est.1
-            );
+            for integrator in [&pt as &dyn Integrator, &ic] {
+                let est = estimate(20_000, |i| {
+                    let key = SampleKey::new(11, u64::from(i), k as u64);
+                    integrator.li(&s, &ray, &mut Dimensions::new(key), &mut rays)
+                });
+                let band = 6.0 * est.1 + quad_err + 1e-6 * expected;
+                assert!(
+                    (est.0 - expected).abs() < band,
+                    "{}: base {base} metallic {metallic} roughness {roughness} cos θo {}: mean {} \
+                     vs {expected} (se {}, quadrature ±{quad_err})",
+                    integrator.name(),
+                    wo.z,
+                    est.0,
+                    est.1
+                );
+            }
         }
     }
 }

@@ -8,7 +8,9 @@
 //! (π·L_reflected(v₊₁)/q with q the Russian-roulette probability of continuing, or π·B/q when
 //! the path left the scene). Each estimate is unbiased for E(v) (with the path tracer's limit
 //! on reflections), and a path's vertices share its suffix, so a vertex costs about one
-//! closest-hit ray and one shadow ray.
+//! closest-hit ray and one shadow ray. Paths go on through glossy vertices with their BSDF
+//! (sampled and weighted by it), but only Lambertian vertices deposit: a gather ray that hits
+//! a glossy surface path-traces its light with the whole BSDF.
 //!
 //! The deposits are averaged in cells of a world-space grid, keyed by the cell and by the
 //! shading normal's dominant axis and sign (six buckets), so that the two sides of a thin wall,
@@ -29,16 +31,16 @@
 //! records and shows as a smooth tint, not as record-sized splotches. docs/performance.md,
 //! "Continuations", has the measured bias against the path tracer.
 
+use crate::bsdf::Bsdf;
 use crate::integrator::RayCounter;
 use crate::path::{ShadingPoint, sample_light};
 use crate::scene::Scene;
 use glam::{DVec3, Vec3};
 use irr_geometry::Ray;
+use irr_sampling::SampleKey;
 use irr_sampling::rng::Dimensions;
-use irr_sampling::{Frame, SampleKey, sample_cosine_hemisphere};
 use std::collections::HashMap;
 use std::collections::hash_map::DefaultHasher;
-use std::f32::consts::PI;
 use std::hash::BuildHasherDefault;
 
 /// The fewest deposits a cell must hold to be used. Below it the cell's mean rests on a few
@@ -239,7 +241,9 @@ pub const DEPOSITS_PER_PATH: usize = 16;
 /// One depositing vertex's estimate while the path goes on.
 struct Slot {
     key: CellKey,
-    /// The product of the factors ρ(vⱼ)/q(vⱼ₋₁) from the slot's vertex to the current one.
+    /// What turns radiance arriving at the current vertex along its drawn direction into the
+    /// slot's irradiance: cos θ/(pdf·q) of the slot's own draw times f·cos θ/(pdf·q) of each
+    /// later vertex's draw up to the current one.
     factor: Vec3,
     irradiance: Vec3,
     /// Black vertices reflect nothing, so no gather reads their cell for them: not deposited
@@ -247,15 +251,17 @@ struct Slot {
     deposit: bool,
 }
 
-/// Follows a camera ray through the scene by cosine-weighted bounces (Russian roulette on the
-/// albedo, at least [`MIN_CONTINUATION`], from vertex `rr_start` on) and returns the estimate of
-/// the irradiance at each of its first [`DEPOSITS_PER_PATH`] vertices, filed under its cell of
-/// `cache`. All randomness comes from `key`, so the deposits do not depend on the thread that
+/// Follows a camera ray through the scene by BSDF-sampled bounces (cosine-weighted on
+/// Lambertian surfaces; Russian roulette on the albedo, at least [`MIN_CONTINUATION`], from
+/// vertex `rr_start` on) and returns the estimate of the irradiance at each of its first
+/// [`DEPOSITS_PER_PATH`] Lambertian vertices, filed under its cell of `cache`. All randomness comes from `key`, so the deposits do not depend on the thread that
 /// traces them.
 ///
-/// The estimate at vertex k unrolls E(v) = d(v) + (ρ(v₊₁)/q(v))·E(v₊₁), d(v) the light arriving
-/// at v with no reflection beyond it (its light sample's irradiance, and π·B/q(v) when the path
-/// left the scene from v): the d of each later vertex, carried back by the factors between. A
+/// The estimate at vertex k unrolls E(v) = d(v) + (cos θ/(pdf·q))(v)·R(v₊₁), d(v) the light
+/// arriving at v with no reflection beyond it (its light sample's irradiance, and the background
+/// B through the drawn direction's weight when the path left the scene from v), and R(v) the
+/// radiance v reflects back along the path, R(v) = f·d-like terms + (f cos θ/(pdf·q))(v)·R(v₊₁):
+/// on a Lambertian path the familiar E(v) = d(v) + (ρ(v₊₁)/q(v))·E(v₊₁). A
 /// gather ray's hit is the second reflection from the camera at least, so what it reflects may
 /// reflect at most `max_depth` − 2 more times: every vertex's estimate takes the d of itself
 /// and of the `max_depth` − 2 vertices after it, whatever its own depth on its path, so the
@@ -278,8 +284,9 @@ pub fn trace_light_path(
     let geometry = scene.geometry();
     let mut dims = Dimensions::new(key);
     let mut slots: Vec<Slot> = Vec::with_capacity(DEPOSITS_PER_PATH);
-    // Adds light arriving at vertex j with no further reflection to every slot whose window
-    // holds j.
+    // Adds light arriving at vertex j along the direction drawn there, with no further
+    // reflection, to every slot whose window holds j (through the slot's factor, which holds
+    // that draw's weight).
     let add = |slots: &mut Vec<Slot>, j: usize, light: Vec3| {
         for (k, slot) in slots.iter_mut().enumerate() {
             if j - k <= after {
@@ -288,16 +295,13 @@ pub fn trace_light_path(
         }
     };
     let mut ray = *ray;
-    // 1/q of the vertex before the one being reached.
-    let mut inv_q = 1.0f32;
     let mut j = 0usize;
     loop {
         rays.closest += 1;
         let Some(hit) = geometry.intersect(&ray) else {
-            // The background's light, found by a cosine-distributed direction with probability
-            // q of having gone on: irradiance π·B/q at the vertex it left from, vertex j − 1.
+            // The background's light arrives at vertex j − 1 along its drawn direction.
             if j > 0 {
-                add(&mut slots, j - 1, PI * inv_q * scene.background());
+                add(&mut slots, j - 1, scene.background());
             }
             break;
         };
@@ -307,45 +311,61 @@ pub fn trace_light_path(
         }
         let surface = geometry.surface(&ray, &hit);
         let x = ShadingPoint::new(&surface, -ray.direction);
-        let albedo = scene.albedo(x.triangle, x.b1, x.b2);
-        // This vertex's worth, as irradiance at the one before.
-        let carry = albedo * inv_q;
-        for (k, slot) in slots.iter_mut().enumerate() {
-            if j - k <= after {
-                slot.factor *= carry;
-            }
-        }
+        let bsdf = Bsdf::at(scene, &x);
         if j < DEPOSITS_PER_PATH {
             slots.push(Slot {
                 key: cache.key(&x),
-                factor: Vec3::ONE,
+                factor: Vec3::ZERO,
                 irradiance: Vec3::ZERO,
-                deposit: albedo != Vec3::ZERO,
+                // Gathers read cells for Lambertian hits only (a glossy hit's light is
+                // path-traced), and black vertices reflect nothing (their walk ends there, so
+                // their estimate would lack its indirect part).
+                deposit: bsdf.is_lambertian() && !bsdf.is_black(),
             });
         }
-        // The direct irradiance by one light sample: Le·cos θ / pdf (the next vertex's emission
-        // is never added, so no light is counted twice).
-        let direct = sample_light(scene, &x, &mut dims, rays)
-            .map_or(Vec3::ZERO, |a| a.le * (a.cos_surface / a.pdf));
-        add(&mut slots, j, direct);
+        // One light sample (the next vertex's emission is never added, so no light is counted
+        // twice): its irradiance Le·cos θ / pdf for this vertex's own slot, and the radiance
+        // f·Le·cos θ / pdf it reflects back along the path for the earlier slots.
+        if let Some(a) = sample_light(scene, &x, &mut dims, rays) {
+            let irradiance = a.le * (a.cos_surface / a.pdf);
+            let reflected = bsdf.eval(a.wi) * irradiance;
+            for (k, slot) in slots.iter_mut().enumerate() {
+                if k == j {
+                    slot.irradiance += irradiance;
+                } else if j - k <= after {
+                    slot.irradiance += slot.factor * reflected;
+                }
+            }
+        }
         // Russian roulette. Every vertex deposits its own estimate, in which the rest of the
-        // path counts at full weight (ρ(v) multiplies it only for the vertices before), so the
-        // probability of going on is never below MIN_CONTINUATION: a dark wall (ρ = 10⁻⁶) would
-        // otherwise almost never carry the light beyond it to its own deposit, an unbiased but so
-        // heavy-tailed estimate that its finite means read low.
+        // path counts at full weight (the BSDF multiplies it only for the vertices before), so
+        // the probability of going on is never below MIN_CONTINUATION: a dark wall (ρ = 10⁻⁶)
+        // would otherwise almost never carry the light beyond it to its own deposit, an
+        // unbiased but so heavy-tailed estimate that its finite means read low.
         let q = if j as u64 + 1 >= u64::from(rr_start) {
-            albedo.max_element().clamp(MIN_CONTINUATION, 1.0)
+            bsdf.albedo_estimate()
+                .max_element()
+                .clamp(MIN_CONTINUATION, 1.0)
         } else {
             1.0
         };
         let u_rr = dims.next_1d();
-        let w = Frame::from_normal(x.ns).to_world(sample_cosine_hemisphere(dims.next_2d()));
+        let draw = bsdf.sample(dims.next_2d());
         // A direction below the geometric surface carries no light (as in the path tracer).
-        if albedo == Vec3::ZERO || u_rr >= q || w.dot(x.ng) <= 0.0 {
+        let Some(d) = draw.filter(|d| !bsdf.is_black() && u_rr < q && d.wi.dot(x.ng) > 0.0) else {
             break;
+        };
+        // The drawn direction's weights: cos θ / (pdf·q) turns the radiance arriving along it
+        // into this vertex's irradiance (π/q on a Lambertian vertex); f·cos θ / (pdf·q) carries
+        // it, reflected here, back to the earlier vertices (ρ/q on a Lambertian one).
+        for (k, slot) in slots.iter_mut().enumerate() {
+            if k == j {
+                slot.factor = Vec3::splat(d.cos / (d.pdf * q));
+            } else if j - k <= after {
+                slot.factor *= d.weight / q;
+            }
         }
-        inv_q = 1.0 / q;
-        ray = Ray::spawn(x.position, x.ng, w);
+        ray = Ray::spawn(x.position, x.ng, d.wi);
         j += 1;
     }
     slots
@@ -364,6 +384,7 @@ mod tests {
     use crate::Material;
     use crate::tests::{assert_close, first_surface, furnace, scene};
     use irr_sampling::sample_uniform_sphere;
+    use std::f32::consts::PI;
 
     /// Every deposit is an unbiased estimate of the irradiance at its vertex, with the depth
     /// limit: in a white furnace (a closed sphere that emits Le from both faces and reflects ρ)

@@ -11,10 +11,24 @@
 //!   `L D E`. NEE alone covers every such path (the light sampler reaches every point of every
 //!   emitting triangle, and every punctual light), so no BSDF-sampled emitter hit is needed;
 //! - `indirect`: (ρ(x₀)/π)·E_ind(x₀), paths `L D D+ E` and `L D+ B`, with E_ind interpolated
-//!   from the cache. **The background's light that reflects is here**, as in the path tracer:
+//!   from the cache (on a glossy x₀, see "Glossy surfaces" below). **The background's light that reflects is here**, as in the path tracer:
 //!   the cache stores the irradiance due to the background as well as to reflected light
 //!   (Radiance, likewise, computes its sky's diffuse light in the ambient calculation), so a
 //!   gather ray that leaves the scene brings back B.
+//!
+//!
+//! # Glossy surfaces
+//! The cache holds irradiance, which stands exactly for a Lambertian surface's reflection only.
+//! On a glossy x₀ (the glTF metallic-roughness model, module `bsdf`) the cache supplies
+//! ρ_d/π·E_ind with ρ_d the diffuse lobe's directional albedo (irr-bsdf's `diffuse_albedo`,
+//! exact under uniform light), and one sample of x₀'s BSDF per camera sample supplies the rest:
+//! the light its ray finds, path-traced, weighted by the residual f − ρ_d/π (which holds the
+//! glossy lobe and the diffuse lobe's departure from its stand-in, and may be negative), so
+//! that the two together estimate ∫ f L_ind cos exactly and the image converges to the path
+//! tracer's. The same sample's emitter hit joins the direct light by multiple importance
+//! sampling against the light samples. A gather ray that hits a glossy surface path-traces
+//! its light with the whole BSDF (no cache is read there), and the light cache's paths go on
+//! through glossy vertices without depositing at them.
 //!
 //! A record's gather at x traces one cosine-distributed ray per cell of an M×N
 //! [`HemisphereStrata`]; the radiance a ray brings back from the point x₁ it hits is what x₁
@@ -48,8 +62,11 @@ pub use settings::{
 };
 pub use value::IcValue;
 
+use crate::bsdf::Bsdf;
 use crate::integrator::{Batching, FirstHit, Integrator, RayCounter};
-use crate::path::{PathSettings, PathTracer, Radiance, ShadingPoint, sample_light};
+use crate::path::{
+    PathSettings, PathTracer, Radiance, ShadingPoint, power_heuristic, sample_light,
+};
 use crate::scene::Scene;
 use builder::forward_to_core;
 use gather::Traced;
@@ -101,15 +118,36 @@ pub fn direct_nee(
     dims: &mut Dimensions,
     rays: &mut RayCounter,
 ) -> Vec3 {
-    let albedo = scene.albedo(x.triangle, x.b1, x.b2);
-    if albedo == Vec3::ZERO || scene.lights().is_empty() {
+    direct_light(scene, x, &Bsdf::at(scene, x), samples, false, dims, rays)
+}
+
+/// [`direct_nee`] for the BSDF `bsdf` at `x`. With `mis`, each light sample of an emitting
+/// triangle is weighted by the power heuristic against one BSDF sample (Veach 1997, eq. 9.13
+/// with sample counts: w = (n·p_light)² / ((n·p_light)² + p_bsdf²) for n light samples), and
+/// the caller adds the BSDF sample's emitter hit with the complementary weight
+/// ([`IrradianceCacheIntegrator::glossy_sample`]).
+fn direct_light(
+    scene: &Scene,
+    x: &ShadingPoint,
+    bsdf: &Bsdf,
+    samples: u32,
+    mis: bool,
+    dims: &mut Dimensions,
+    rays: &mut RayCounter,
+) -> Vec3 {
+    if bsdf.is_black() || scene.lights().is_empty() {
         return Vec3::ZERO;
     }
-    let f = albedo * FRAC_1_PI;
     let mut sum = Vec3::ZERO;
     for _ in 0..samples {
         if let Some(nee) = sample_light(scene, x, dims, rays) {
-            sum += f * nee.le * (nee.cos_surface / nee.pdf);
+            let w = if mis && !nee.delta {
+                let n_pdf = samples as f32 * nee.pdf;
+                power_heuristic(n_pdf, bsdf.pdf(nee.wi))
+            } else {
+                1.0
+            };
+            sum += bsdf.eval(nee.wi) * nee.le * (nee.cos_surface * w / nee.pdf);
         }
     }
     sum / samples as f32
@@ -289,10 +327,14 @@ impl IrradianceCacheIntegrator {
         };
         let mut dims = Dimensions::starting_at(key, 1);
         let x = ShadingPoint::new(surface, -w);
+        // The caches hold irradiance, which stands for a Lambertian surface's reflection only:
+        // a glossy hit's light is path-traced with its whole BSDF.
+        let material = scene.material_of(x.triangle);
+        let lambertian = material.is_lambertian();
         let albedo = scene.albedo(x.triangle, x.b1, x.b2);
         // Light cache: what the hit reflects is (ρ/π)·E from its cell, direct light included.
         // Where the cell is too sparse, the path-traced continuation below.
-        if self.core.settings.bounce_mode == BounceMode::LightCache {
+        if self.core.settings.bounce_mode == BounceMode::LightCache && lambertian {
             if albedo == Vec3::ZERO {
                 return Vec3::ZERO;
             }
@@ -304,6 +346,7 @@ impl IrradianceCacheIntegrator {
         // cache has no record (or on the deepest level), a path-traced continuation instead,
         // which brings its own NEE: the light at the hit is sampled once either way.
         let cached = if self.path_traced(level)
+            || !lambertian
             || albedo == Vec3::ZERO
             || self.core.settings.bounce_mode != BounceMode::Cached
         {
@@ -322,6 +365,58 @@ impl IrradianceCacheIntegrator {
                 r.direct + r.indirect
             }
         }
+    }
+}
+
+impl IrradianceCacheIntegrator {
+    /// The light a glossy x₀ reflects that the cache's ρ_d/π·E does not stand for, by one
+    /// sample of its BSDF (drawn from `dims`): (`direct`, `indirect`). If the sampled ray meets
+    /// an emitter, its emission counts towards `direct` with the power-heuristic weight
+    /// complementary to [`direct_light`]'s (`light_samples` of them, with `mis`); the light that
+    /// the point it meets reflects (path-traced with x₀'s continuation depth, as a level-0 gather
+    /// ray's, `continuation(0)`), or the background, counts towards `indirect` through the
+    /// residual BSDF f − ρ_d/π (`Bsdf::residual`), so that with ρ_d/π·E from the cache x₀
+    /// reflects ∫ f L_ind cos exactly in expectation: the image converges to the path tracer's.
+    fn glossy_sample(
+        &self,
+        scene: &Scene,
+        x: &ShadingPoint,
+        bsdf: &Bsdf,
+        light_samples: u32,
+        dims: &mut Dimensions,
+        rays: &mut RayCounter,
+    ) -> (Vec3, Vec3) {
+        let Some(draw) = bsdf.sample(dims.next_2d()) else {
+            return (Vec3::ZERO, Vec3::ZERO);
+        };
+        if draw.wi.dot(x.ng) <= 0.0 {
+            return (Vec3::ZERO, Vec3::ZERO);
+        }
+        let residual = bsdf.residual(draw.wi) * (draw.cos / draw.pdf);
+        let ray = Ray::spawn(x.position, x.ng, draw.wi);
+        rays.closest += 1;
+        let Some(hit) = scene.geometry().intersect(&ray) else {
+            // The background's light belongs to `indirect`.
+            return (Vec3::ZERO, residual * scene.background());
+        };
+        let surface = scene.geometry().surface(&ray, &hit);
+        let mut direct = Vec3::ZERO;
+        let le = scene.emitted_at(&surface, -draw.wi);
+        if le != Vec3::ZERO && light_samples > 0 {
+            let dist2 = (surface.position - x.position).length_squared();
+            let cos_light = surface.geometric_normal.dot(draw.wi).abs();
+            let pdf_light = scene.lights().pdf_area(surface.triangle) * dist2 / cos_light;
+            let w = if pdf_light.is_finite() {
+                power_heuristic(draw.pdf, light_samples as f32 * pdf_light)
+            } else {
+                0.0
+            };
+            direct = draw.weight * le * w;
+        }
+        let r = self
+            .continuation(0)
+            .reflected(scene, &surface, -draw.wi, dims, rays);
+        (direct, residual * (r.direct + r.indirect))
     }
 }
 

@@ -21,7 +21,8 @@
 
 use super::guard::{GuardRecord, GuardTest, Query};
 use super::levels::Level;
-use super::{FALLBACK_STREAM, IrradianceCacheIntegrator, direct_nee};
+use super::{FALLBACK_STREAM, IrradianceCacheIntegrator, direct_light};
+use crate::bsdf::Bsdf;
 use crate::integrator::{FirstHit, RayCounter};
 use crate::path::{Radiance, ShadingPoint, first_surface};
 use crate::scene::Scene;
@@ -110,16 +111,26 @@ impl IrradianceCacheIntegrator {
                 continue;
             }
             let x = ShadingPoint::new(&surface, wo);
-            // Direct light: NEE at x₀.
-            let direct = direct_nee(scene, &x, self.core.settings.direct_samples, d, rays);
+            let bsdf = Bsdf::at(scene, &x);
+            let light_samples = self.core.settings.direct_samples;
+            // Direct light: NEE at x₀; on a glossy x₀ weighted against the BSDF sample that
+            // also brings the light the cache leaves out (`glossy_sample`).
+            let glossy = !bsdf.is_lambertian();
+            let mut direct = direct_light(scene, &x, &bsdf, light_samples, glossy, d, rays);
+            let mut indirect = Vec3::ZERO;
+            if glossy {
+                let (more, residual) = self.glossy_sample(scene, &x, &bsdf, light_samples, d, rays);
+                direct += more;
+                indirect = residual;
+            }
             *o = Radiance {
                 emitted,
                 direct,
-                indirect: Vec3::ZERO,
+                indirect,
             };
-            // The cache holds irradiance, so the (textured) albedo of x₀ itself multiplies it,
-            // never a record's.
-            let albedo = scene.albedo(x.triangle, x.b1, x.b2);
+            // The cache holds irradiance, so the (textured) diffuse reflectance of x₀ itself
+            // multiplies it, never a record's.
+            let albedo = bsdf.diffuse_reflectance();
             if albedo != Vec3::ZERO && !self.core.levels.is_empty() {
                 pending.push(Pending {
                     index,
@@ -171,7 +182,7 @@ impl IrradianceCacheIntegrator {
                 }
             };
             out[p.index] = Radiance {
-                indirect: p.albedo * FRAC_1_PI * e,
+                indirect: p.partial.indirect + p.albedo * FRAC_1_PI * e,
                 ..p.partial
             };
         }

@@ -77,8 +77,12 @@ impl<V: IcValue> Core<V> {
             return None;
         }
         let (x, t) = self.walk(scene, level, ray, key, rays)?;
-        if level > 0 && scene.albedo(x.triangle, x.b1, x.b2) == Vec3::ZERO {
-            // A black surface reflects nothing: the level above never looks it up.
+        if level > 0
+            && (scene.albedo(x.triangle, x.b1, x.b2) == Vec3::ZERO
+                || !scene.material_of(x.triangle).is_lambertian())
+        {
+            // A black surface reflects nothing, and a glossy one's light is path-traced: the
+            // level above never looks either up.
             return None;
         }
         let mut guard = 0;
