@@ -135,7 +135,9 @@ class Builder:
     def material(
         self, name, albedo, emission=(0.0, 0.0, 0.0), double_sided=True, texture=None
     ):
-        """A Lambertian material: glTF's metallic-roughness model with metallic 0, roughness 1.
+        """A Lambertian material: glTF's metallic-roughness model with metallic 0 and
+        KHR_materials_specular's specularFactor 0, which removes the dielectric's specular layer
+        and leaves the Lambertian base of albedo baseColorFactor.
 
         `emission` is the emitted radiance (W sr^-1 m^-2 per channel); glTF clamps emissiveFactor
         to [0, 1], so a brighter emission is written as emissiveFactor = emission / max(emission)
@@ -143,23 +145,41 @@ class Builder:
         `texture()`) becomes the baseColorTexture, read through TEXCOORD_0; the albedo is then
         baseColorFactor times the texture's (linear) colour.
         """
+        return self.glossy_material(
+            name, albedo, 0.0, 1.0, specular=0.0, emission=emission,
+            double_sided=double_sided, texture=texture,
+        )
+
+    def glossy_material(
+        self, name, base, metallic, roughness, specular=1.0, emission=(0.0, 0.0, 0.0),
+        double_sided=True, texture=None,
+    ):
+        """glTF's metallic-roughness material (specularFactor 1 is the specification's own
+        dielectric; other values are written as KHR_materials_specular). See `material()` for
+        `emission` and `texture`."""
         m = {
             "name": name,
             "pbrMetallicRoughness": {
-                "baseColorFactor": [albedo[0], albedo[1], albedo[2], 1.0],
-                "metallicFactor": 0.0,
-                "roughnessFactor": 1.0,
+                "baseColorFactor": [base[0], base[1], base[2], 1.0],
+                "metallicFactor": metallic,
+                "roughnessFactor": roughness,
             },
             "doubleSided": double_sided,
         }
+        extensions = {}
+        if specular != 1.0:
+            extensions["KHR_materials_specular"] = {"specularFactor": specular}
+            self.extensions_used.add("KHR_materials_specular")
         if texture is not None:
             m["pbrMetallicRoughness"]["baseColorTexture"] = {"index": texture, "texCoord": 0}
         peak = max(emission)
         if peak > 0.0:
             m["emissiveFactor"] = [e / peak for e in emission]
             if peak != 1.0:
-                m["extensions"] = {"KHR_materials_emissive_strength": {"emissiveStrength": peak}}
+                extensions["KHR_materials_emissive_strength"] = {"emissiveStrength": peak}
                 self.extensions_used.add("KHR_materials_emissive_strength")
+        if extensions:
+            m["extensions"] = extensions
         self.materials.append(m)
         return len(self.materials) - 1
 
@@ -773,6 +793,48 @@ def textured_room():
 
 
 # ---------------------------------------------------------------------------------------------
+# The glossy room: the Cornell box with users' materials
+# ---------------------------------------------------------------------------------------------
+
+# The specification's metallic-roughness model on the Cornell box: a rough gold metal tall
+# block (base colour: gold's F0 in linear sRGB, as the glTF sample models use it), a glossy blue
+# plastic short block (a dielectric: white highlights over a blue base), a rough dielectric floor (specular 1, the glTF default) whose reflection of
+# the blocks and the light is visibly blurred, the textured room's poster on the back wall as a
+# semi-gloss dielectric, and the Cornell colours as matte dielectrics (roughness 1 with the
+# default specular layer). The ceiling light is the Cornell box's.
+GOLD = (1.0, 0.766, 0.336)
+BLUE = (0.05, 0.15, 0.5)
+
+
+def glossy_room():
+    b = Builder()
+    wall_tex = b.texture("glyphs and stripes", "textured-room-back-wall.png", 9729)  # LINEAR
+    floor = b.glossy_material("floor, rough dielectric", WHITE, 0.0, 0.35)
+    ceiling = b.glossy_material("ceiling, matte", WHITE, 0.0, 1.0)
+    red = b.glossy_material("red, matte", RED, 0.0, 1.0)
+    green = b.glossy_material("green, matte", GREEN, 0.0, 1.0)
+    poster = b.glossy_material("poster, semi-gloss", (1.0, 1.0, 1.0), 0.0, 0.5, texture=wall_tex)
+    gold = b.glossy_material("tall block, rough gold", GOLD, 1.0, 0.3)
+    plastic = b.glossy_material("short block, glossy plastic", BLUE, 0.0, 0.2)
+    light = b.material("light", LIGHT_ALBEDO, emission=LIGHT_RADIANCE, double_sided=False)
+    wall_size = 0.556
+    wall_corner, minus_x = (wall_size, 0.5488, 0.0), (-1.0, 0.0, 0.0)
+    surfaces = [
+        ("floor", floor, None),
+        ("ceiling", ceiling, None),
+        ("back_wall", poster, lambda p: planar_uvs(p, wall_corner, minus_x, DOWN, wall_size)),
+        ("right_wall", green, None),
+        ("left_wall", red, None),
+        ("short_block", plastic, None),
+        ("tall_block", gold, None),
+        ("light", light, None),
+    ]
+    add_cornell_surfaces(b, surfaces)
+    cornell_camera(b)
+    write_scene(b, "glossy-room", "Cornell box with glTF metallic-roughness materials, metres")
+
+
+# ---------------------------------------------------------------------------------------------
 # Known-answer scenes
 # ---------------------------------------------------------------------------------------------
 
@@ -908,6 +970,7 @@ if __name__ == "__main__":
     cornell_box()
     indirect_room()
     textured_room()
+    glossy_room()
     furnace()
     disk_light()
     ao_plane()

@@ -176,8 +176,8 @@ const LAMP_INTENSITY: f32 = 10.0;
 const ALBEDO: f32 = 0.8;
 
 /// The room of the lamp test, as Blender exports it to `.glb`: a floor (4 m × 4 m at y = 0) and a
-/// back wall (z = −2), grey (0.8), `doubleSided`, metallicFactor 0 and roughness 0.5 (which irr
-/// reads as Lambertian); a camera on a node; and either Blender's point lamp (`KHR_lights_punctual`
+/// back wall (z = −2), grey (0.8), `doubleSided`, metallicFactor 0 and roughness 0.5 (a rough
+/// dielectric, glossy: the lamp and its stand-in meet the same BRDF); a camera on a node; and either Blender's point lamp (`KHR_lights_punctual`
 /// used and required, the light on a node with a rotation, as Blender orients its lamps) or, in
 /// its place, an emissive sphere.
 fn lamp_room(emitter: Option<(&TriangleMesh, f32)>) -> Vec<u8> {

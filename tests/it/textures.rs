@@ -235,7 +235,7 @@ fn furnace_scene(
         name,
         json!({
             "asset": {"generator": "Khronos glTF Blender I/O v4.2.69", "version": "2.0"},
-            "extensionsUsed": ["KHR_materials_emissive_strength"],
+            "extensionsUsed": ["KHR_materials_emissive_strength", "KHR_materials_specular"],
             "scene": 0,
             "scenes": [{"name": "Scene", "nodes": [0, 1, 2]}],
             "nodes": [{"mesh": 0, "name": "Plane"}, {"mesh": 1, "name": "Walls"}, camera],
@@ -243,7 +243,8 @@ fn furnace_scene(
             "materials": [
                 quad_material,
                 {"name": "Glow", "doubleSided": true, "emissiveFactor": [1.0, 1.0, 1.0],
-                 "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 1.0}},
+                 "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 1.0},
+                                "KHR_materials_specular": {"specularFactor": 0.0}},
                  "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0],
                                           "metallicFactor": 0.0, "roughnessFactor": 0.5}}
             ],
@@ -370,7 +371,8 @@ fn checkerboard_pixels_follow_filter_and_wrap_modes() {
                 json!({"name": "Checker", "doubleSided": true,
                        "pbrMetallicRoughness": {"baseColorFactor": [FACTOR[0], FACTOR[1], FACTOR[2], 1.0],
                                                 "baseColorTexture": {"index": 0, "texCoord": 0},
-                                                "metallicFactor": 0.0}}),
+                                                "metallicFactor": 0.0},
+                       "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}}),
             );
             let loaded = load(&path);
             let inside: &[u32] = if linear { &[0, 3] } else { &[1, 2] };
@@ -405,7 +407,8 @@ fn a_blender_style_textured_file_renders_in_the_texture_colour() {
         json!({"magFilter": 9729, "minFilter": 9987}),
         json!({"name": "Wood", "doubleSided": true,
                "pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "texCoord": 0},
-                                        "metallicFactor": 0.0, "roughnessFactor": 0.5}}),
+                                        "metallicFactor": 0.0, "roughnessFactor": 0.5},
+               "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}}),
     );
     let loaded = load(&path);
     let features: Vec<&str> = loaded.warnings.iter().map(|w| w.feature.as_str()).collect();
@@ -557,11 +560,13 @@ fn a_half_black_emissive_texture_emits_half() {
         );
         let light = if textured {
             json!({"doubleSided": true, "emissiveFactor": [1.0, 1.0, 1.0],
-                   "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2.0}},
+                   "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2.0},
+                                  "KHR_materials_specular": {"specularFactor": 0.0}},
                    "emissiveTexture": {"index": 0},
                    "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0}})
         } else {
             json!({"doubleSided": true, "emissiveFactor": [1.0, 1.0, 1.0],
+                   "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}},
                    "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0}})
         };
         let path = b.finish(
@@ -569,11 +574,12 @@ fn a_half_black_emissive_texture_emits_half() {
             name,
             json!({
                 "asset": {"version": "2.0"},
-                "extensionsUsed": ["KHR_materials_emissive_strength"],
+                "extensionsUsed": ["KHR_materials_emissive_strength", "KHR_materials_specular"],
                 "scene": 0, "scenes": [{"nodes": [0, 1]}],
                 "nodes": [{"mesh": 0}, {"mesh": 1}],
                 "materials": [
-                    {"pbrMetallicRoughness": {"baseColorFactor": [rho, rho, rho, 1.0], "metallicFactor": 0.0}},
+                    {"pbrMetallicRoughness": {"baseColorFactor": [rho, rho, rho, 1.0], "metallicFactor": 0.0},
+                     "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}},
                     light
                 ],
                 "meshes": [{"primitives": [receiver]}, {"primitives": [emitter]}],
@@ -664,7 +670,8 @@ fn irradiance_cache_multiplies_by_the_albedo_at_the_shading_point() {
         "ic",
         &png(2, 2, &[[255; 3], [0; 3], [0; 3], [255; 3]]),
         json!({"magFilter": 9728}),
-        json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0}}),
+        json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0},
+               "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}}),
     );
     let mut doc: Value =
         serde_json::from_slice(&std::fs::read(&path).unwrap_or_else(|e| panic!("{e}")))

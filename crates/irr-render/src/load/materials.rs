@@ -59,11 +59,8 @@ impl Loader<'_> {
                 plural(n, "other scene", "other scenes")
             )
         });
-        let (mut metallic, mut alpha, mut maps) = (0, 0, 0);
+        let (mut alpha, mut maps, mut occlusion, mut specular_colour) = (0, 0, 0, 0);
         for (m, json) in d.materials().zip(&d.as_json().materials) {
-            if m.pbr_metallic_roughness().metallic_factor() > 0.0 {
-                metallic += 1;
-            }
             if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
                 alpha += 1;
             }
@@ -72,22 +69,35 @@ impl Loader<'_> {
                 json.pbr_metallic_roughness
                     .metallic_roughness_texture
                     .is_some(),
-            ) + usize::from(json.normal_texture.is_some())
-                + usize::from(json.occlusion_texture.is_some());
+            ) + usize::from(json.normal_texture.is_some());
+            occlusion += usize::from(json.occlusion_texture.is_some());
+            if let Some(s) = json.extensions.as_ref().and_then(|e| e.specular.as_ref()) {
+                specular_colour += usize::from(
+                    s.specular_texture.is_some()
+                        || s.specular_color_texture.is_some()
+                        || s.specular_color_factor.0 != [1.0; 3],
+                );
+            }
         }
         self.warnings.add("material-maps", maps, |n| {
             format!(
-                "{} ignored (irr's surfaces are Lambertian: it reads baseColorTexture and emissiveTexture only)",
+                "{} ignored (irr reads baseColorTexture and emissiveTexture; metallic and roughness come from their factors)",
                 plural(
                     n,
-                    "normal, occlusion or metallic-roughness texture",
-                    "normal, occlusion and metallic-roughness textures"
+                    "normal or metallic-roughness texture",
+                    "normal and metallic-roughness textures"
                 )
             )
         });
-        self.warnings.add("metallic", metallic, |n| {
+        self.warnings.add("occlusion-maps", occlusion, |n| {
             format!(
-                "{} metallicFactor > 0: metallic reflection ignored (irr's surfaces are diffuse, albedo baseColorFactor)",
+                "{} ignored (a global-illumination renderer computes occlusion: baked occlusion would count it twice)",
+                plural(n, "occlusion texture", "occlusion textures")
+            )
+        });
+        self.warnings.add("specular-colour", specular_colour, |n| {
+            format!(
+                "{} KHR_materials_specular colour or textures: ignored (irr reads its specularFactor only)",
                 plural(n, "material has", "materials have")
             )
         });
@@ -106,7 +116,7 @@ impl Loader<'_> {
         buffers: &[Vec<u8>],
     ) -> Result<(Vec<Material>, u32, Vec<Texture>), RenderError> {
         let mut out = Vec::new();
-        let mut clamped = 0;
+        let (mut clamped, mut clamped_factors) = (0, 0);
         let mut textures = Textures::default();
         let document = self.document;
         for (m, json) in document.materials().zip(&document.as_json().materials) {
@@ -122,6 +132,27 @@ impl Loader<'_> {
             if clamped_albedo != albedo {
                 clamped += 1;
             }
+            let pbr = &json.pbr_metallic_roughness;
+            let specular = json
+                .extensions
+                .as_ref()
+                .and_then(|e| e.specular.as_ref())
+                .map_or(1.0, |s| s.specular_factor.0);
+            let mut factors = [0.0f32; 3];
+            for (slot, (what, value)) in factors.iter_mut().zip([
+                ("metallicFactor", pbr.metallic_factor.0),
+                ("roughnessFactor", pbr.roughness_factor.0),
+                ("KHR_materials_specular specularFactor", specular),
+            ]) {
+                if !value.is_finite() {
+                    return Err(self.err(format!("material {name}: {what} {value} is not finite")));
+                }
+                *slot = value.clamp(0.0, 1.0);
+                if *slot != value {
+                    clamped_factors += 1;
+                }
+            }
+            let [metallic, roughness, specular] = factors;
             let strength = m.emissive_strength().unwrap_or(1.0);
             let emission = Vec3::from_array(m.emissive_factor()) * strength;
             if !emission.is_finite() || emission.min_element() < 0.0 {
@@ -151,9 +182,9 @@ impl Loader<'_> {
                 albedo: clamped_albedo,
                 emission,
                 two_sided: m.double_sided(),
-                metallic: 0.0,
-                roughness: 1.0,
-                specular: 0.0,
+                metallic,
+                roughness,
+                specular,
                 albedo_texture,
                 emission_texture,
             });
@@ -163,6 +194,12 @@ impl Loader<'_> {
             format!(
                 "{} baseColorFactor outside [0, 1]: clamped",
                 plural(n, "material has", "materials have")
+            )
+        });
+        self.warnings.add("factor-clamped", clamped_factors, |n| {
+            format!(
+                "{} outside [0, 1] (metallicFactor, roughnessFactor or specularFactor): clamped",
+                plural(n, "factor", "factors")
             )
         });
         let default = out.len() as u32;

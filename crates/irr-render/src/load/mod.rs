@@ -1,5 +1,5 @@
 //! glTF 2.0 loading: a `.gltf` (with external or `data:` URI buffers) or `.glb` file becomes
-//! world-space triangle meshes, diffuse materials with their textures, and a camera.
+//! world-space triangle meshes, metallic-roughness materials with their textures, and a camera.
 //!
 //! # What irr reads
 //! - The default scene (`scene`, else the first), its node hierarchy and transforms (matrix or
@@ -8,11 +8,15 @@
 //! - Triangle primitives (`TRIANGLES`, `TRIANGLE_STRIP`, `TRIANGLE_FAN`), indexed (u8, u16, u32
 //!   indices) or not; `POSITION`, `NORMAL` if present, and the `TEXCOORD_n` a textured material
 //!   reads (float, or normalized unsigned byte or short).
-//! - Materials: `baseColorFactor.rgb` is the diffuse albedo; `emissiveFactor` times
+//! - Materials: the metallic-roughness model (irr-bsdf, the specification's Appendix B):
+//!   `baseColorFactor.rgb`, `metallicFactor` and `roughnessFactor` (clamped into [0, 1], with a
+//!   warning), and `KHR_materials_specular`'s `specularFactor` (1 without the extension; 0 with
+//!   `metallicFactor` 0 makes a Lambertian surface of albedo `baseColorFactor`);
+//!   `emissiveFactor` times
 //!   `KHR_materials_emissive_strength.emissiveStrength` (1 without the extension) is the emitted
 //!   radiance in W·sr⁻¹·m⁻²; `doubleSided` says whether a surface emits from both faces or only
 //!   from its front face (counter-clockwise winding). A primitive without a material gets glTF's
-//!   default material (white, albedo 1), with a warning.
+//!   default material (a white rough metal), with a warning.
 //! - `baseColorTexture` and `emissiveTexture` (module `textures`): PNG or JPEG images from a
 //!   `bufferView`, a `data:` URI or a file inside the asset root, converted from sRGB to linear
 //!   once and multiplied by `baseColorFactor` / the emission at shading time (alpha is
@@ -28,21 +32,23 @@
 //!   `innerConeAngle` and `outerConeAngle` with glTF's smooth falloff.
 //!
 //! # What irr ignores, always with a warning
-//! Normal, occlusion and metallic-roughness textures, textures and images no base-colour or
-//! emissive texture uses, `minFilter` (no mip maps: every lookup uses `magFilter`), metallic
-//! reflection (`metallicFactor > 0`), transparency (`alphaMode` other than `OPAQUE`), vertex
+//! Normal and metallic-roughness textures (metallic and roughness come from the factors alone),
+//! occlusion textures (baked occlusion would darken light that a global-illumination renderer
+//! already shadows: counted twice), `KHR_materials_specular`'s colour and textures, textures and
+//! images no base-colour or emissive texture uses, `minFilter` (no mip maps: every lookup uses
+//! `magFilter`), transparency (`alphaMode` other than `OPAQUE`), vertex
 //! colours, morph targets, skins, animations, points and lines, orthographic cameras, other
 //! scenes, a light's `range` (a non-physical cut-off), lights no node of the scene places, and
-//! every extension except `KHR_materials_emissive_strength`, `KHR_texture_transform` and
-//! `KHR_lights_punctual` (transmission, …). A textured material on a primitive without the
-//! `TEXCOORD_n` it reads is read at (0, 0). Each becomes one [`Warning`] with a count. glTF's
-//! dielectric specular layer (the 4 % reflection of its metallic-roughness BRDF at
-//! `metallicFactor = 0`) is not modelled: irr's surfaces are Lambertian.
+//! every extension except `KHR_materials_emissive_strength`, `KHR_materials_specular`,
+//! `KHR_texture_transform` and `KHR_lights_punctual` (transmission, …). A textured material on a
+//! primitive without the `TEXCOORD_n` it reads is read at (0, 0). Each becomes one [`Warning`]
+//! with a count.
 //!
 //! # What irr refuses, with a [`RenderError`]
 //! Files it cannot read or parse, buffers or images that point nowhere, outside the asset root
 //! or are shorter than declared, accessors out of range, indices past the vertex count,
-//! non-finite coordinates or coordinates beyond [`MAX_COORDINATE`], non-finite texture
+//! non-finite coordinates or coordinates beyond [`MAX_COORDINATE`], non-finite material factors,
+//! non-finite texture
 //! coordinates or texture transforms, images that are neither PNG nor JPEG, are damaged, or
 //! exceed [`MAX_IMAGE_SIDE`] on a side or the loader's memory budget, non-finite or negative
 //! emission, lights with a non-finite or negative intensity or colour, spot cone angles outside
@@ -81,8 +87,9 @@ use std::path::{Path, PathBuf};
 pub const MAX_COORDINATE: f32 = 1e18;
 
 /// The extensions irr reads.
-const SUPPORTED_EXTENSIONS: [&str; 3] = [
+const SUPPORTED_EXTENSIONS: [&str; 4] = [
     "KHR_materials_emissive_strength",
+    "KHR_materials_specular",
     "KHR_texture_transform",
     "KHR_lights_punctual",
 ];
@@ -375,19 +382,15 @@ impl<'a> Loader<'a> {
             }
         }
         if used_default_material > 0 {
+            // The specification's default material: base colour 1, metallic 1, roughness 1, a
+            // white rough metal, single-sided.
             materials.push(Material {
-                albedo: Vec3::ONE,
-                emission: Vec3::ZERO,
                 two_sided: false,
-                metallic: 0.0,
-                roughness: 1.0,
-                specular: 0.0,
-                albedo_texture: None,
-                emission_texture: None,
+                ..Material::metallic_roughness(Vec3::ONE, 1.0, 1.0)
             });
             self.warnings.add("default-material", used_default_material, |n| {
                 format!(
-                    "{} no material: glTF's default material is used as white diffuse (albedo 1)",
+                    "{} no material: glTF's default material is used (a white rough metal: baseColorFactor 1, metallicFactor 1, roughnessFactor 1)",
                     plural(n, "primitive has", "primitives have")
                 )
             });

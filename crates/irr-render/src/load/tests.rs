@@ -243,9 +243,12 @@ fn ignored_features_are_counted_in_warnings() {
                                  {{"attributes":{{"POSITION":{p}}},"mode":0}}]}},
                   {{"primitives":[{{"attributes":{{"POSITION":{p}}}}}]}}],
         "images":[{{"uri":"a.png"}}],"textures":[{{"source":0}},{{"source":0}}],
-        "materials":[{{"normalTexture":{{"index":0}},"occlusionTexture":{{"index":1}}}},
+        "materials":[{{"normalTexture":{{"index":0}},"occlusionTexture":{{"index":1}},
+                       "pbrMetallicRoughness":{{"roughnessFactor":1.5}}}},
                      {{"pbrMetallicRoughness":{{"metallicFactor":0}},"alphaMode":"BLEND",
-                       "extensions":{{"KHR_materials_transmission":{{"transmissionFactor":1}}}}}}]"#
+                       "extensions":{{"KHR_materials_transmission":{{"transmissionFactor":1}},
+                                      "KHR_materials_specular":{{"specularFactor":0.5,
+                                                                 "specularColorFactor":[1,0.5,1]}}}}}}]"#
     ));
     let s = load(&write(d.path(), "w.gltf", json));
     let got: Vec<(&str, usize)> = s
@@ -258,10 +261,11 @@ fn ignored_features_are_counted_in_warnings() {
         ("extension:KHR_materials_transmission", 1),
         ("textures", 2),
         ("images", 1),
-        ("material-maps", 2),
+        ("material-maps", 1),
+        ("occlusion-maps", 1),
+        ("specular-colour", 1),
+        ("factor-clamped", 1),
         ("scenes", 1),
-        // Material 0 keeps glTF's default metallicFactor of 1.
-        ("metallic", 1),
         ("alpha", 1),
         ("non-triangle", 1),
         ("default-material", 1),
@@ -278,8 +282,22 @@ fn ignored_features_are_counted_in_warnings() {
             .ends_with("2 textures ignored (irr reads baseColorTexture and emissiveTexture only)")),
         "{text:?}"
     );
-    // The default material is appended after the file's two.
+    // The factors: material 0 keeps glTF's defaults (metallic 1, specular 1) with its roughness
+    // clamped to 1; material 1 reads KHR_materials_specular's factor; the default material is
+    // the specification's white rough metal, appended after the file's two.
     assert_eq!(s.materials.len(), 3);
+    let factors: Vec<(f32, f32, f32)> = s
+        .materials
+        .iter()
+        .map(|m| (m.metallic, m.roughness, m.specular))
+        .collect();
+    assert_eq!(
+        factors,
+        [(1.0, 1.0, 1.0), (0.0, 1.0, 0.5), (1.0, 1.0, 1.0)],
+        "{:?}",
+        s.materials
+    );
+    assert_eq!(s.materials[2].albedo, Vec3::ONE);
     assert_eq!(s.meshes.last().map(|m| m.material_ids[0]), Some(2));
 }
 
