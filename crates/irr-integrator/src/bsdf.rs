@@ -154,6 +154,36 @@ impl Bsdf {
         }
     }
 
+    /// [`Bsdf::sample`] made defensive for estimating irradiance as well as reflection: on a
+    /// glossy surface, `u.x` picks cosine sampling or the BSDF's own with probability ½ each
+    /// (rescaled within its half), and the draw reports the mixture's density ½ cos θ/π +
+    /// ½ pdf_bsdf, so that both cos θ / pdf (≤ 2π: the irradiance's weight) and f cos θ / pdf
+    /// (at most twice the BSDF sampler's) stay bounded even under a narrow lobe. On a
+    /// Lambertian surface it is [`Bsdf::sample`] itself.
+    #[inline]
+    pub fn sample_defensive(&self, u: Vec2) -> Option<BsdfDraw> {
+        let Bsdf::Glossy { frame, .. } = self else {
+            return self.sample(u);
+        };
+        let wi = if u.x < 0.5 {
+            frame.to_world(sample_cosine_hemisphere(Vec2::new(
+                (2.0 * u.x).min(ONE_BELOW),
+                u.y,
+            )))
+        } else {
+            self.sample(Vec2::new((2.0 * u.x - 1.0).min(ONE_BELOW), u.y))?
+                .wi
+        };
+        let cos = frame.to_local(wi).z;
+        let pdf = 0.5 * cosine_hemisphere_pdf(cos) + 0.5 * self.pdf(wi);
+        (cos > 0.0 && pdf > 0.0).then(|| BsdfDraw {
+            wi,
+            weight: self.eval(wi) * (cos / pdf),
+            pdf,
+            cos,
+        })
+    }
+
     /// The reflectance ρ_d by which an irradiance cache multiplies its irradiance, ρ_d/π·E, to
     /// stand for the diffuse reflection of indirect light: the albedo of a Lambertian surface
     /// (exact), irr-bsdf's `diffuse_albedo(wo)` for a glossy one (exact under uniform light;
@@ -189,6 +219,23 @@ impl Bsdf {
         }
     }
 
+    /// The probability with which a light-cache lookup at this surface also traces a sample of
+    /// [`Bsdf::residual`] (`IrradianceCacheIntegrator::gather_radiance`): the share of the
+    /// albedo estimate that ρ_d leaves out (by luminance), at least [`MIN_RESIDUAL`]; 1 on a
+    /// metal, ≈ 0.07 on a white rough dielectric seen head-on. Zero on a Lambertian surface.
+    #[inline]
+    pub fn residual_probability(&self) -> f32 {
+        if self.is_lambertian() {
+            return 0.0;
+        }
+        let lum = |c: Vec3| c.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+        let total = lum(self.albedo_estimate());
+        if total <= 0.0 {
+            return 1.0;
+        }
+        (1.0 - lum(self.diffuse_reflectance()) / total).clamp(MIN_RESIDUAL, 1.0)
+    }
+
     /// An estimate of the directional albedo, for Russian roulette: ρ on a Lambertian
     /// surface; on a glossy one the diffuse lobe's albedo plus Schlick's F at cos θo (the glossy
     /// lobe's albedo at low roughness, an overestimate when rough).
@@ -204,6 +251,11 @@ impl Bsdf {
         }
     }
 }
+
+/// The least probability of [`Bsdf::residual_probability`]: the residual also holds the diffuse
+/// lobe's departure from its stand-in, which the albedo shares do not show, so it is never
+/// sampled more rarely than this (its weight 1/p stays at most 20).
+pub const MIN_RESIDUAL: f32 = 0.05;
 
 /// The largest f32 below 1: a rescaled lobe-choice number stays in [0, 1).
 const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;

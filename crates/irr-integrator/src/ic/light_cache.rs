@@ -8,17 +8,20 @@
 //! (π·L_reflected(v₊₁)/q with q the Russian-roulette probability of continuing, or π·B/q when
 //! the path left the scene). Each estimate is unbiased for E(v) (with the path tracer's limit
 //! on reflections), and a path's vertices share its suffix, so a vertex costs about one
-//! closest-hit ray and one shadow ray. Paths go on through glossy vertices with their BSDF
-//! (sampled and weighted by it), but only Lambertian vertices deposit: a gather ray that hits
-//! a glossy surface path-traces its light with the whole BSDF.
+//! closest-hit ray and one shadow ray. Irradiance does not depend on the surface's BSDF, so
+//! glossy vertices deposit too; their paths go on by a defensive mixture of cosine and BSDF
+//! sampling (weighted by the BSDF, so the light they carry back is what the glossy surface
+//! reflects).
 //!
 //! The deposits are averaged in cells of a world-space grid, keyed by the cell and by the
 //! shading normal's dominant axis and sign (six buckets), so that the two sides of a thin wall,
 //! or a floor and the wall beside it, never share a cell.
 //!
 //! # What a gather ray takes from it
-//! A gather ray that hits x₁ brings back (ρ(x₁)/π)·Ē(cell of x₁): no light sample and no
-//! continuation at all. A cell with fewer than [`MIN_DEPOSITS`] deposits is not used: the
+//! A gather ray that hits a Lambertian x₁ brings back (ρ(x₁)/π)·Ē(cell of x₁): no light sample
+//! and no continuation at all. On a glossy x₁ it brings back (ρ_d/π)·Ē plus, with the
+//! probability `Bsdf::residual_probability` and weighted by its inverse, one path-traced sample
+//! of the residual f − ρ_d/π (module `ic`, "Glossy surfaces"). A cell with fewer than [`MIN_DEPOSITS`] deposits is not used: the
 //! gather ray path-traces its continuation as in `BounceMode::PathTraced`, so no light is lost
 //! where the camera's paths never went.
 //!
@@ -252,9 +255,10 @@ struct Slot {
 }
 
 /// Follows a camera ray through the scene by BSDF-sampled bounces (cosine-weighted on
-/// Lambertian surfaces; Russian roulette on the albedo, at least [`MIN_CONTINUATION`], from
-/// vertex `rr_start` on) and returns the estimate of the irradiance at each of its first
-/// [`DEPOSITS_PER_PATH`] Lambertian vertices, filed under its cell of `cache`. All randomness comes from `key`, so the deposits do not depend on the thread that
+/// Lambertian surfaces, `Bsdf::sample_defensive` on glossy ones; Russian roulette on the
+/// albedo, at least [`MIN_CONTINUATION`], from vertex `rr_start` on) and returns the estimate of
+/// the irradiance at each of its first [`DEPOSITS_PER_PATH`] vertices, filed under its cell of
+/// `cache`. All randomness comes from `key`, so the deposits do not depend on the thread that
 /// traces them.
 ///
 /// The estimate at vertex k unrolls E(v) = d(v) + (cos θ/(pdf·q))(v)·R(v₊₁), d(v) the light
@@ -317,10 +321,9 @@ pub fn trace_light_path(
                 key: cache.key(&x),
                 factor: Vec3::ZERO,
                 irradiance: Vec3::ZERO,
-                // Gathers read cells for Lambertian hits only (a glossy hit's light is
-                // path-traced), and black vertices reflect nothing (their walk ends there, so
-                // their estimate would lack its indirect part).
-                deposit: bsdf.is_lambertian() && !bsdf.is_black(),
+                // Black vertices reflect nothing (their walk ends there, so their estimate
+                // would lack its indirect part).
+                deposit: !bsdf.is_black(),
             });
         }
         // One light sample (the next vertex's emission is never added, so no light is counted
@@ -350,7 +353,9 @@ pub fn trace_light_path(
             1.0
         };
         let u_rr = dims.next_1d();
-        let draw = bsdf.sample(dims.next_2d());
+        // Defensive on glossy vertices: half the draws cosine-distributed, so that the
+        // irradiance weight cos θ/pdf stays bounded under a narrow lobe.
+        let draw = bsdf.sample_defensive(dims.next_2d());
         // A direction below the geometric surface carries no light (as in the path tracer).
         let Some(d) = draw.filter(|d| !bsdf.is_black() && u_rr < q && d.wi.dot(x.ng) > 0.0) else {
             break;

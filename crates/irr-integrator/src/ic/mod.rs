@@ -26,9 +26,11 @@
 //! glossy lobe and the diffuse lobe's departure from its stand-in, and may be negative), so
 //! that the two together estimate ∫ f L_ind cos exactly and the image converges to the path
 //! tracer's. The same sample's emitter hit joins the direct light by multiple importance
-//! sampling against the light samples. A gather ray that hits a glossy surface path-traces
-//! its light with the whole BSDF (no cache is read there), and the light cache's paths go on
-//! through glossy vertices without depositing at them.
+//! sampling against the light samples. A gather ray that hits a glossy surface takes ρ_d/π·Ē
+//! from the light cache (which glossy vertices fill too) and, with the probability
+//! `Bsdf::residual_probability` (weighted by its inverse), one path-traced sample of the same
+//! residual (`residual`); with the other bounce modes it path-traces the hit's light with the
+//! whole BSDF.
 //!
 //! A record's gather at x traces one cosine-distributed ray per cell of an M×N
 //! [`HemisphereStrata`]; the radiance a ray brings back from the point x₁ it hits is what x₁
@@ -334,12 +336,23 @@ impl IrradianceCacheIntegrator {
         let albedo = scene.albedo(x.triangle, x.b1, x.b2);
         // Light cache: what the hit reflects is (ρ/π)·E from its cell, direct light included.
         // Where the cell is too sparse, the path-traced continuation below.
-        if self.core.settings.bounce_mode == BounceMode::LightCache && lambertian {
-            if albedo == Vec3::ZERO {
+        if self.core.settings.bounce_mode == BounceMode::LightCache {
+            if lambertian && albedo == Vec3::ZERO {
                 return Vec3::ZERO;
             }
             if let Some(e) = self.light.irradiance(&x) {
-                return albedo * FRAC_1_PI * e;
+                if lambertian {
+                    return albedo * FRAC_1_PI * e;
+                }
+                // A glossy hit: the diffuse lobe's share from the cell, and the rest of its
+                // BSDF path-traced with probability p, weighted by 1/p (unbiased).
+                let bsdf = Bsdf::at(scene, &x);
+                let shared = bsdf.diffuse_reflectance() * FRAC_1_PI * e;
+                let p = bsdf.residual_probability();
+                if dims.next_1d() >= p {
+                    return shared;
+                }
+                return shared + self.residual(scene, level, &x, &bsdf, &mut dims, rays) / p;
             }
         }
         // Cached: NEE at the hit plus its indirect light from the next level's cache. Where that
@@ -417,6 +430,65 @@ impl IrradianceCacheIntegrator {
             .continuation(0)
             .reflected(scene, &surface, -draw.wi, dims, rays);
         (direct, residual * (r.direct + r.indirect))
+    }
+}
+
+impl IrradianceCacheIntegrator {
+    /// What a glossy gather hit `x` of `level` reflects through its residual BSDF f − ρ_d/π
+    /// (`Bsdf::residual`), the part a light-cache cell's ρ_d/π·Ē leaves out: one light sample
+    /// and one BSDF sample, weighted by the power heuristic for the emitters' light, and the
+    /// light the BSDF sample's hit reflects, path-traced one reflection deeper than the
+    /// gather's own continuation (`continuation(level)` counts the reflection at `x`).
+    fn residual(
+        &self,
+        scene: &Scene,
+        level: usize,
+        x: &ShadingPoint,
+        bsdf: &Bsdf,
+        dims: &mut Dimensions,
+        rays: &mut RayCounter,
+    ) -> Vec3 {
+        let depth = self.continuation(level).settings.max_depth;
+        if depth == 0 {
+            return Vec3::ZERO;
+        }
+        let mut value = Vec3::ZERO;
+        if let Some(nee) = sample_light(scene, x, dims, rays) {
+            let w = if nee.delta {
+                1.0
+            } else {
+                power_heuristic(nee.pdf, bsdf.pdf(nee.wi))
+            };
+            value += bsdf.residual(nee.wi) * nee.le * (nee.cos_surface * w / nee.pdf);
+        }
+        let Some(draw) = bsdf.sample(dims.next_2d()) else {
+            return value;
+        };
+        if draw.wi.dot(x.ng) <= 0.0 {
+            return value;
+        }
+        let weight = bsdf.residual(draw.wi) * (draw.cos / draw.pdf);
+        let ray = Ray::spawn(x.position, x.ng, draw.wi);
+        rays.closest += 1;
+        let Some(hit) = scene.geometry().intersect(&ray) else {
+            return value + weight * scene.background();
+        };
+        let surface = scene.geometry().surface(&ray, &hit);
+        let le = scene.emitted_at(&surface, -draw.wi);
+        if le != Vec3::ZERO {
+            let dist2 = (surface.position - x.position).length_squared();
+            let cos_light = surface.geometric_normal.dot(draw.wi).abs();
+            let pdf_light = scene.lights().pdf_area(surface.triangle) * dist2 / cos_light;
+            if pdf_light.is_finite() {
+                value += weight * le * power_heuristic(draw.pdf, pdf_light);
+            }
+        }
+        let deeper = PathTracer::new(PathSettings {
+            max_depth: depth - 1,
+            ..self.core.settings.path
+        });
+        let r = deeper.reflected(scene, &surface, -draw.wi, dims, rays);
+        value + weight * (r.direct + r.indirect)
     }
 }
 
