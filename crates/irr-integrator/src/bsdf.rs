@@ -59,11 +59,12 @@ impl Bsdf {
             return Bsdf::Lambertian { albedo, ns: x.ns };
         }
         let frame = Frame::from_normal(x.ns);
+        let (metallic, roughness) = scene.metallic_roughness(x.triangle, x.b1, x.b2);
         Bsdf::Glossy {
             material: MetallicRoughness::with_specular(
                 albedo,
-                material.metallic,
-                material.roughness,
+                metallic,
+                roughness,
                 material.specular,
             ),
             frame,

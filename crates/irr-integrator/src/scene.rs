@@ -43,6 +43,10 @@ pub struct Material {
     /// glTF `emissiveTexture`: the emitted radiance at a point is `emission` × this texture
     /// there; `None`: `emission` everywhere.
     pub emission_texture: Option<TextureRef>,
+    /// glTF `metallicRoughnessTexture` (linear, not sRGB): at a point, the roughness is
+    /// `roughness` × its green channel and the metallic factor `metallic` × its blue channel;
+    /// `None`: the factors everywhere.
+    pub metallic_roughness_texture: Option<TextureRef>,
 }
 
 impl Material {
@@ -57,6 +61,7 @@ impl Material {
             two_sided: true,
             albedo_texture: None,
             emission_texture: None,
+            metallic_roughness_texture: None,
         }
     }
 
@@ -104,24 +109,36 @@ impl Material {
     }
 
     /// The texture coordinate sets this material reads, in the order a triangle's entries of
-    /// [`TexCoords`] hold them: the albedo texture's set, then the emission texture's if it is
-    /// another one. Between 0 and 2 sets.
+    /// [`TexCoords`] hold them: each distinct set once, in the order of first use by the albedo,
+    /// the emission and the metallic-roughness texture. Between 0 and 3 sets.
     pub fn tex_coord_sets(&self) -> impl Iterator<Item = u32> {
-        let a = self.albedo_texture.map(|t| t.tex_coord);
-        let e = self
-            .emission_texture
-            .map(|t| t.tex_coord)
-            .filter(|&e| a != Some(e));
-        a.into_iter().chain(e)
+        let mut sets = [0u32; 3];
+        let mut n = 0;
+        for t in self.textures().into_iter().flatten() {
+            if !sets[..n].contains(&t.tex_coord) {
+                sets[n] = t.tex_coord;
+                n += 1;
+            }
+        }
+        sets.into_iter().take(n)
+    }
+
+    /// The albedo, emission and metallic-roughness textures, in that order.
+    #[inline]
+    fn textures(&self) -> [Option<TextureRef>; 3] {
+        [
+            self.albedo_texture,
+            self.emission_texture,
+            self.metallic_roughness_texture,
+        ]
     }
 
     /// The index among [`Material::tex_coord_sets`] of the set `texture` reads.
     #[inline]
-    fn slot(&self, texture: &TextureRef) -> usize {
-        match self.albedo_texture {
-            Some(a) if a.tex_coord != texture.tex_coord => 1,
-            _ => 0,
-        }
+    pub(crate) fn slot(&self, texture: &TextureRef) -> usize {
+        self.tex_coord_sets()
+            .position(|s| s == texture.tex_coord)
+            .unwrap_or(0)
     }
 }
 
@@ -144,7 +161,7 @@ pub enum SceneError {
     InvalidTextureRef {
         /// The material's index.
         index: usize,
-        /// `albedo texture` or `emission texture`.
+        /// `albedo texture`, `emission texture` or `metallic-roughness texture`.
         what: &'static str,
         /// What is wrong.
         problem: String,
@@ -304,16 +321,32 @@ impl Scene {
         }
     }
 
+    /// The metallic factor and the roughness at barycentrics (b1, b2) of triangle `triangle`:
+    /// the material's factors × the blue and green channels of its metallic-roughness texture
+    /// there.
+    #[inline]
+    pub fn metallic_roughness(&self, triangle: u32, b1: f32, b2: f32) -> (f32, f32) {
+        let m = self.material_of(triangle);
+        match &m.metallic_roughness_texture {
+            None => (m.metallic, m.roughness),
+            Some(t) => {
+                let v = self.lookup(triangle, t, b1, b2);
+                (m.metallic * v.z, m.roughness * v.y)
+            }
+        }
+    }
+
     /// The reflection at barycentrics (b1, b2) of triangle `triangle`: its material's
-    /// metallic-roughness parameters with the (textured) [`Scene::albedo`] as base colour.
+    /// metallic-roughness parameters (textured: [`Scene::metallic_roughness`]) with the
+    /// (textured) [`Scene::albedo`] as base colour.
     #[inline]
     pub fn reflection(&self, triangle: u32, b1: f32, b2: f32) -> MetallicRoughness {
-        let m = self.material_of(triangle);
+        let (metallic, roughness) = self.metallic_roughness(triangle, b1, b2);
         MetallicRoughness::with_specular(
             self.albedo(triangle, b1, b2),
-            m.metallic,
-            m.roughness,
-            m.specular,
+            metallic,
+            roughness,
+            self.material_of(triangle).specular,
         )
     }
 
@@ -464,6 +497,7 @@ fn check_textures(
         for (what, r) in [
             ("albedo texture", m.albedo_texture),
             ("emission texture", m.emission_texture),
+            ("metallic-roughness texture", m.metallic_roughness_texture),
         ] {
             let Some(r) = r else { continue };
             textured = true;
@@ -476,8 +510,8 @@ fn check_textures(
                 Some(_) if !r.transform.is_finite() => {
                     Some("has a texture transform that is not finite".to_string())
                 }
-                Some(t) if what == "albedo texture" && t.max_value() > 1.0 => Some(format!(
-                    "has a texel of {} (albedo must lie in [0, 1])",
+                Some(t) if what != "emission texture" && t.max_value() > 1.0 => Some(format!(
+                    "has a texel of {} (albedo, metallic and roughness must lie in [0, 1])",
                     t.max_value()
                 )),
                 Some(_) => None,

@@ -157,6 +157,7 @@ pub(crate) fn furnace(c: Vec3, rho: f32, le: f32) -> Scene {
         specular: 0.0,
         albedo_texture: None,
         emission_texture: None,
+        metallic_roughness_texture: None,
     };
     scene(&[icosphere(c, 2.0, 2, 0)], vec![material])
 }
@@ -231,6 +232,7 @@ fn white_furnace_bounded_depth() {
         specular: 0.0,
         albedo_texture: None,
         emission_texture: None,
+        metallic_roughness_texture: None,
     };
     let s = scene(&[icosphere(Vec3::ZERO, 1.0, 2, 0)], vec![material]);
     for (d, rr_start) in [(0u32, 100u32), (1, 100), (3, 100), (5, 2)] {
@@ -362,6 +364,7 @@ fn light_sampler_is_a_distribution() {
                 specular: 0.0,
                 albedo_texture: None,
                 emission_texture: None,
+                metallic_roughness_texture: None,
             },
         ],
     );

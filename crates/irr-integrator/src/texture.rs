@@ -494,8 +494,19 @@ mod tests {
                 transform: shift,
                 ..TextureRef::new(0, 0)
             }),
+            metallic_roughness_texture: None,
         };
         assert_eq!(material.tex_coord_sets().collect::<Vec<_>>(), [3, 0]);
+        // A third texture on a set already read adds no set; on a new one, a third, after the
+        // others.
+        let on = |set| crate::Material {
+            metallic_roughness_texture: Some(TextureRef::new(0, set)),
+            ..material
+        };
+        assert_eq!(on(3).tex_coord_sets().collect::<Vec<_>>(), [3, 0]);
+        assert_eq!(on(1).tex_coord_sets().collect::<Vec<_>>(), [3, 0, 1]);
+        assert_eq!(on(1).slot(&TextureRef::new(0, 1)), 2);
+        assert_eq!(on(1).slot(&TextureRef::new(0, 0)), 1);
         // Set 3 (albedo) spans the square's corners as uv = (x, y); set 0 (emission) is (y, x).
         let corners = |t: [usize; 3], f: fn(Vec2) -> Vec2| {
             let c = [Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y];

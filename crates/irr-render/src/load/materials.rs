@@ -65,11 +65,7 @@ impl Loader<'_> {
                 alpha += 1;
             }
             // Read from the JSON: the typed accessors look the textures up with an unwrap.
-            maps += usize::from(
-                json.pbr_metallic_roughness
-                    .metallic_roughness_texture
-                    .is_some(),
-            ) + usize::from(json.normal_texture.is_some());
+            maps += usize::from(json.normal_texture.is_some());
             occlusion += usize::from(json.occlusion_texture.is_some());
             if let Some(s) = json.extensions.as_ref().and_then(|e| e.specular.as_ref()) {
                 specular_colour += usize::from(
@@ -81,12 +77,8 @@ impl Loader<'_> {
         }
         self.warnings.add("material-maps", maps, |n| {
             format!(
-                "{} ignored (irr reads baseColorTexture and emissiveTexture; metallic and roughness come from their factors)",
-                plural(
-                    n,
-                    "normal or metallic-roughness texture",
-                    "normal and metallic-roughness textures"
-                )
+                "{} ignored (irr shades with the meshes' own normals)",
+                plural(n, "normal texture", "normal textures")
             )
         });
         self.warnings.add("occlusion-maps", occlusion, |n| {
@@ -166,6 +158,7 @@ impl Loader<'_> {
                     info,
                     &format!("material {name} baseColorTexture"),
                     buffers,
+                    false,
                 )?),
                 None => None,
             };
@@ -175,6 +168,17 @@ impl Loader<'_> {
                     info,
                     &format!("material {name} emissiveTexture"),
                     buffers,
+                    false,
+                )?),
+                None => None,
+            };
+            let metallic_roughness_texture = match &pbr.metallic_roughness_texture {
+                Some(info) => Some(self.texture_ref(
+                    &mut textures,
+                    info,
+                    &format!("material {name} metallicRoughnessTexture"),
+                    buffers,
+                    true,
                 )?),
                 None => None,
             };
@@ -187,6 +191,7 @@ impl Loader<'_> {
                 specular,
                 albedo_texture,
                 emission_texture,
+                metallic_roughness_texture,
             });
         }
         textures.warn(self);

@@ -17,10 +17,11 @@
 //!   radiance in W·sr⁻¹·m⁻²; `doubleSided` says whether a surface emits from both faces or only
 //!   from its front face (counter-clockwise winding). A primitive without a material gets glTF's
 //!   default material (a white rough metal), with a warning.
-//! - `baseColorTexture` and `emissiveTexture` (module `textures`): PNG or JPEG images from a
-//!   `bufferView`, a `data:` URI or a file inside the asset root, converted from sRGB to linear
-//!   once and multiplied by `baseColorFactor` / the emission at shading time (alpha is
-//!   dropped); their `texCoord`; the sampler's `wrapS`/`wrapT` (`REPEAT`, `CLAMP_TO_EDGE`,
+//! - `baseColorTexture`, `emissiveTexture` and `metallicRoughnessTexture` (module `textures`):
+//!   PNG or JPEG images from a `bufferView`, a `data:` URI or a file inside the asset root,
+//!   converted from sRGB to linear once (the metallic-roughness texture is linear data, only
+//!   scaled to [0, 1]) and multiplied by `baseColorFactor` / the emission / the metallic
+//!   (blue) and roughness (green) factors at shading time (alpha is dropped); their `texCoord`; the sampler's `wrapS`/`wrapT` (`REPEAT`, `CLAMP_TO_EDGE`,
 //!   `MIRRORED_REPEAT`) and `magFilter` (`NEAREST`, or `LINEAR`: bilinear, the default); and
 //!   `KHR_texture_transform` (offset, rotation, scale, texCoord).
 //! - Every perspective camera, in the order of a depth-first walk of the scene's nodes, with its
@@ -32,10 +33,9 @@
 //!   `innerConeAngle` and `outerConeAngle` with glTF's smooth falloff.
 //!
 //! # What irr ignores, always with a warning
-//! Normal and metallic-roughness textures (metallic and roughness come from the factors alone),
-//! occlusion textures (baked occlusion would darken light that a global-illumination renderer
+//! Normal textures, occlusion textures (baked occlusion would darken light that a global-illumination renderer
 //! already shadows: counted twice), `KHR_materials_specular`'s colour and textures, textures and
-//! images no base-colour or emissive texture uses, `minFilter` (no mip maps: every lookup uses
+//! images no base-colour, emissive or metallic-roughness texture uses, `minFilter` (no mip maps: every lookup uses
 //! `magFilter`), transparency (`alphaMode` other than `OPAQUE`), vertex
 //! colours, morph targets, skins, animations, points and lines, orthographic cameras, other
 //! scenes, a light's `range` (a non-physical cut-off), lights no node of the scene places, and

@@ -279,7 +279,7 @@ fn ignored_features_are_counted_in_warnings() {
     );
     assert!(
         text.iter().any(|t| t
-            .ends_with("2 textures ignored (irr reads baseColorTexture and emissiveTexture only)")),
+            .ends_with("2 textures ignored (irr reads baseColorTexture, emissiveTexture and metallicRoughnessTexture only)")),
         "{text:?}"
     );
     // The factors: material 0 keeps glTF's defaults (metallic 1, specular 1) with its roughness

@@ -1,12 +1,14 @@
-//! Textures (glTF 2.0 §3.8): a material's `baseColorTexture` and `emissiveTexture`, their
+//! Textures (glTF 2.0 §3.8): a material's `baseColorTexture`, `emissiveTexture` and
+//! `metallicRoughnessTexture`, their
 //! samplers, their `KHR_texture_transform`, and the images behind them (PNG and JPEG, from a
 //! `bufferView`, a `data:` URI or a file inside the asset root).
 //!
 //! Images are untrusted like every other part of a scene: each side is at most
 //! [`MAX_IMAGE_SIDE`] texels, and the memory decoding takes (the decoder's output, a JPEG's
 //! coefficients, the linear texels) is charged to the loader's `Budget` from the header's
-//! dimensions before any pixel is decoded. Texels are converted from sRGB to linear with the
-//! exact sRGB EOTF (IEC 61966-2-1) once, here; the alpha channel is dropped (irr's surfaces are
+//! dimensions before any pixel is decoded. Colour textures' texels are converted from sRGB to
+//! linear with the exact sRGB EOTF (IEC 61966-2-1) once, here; a metallic-roughness texture's
+//! are linear already (glTF 2.0 §3.9.2) and are only scaled to [0, 1]; the alpha channel is dropped (irr's surfaces are
 //! opaque, and `alphaMode` other than `OPAQUE` is already warned about).
 
 use super::{Loader, describe, plural};
@@ -26,10 +28,10 @@ pub const MAX_IMAGE_SIDE: u32 = 16384;
 /// decoded once.
 #[derive(Default)]
 pub(super) struct Textures {
-    /// glTF texture index → index in `list`.
-    by_gltf: BTreeMap<usize, u32>,
-    /// glTF image index → its texels (shared by every texture made from it).
-    images: BTreeMap<usize, Texture>,
+    /// (glTF texture index, whether read as linear data) → index in `list`.
+    by_gltf: BTreeMap<(usize, bool), u32>,
+    /// (glTF image index, whether linear) → its texels (shared by every texture made from it).
+    images: BTreeMap<(usize, bool), Texture>,
     /// The textures, as `TextureRef::texture` indexes them.
     pub(super) list: Vec<Texture>,
     /// Loaded textures whose `minFilter` irr does not follow.
@@ -41,17 +43,26 @@ impl Textures {
     /// as base colour or emission, and `minFilter`s.
     pub(super) fn warn(&self, loader: &mut Loader<'_>) {
         let d = loader.document;
-        let textures = d.textures().len().saturating_sub(self.by_gltf.len());
+        let distinct = |keys: &mut dyn Iterator<Item = usize>| {
+            keys.collect::<std::collections::BTreeSet<_>>().len()
+        };
+        let textures = d
+            .textures()
+            .len()
+            .saturating_sub(distinct(&mut self.by_gltf.keys().map(|k| k.0)));
         loader.warnings.add("textures", textures, |n| {
             format!(
-                "{} ignored (irr reads baseColorTexture and emissiveTexture only)",
+                "{} ignored (irr reads baseColorTexture, emissiveTexture and metallicRoughnessTexture only)",
                 plural(n, "texture", "textures")
             )
         });
-        let images = d.images().len().saturating_sub(self.images.len());
+        let images = d
+            .images()
+            .len()
+            .saturating_sub(distinct(&mut self.images.keys().map(|k| k.0)));
         loader.warnings.add("images", images, |n| {
             format!(
-                "{} ignored (no baseColorTexture or emissiveTexture uses {})",
+                "{} ignored (no baseColorTexture, emissiveTexture or metallicRoughnessTexture uses {})",
                 plural(n, "image", "images"),
                 if n == 1 { "it" } else { "them" }
             )
@@ -69,23 +80,25 @@ impl Textures {
 
 impl Loader<'_> {
     /// The [`TextureRef`] of a material's `textureInfo` (`what` names it in messages), loading
-    /// the texture and its image the first time one is met.
+    /// the texture and its image the first time one is met; `linear`: its texels are data, not
+    /// sRGB colours (a metallic-roughness texture).
     pub(super) fn texture_ref(
         &mut self,
         textures: &mut Textures,
         info: &gltf::json::texture::Info,
         what: &str,
         buffers: &[Vec<u8>],
+        linear: bool,
     ) -> Result<TextureRef, RenderError> {
         let index = info.index.value();
-        let texture = match textures.by_gltf.get(&index) {
+        let texture = match textures.by_gltf.get(&(index, linear)) {
             Some(&t) => t,
             None => {
-                let t = self.texture(textures, index, what, buffers)?;
+                let t = self.texture(textures, index, what, buffers, linear)?;
                 let id = u32::try_from(textures.list.len())
                     .map_err(|_| self.err(format!("{what}: too many textures")))?;
                 textures.list.push(t);
-                textures.by_gltf.insert(index, id);
+                textures.by_gltf.insert((index, linear), id);
                 id
             }
         };
@@ -119,6 +132,7 @@ impl Loader<'_> {
         index: usize,
         what: &str,
         buffers: &[Vec<u8>],
+        linear: bool,
     ) -> Result<Texture, RenderError> {
         let root = self.document.as_json();
         // The schema check (`json::validate`) proved these indices; a lookup costs nothing and
@@ -141,23 +155,25 @@ impl Loader<'_> {
         };
         textures.min_filters_ignored += usize::from(min_filter_ignored);
         let image = json.source.value();
-        let texels = match textures.images.get(&image) {
+        let texels = match textures.images.get(&(image, linear)) {
             Some(t) => t.clone(),
             None => {
-                let t = self.image(image, &name, buffers)?;
-                textures.images.insert(image, t.clone());
+                let t = self.image(image, &name, buffers, linear)?;
+                textures.images.insert((image, linear), t.clone());
                 t
             }
         };
         Ok(texels.with_sampler(sampler))
     }
 
-    /// Decodes glTF image `index` (read by `texture`, for messages).
+    /// Decodes glTF image `index` (read by `texture`, for messages), as sRGB colours or, with
+    /// `linear`, as linear data.
     fn image(
         &mut self,
         index: usize,
         texture: &str,
         buffers: &[Vec<u8>],
+        linear: bool,
     ) -> Result<Texture, RenderError> {
         let root = self.document.as_json();
         let Some(json) = root.images.get(index) else {
@@ -188,7 +204,7 @@ impl Loader<'_> {
             }
         };
         self.budget.allow_images();
-        decode_image(bytes, &mut self.budget).map_err(|e| self.err(format!("{name}: {e}")))
+        decode_image(bytes, &mut self.budget, linear).map_err(|e| self.err(format!("{name}: {e}")))
     }
 
     /// The bytes of buffer view `index`, checked against its buffer.
@@ -320,11 +336,12 @@ fn check_size(width: u64, height: u64) -> Result<(), String> {
 }
 
 /// Decodes a PNG or JPEG into linear texels (with the default sampler), charging `budget` for
-/// every allocation its header implies before decoding.
-fn decode_image(bytes: &[u8], budget: &mut Budget) -> Result<Texture, String> {
+/// every allocation its header implies before decoding: sRGB codes through the sRGB EOTF, or,
+/// with `linear`, codes scaled to [0, 1].
+fn decode_image(bytes: &[u8], budget: &mut Budget, linear: bool) -> Result<Texture, String> {
     let (width, height, texels) = match format_of(bytes) {
-        Some(Format::Png) => decode_png(bytes, budget)?,
-        Some(Format::Jpeg) => decode_jpeg(bytes, budget)?,
+        Some(Format::Png) => decode_png(bytes, budget, linear)?,
+        Some(Format::Jpeg) => decode_jpeg(bytes, budget, linear)?,
         None => {
             return Err(
                 "is neither PNG nor JPEG (irr reads those two; KHR_texture_basisu and EXT_texture_webp images are not supported)"
@@ -340,13 +357,26 @@ fn srgb8_table() -> [f32; 256] {
     std::array::from_fn(|c| srgb_to_linear(c as f64 / 255.0) as f32)
 }
 
+/// The values of 8-bit codes: sRGB colours ([`srgb8_table`]) or, with `linear`, data c/255.
+fn code8_table(linear: bool) -> [f32; 256] {
+    if linear {
+        std::array::from_fn(|c| (c as f64 / 255.0) as f32)
+    } else {
+        srgb8_table()
+    }
+}
+
 /// Charges the texels of a `width` × `height` image and reserves them.
 fn texel_vec(budget: &mut Budget, width: u32, height: u32) -> Result<Vec<Vec3>, String> {
     let n = (width as usize).saturating_mul(height as usize);
     budget.vec::<Vec3>("its linear texels", n)
 }
 
-fn decode_png(bytes: &[u8], budget: &mut Budget) -> Result<(u32, u32, Vec<Vec3>), String> {
+fn decode_png(
+    bytes: &[u8],
+    budget: &mut Budget,
+    linear: bool,
+) -> Result<(u32, u32, Vec<Vec3>), String> {
     // The header first, read here: IHDR is the first chunk (PNG §5.6), width and height its
     // first two big-endian u32s. An absurd size is refused before the decoder sees it.
     if let Some(ihdr) = bytes.get(8..24).filter(|h| &h[4..8] == b"IHDR") {
@@ -377,7 +407,7 @@ fn decode_png(bytes: &[u8], budget: &mut Budget) -> Result<(u32, u32, Vec<Vec3>)
     let (g, b) = if channels >= 3 { (1, 2) } else { (0, 0) };
     let rows = decoded.chunks_exact(frame.line_size).take(height as usize);
     if sample_bytes == 1 {
-        let table = srgb8_table();
+        let table = code8_table(linear);
         for row in rows {
             for px in row.chunks_exact(channels).take(width as usize) {
                 let t = |k: usize| table[usize::from(px[k])];
@@ -386,7 +416,10 @@ fn decode_png(bytes: &[u8], budget: &mut Budget) -> Result<(u32, u32, Vec<Vec3>)
         }
     } else {
         let table: Vec<f32> = (0..=u16::MAX)
-            .map(|c| srgb_to_linear(f64::from(c) / 65535.0) as f32)
+            .map(|c| {
+                let v = f64::from(c) / 65535.0;
+                (if linear { v } else { srgb_to_linear(v) }) as f32
+            })
             .collect();
         for row in rows {
             for px in row.chunks_exact(2 * channels).take(width as usize) {
@@ -403,7 +436,11 @@ fn decode_png(bytes: &[u8], budget: &mut Budget) -> Result<(u32, u32, Vec<Vec3>)
 /// component's DCT coefficients (an i16 each) until its last scan: at most 4 components.
 const JPEG_COEFFICIENT_BYTES: usize = 8;
 
-fn decode_jpeg(bytes: &[u8], budget: &mut Budget) -> Result<(u32, u32, Vec<Vec3>), String> {
+fn decode_jpeg(
+    bytes: &[u8],
+    budget: &mut Budget,
+    linear: bool,
+) -> Result<(u32, u32, Vec<Vec3>), String> {
     use zune_jpeg::zune_core::bytestream::ZCursor;
     use zune_jpeg::zune_core::colorspace::ColorSpace;
     use zune_jpeg::zune_core::options::DecoderOptions;
@@ -432,7 +469,7 @@ fn decode_jpeg(bytes: &[u8], budget: &mut Budget) -> Result<(u32, u32, Vec<Vec3>
     decoded.resize(size, 0);
     decoder.decode_into(&mut decoded).map_err(jpeg_error)?;
     let mut texels = texel_vec(budget, width, height)?;
-    let table = srgb8_table();
+    let table = code8_table(linear);
     for px in decoded.chunks_exact(3) {
         texels.push(Vec3::new(
             table[usize::from(px[0])],
@@ -557,7 +594,7 @@ mod tests {
     fn decode(bytes: &[u8]) -> Result<Texture, String> {
         let mut budget = Budget::for_input(bytes.len() as u64);
         budget.allow_images();
-        decode_image(bytes, &mut budget)
+        decode_image(bytes, &mut budget, false)
     }
 
     fn texels(t: &Texture) -> Vec<Vec3> {
@@ -759,7 +796,7 @@ mod tests {
             None,
             &vec![0; 1200 * 1200 * 3],
         );
-        let e = decode_image(&big, &mut Budget::for_input(0))
+        let e = decode_image(&big, &mut Budget::for_input(0), false)
             .err()
             .unwrap_or_default();
         assert!(
@@ -869,6 +906,54 @@ mod tests {
             {rest}"#
         ));
         write(dir, name, json)
+    }
+
+    /// A metallic-roughness texture is data, not colour: the same image read as a base colour
+    /// goes through the sRGB EOTF, and as a metallic-roughness texture is scaled to [0, 1]
+    /// (glTF 2.0 §3.9.2), each decoded once; the roughness is the factor × green, the metallic
+    /// factor × blue, on the texture's own coordinate set (a third set after the base colour's
+    /// and the emission's when it differs).
+    #[test]
+    fn a_metallic_roughness_texture_is_read_as_linear_data() {
+        let d = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let orm = png_bytes(
+            1,
+            1,
+            png::ColorType::Rgb,
+            png::BitDepth::Eight,
+            None,
+            &[255, 128, 64],
+        );
+        let mut g = Gltf::default();
+        let view = g.view_of(&orm);
+        let rest = format!(
+            r#""images":[{{"bufferView":{view},"mimeType":"image/png"}}],
+            "textures":[{{"source":0}}],
+            "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0}},
+                "metallicFactor":0.5,"roughnessFactor":0.8,
+                "metallicRoughnessTexture":{{"index":0,"texCoord":1}}}}}}]"#
+        );
+        let path = textured_quad(d.path(), "mr.gltf", &mut g, &rest);
+        let s: SceneData = load_gltf(&path).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(s.textures.len(), 2);
+        let m = s.materials[0];
+        assert_eq!(m.albedo_texture, Some(TextureRef::new(0, 0)));
+        assert_eq!(m.metallic_roughness_texture, Some(TextureRef::new(1, 1)));
+        assert_eq!(
+            texels(&s.textures[0]),
+            vec![Vec3::new(1.0, lin(128), lin(64))]
+        );
+        let data = |c: u8| (f64::from(c) / 255.0) as f32;
+        assert_eq!(
+            texels(&s.textures[1]),
+            vec![Vec3::new(1.0, data(128), data(64))]
+        );
+        // Only the scene's darkness is warned of: no texture or image is left unread.
+        let features: Vec<&str> = s.warnings.iter().map(|w| w.feature.as_str()).collect();
+        assert_eq!(features, ["no-emitter"], "{:?}", s.warnings);
+        let loaded = crate::load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+        let (metallic, roughness) = loaded.scene.metallic_roughness(0, 0.3, 0.3);
+        assert_eq!((metallic, roughness), (0.5 * data(64), 0.8 * data(128)));
     }
 
     #[test]
