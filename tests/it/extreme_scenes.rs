@@ -322,6 +322,7 @@ fn an_emitter_a_tenth_of_a_millimetre_from_a_wall() {
                 specular: 0.0,
                 albedo_texture: None,
                 emission_texture: None,
+                metallic_roughness_texture: None,
             },
             light(10.0),
         ],
@@ -459,6 +460,7 @@ fn back_faces_reflect_and_double_sided_emitters_emit() {
             specular: 0.0,
             albedo_texture: None,
             emission_texture: None,
+            metallic_roughness_texture: None,
         }],
     );
     let camera = Camera::look_at(Vec3::new(0.0, -1.0, 0.0), Vec3::ZERO, Vec3::Z, 0.5)
