@@ -81,7 +81,8 @@ pub use path::{PathSettings, PathTracer, Radiance};
 pub use punctual::{Incidence, PunctualLight};
 pub use scene::{Material, Scene, SceneError};
 pub use texture::{
-    Filter, Sampler, TexCoords, Texture, TextureError, TextureRef, TooManyTexCoords, Wrap,
+    Filter, Sampler, TexCoords, Texture, TextureError, TextureRef, TooManyTexCoords, VertexColours,
+    Wrap,
 };
 
 #[cfg(test)]

@@ -5,7 +5,7 @@
 
 use crate::light::LightSampler;
 use crate::punctual::PunctualLight;
-use crate::texture::{TexCoords, Texture, TextureRef};
+use crate::texture::{TexCoords, Texture, TextureRef, VertexColours};
 use glam::{Vec2, Vec3};
 use irr_bsdf::MetallicRoughness;
 use irr_geometry::{Geometry, SurfacePoint};
@@ -210,6 +210,13 @@ pub enum SceneError {
         /// What is wrong with it.
         problem: String,
     },
+    /// Vertex colours that do not cover the geometry's triangles one for one, or a colour
+    /// outside [0, 1] or not finite.
+    #[error("vertex colours: {problem}")]
+    InvalidVertexColours {
+        /// What is wrong.
+        problem: String,
+    },
     /// A background radiance that is negative or not finite.
     #[error("the background radiance {value} must be finite and ≥ 0 in every channel")]
     InvalidBackground {
@@ -230,6 +237,7 @@ pub struct Scene {
     materials: Vec<Material>,
     textures: Vec<Texture>,
     tex_coords: TexCoords,
+    colours: VertexColours,
     lights: LightSampler,
     background: Vec3,
 }
@@ -305,20 +313,52 @@ impl Scene {
             materials,
             textures,
             tex_coords,
+            colours: VertexColours::default(),
             lights,
             background: Vec3::ZERO,
         })
     }
 
-    /// The diffuse reflectance ρ at barycentrics (b1, b2) of triangle `triangle`: the
-    /// material's albedo × its texture there.
+    /// The diffuse reflectance ρ (the base colour) at barycentrics (b1, b2) of triangle
+    /// `triangle`: the material's albedo × its texture there × the triangle's vertex colour
+    /// there.
     #[inline]
     pub fn albedo(&self, triangle: u32, b1: f32, b2: f32) -> Vec3 {
         let m = self.material_of(triangle);
-        match &m.albedo_texture {
+        let base = match &m.albedo_texture {
             None => m.albedo,
             Some(t) => m.albedo * self.lookup(triangle, t, b1, b2),
+        };
+        match self.colours.at(triangle, b1, b2) {
+            None => base,
+            Some(c) => base * c,
         }
+    }
+
+    /// The scene with per-vertex colours (glTF `COLOR_0`), which multiply the base colour:
+    /// `colours` must cover every triangle by id (or be empty), each colour finite and in
+    /// [0, 1] (so the albedo stays in [0, 1]).
+    pub fn with_vertex_colours(mut self, colours: VertexColours) -> Result<Self, SceneError> {
+        if colours.is_empty() {
+            return Ok(self);
+        }
+        if colours.triangle_count() != self.geometry.triangle_count() {
+            return Err(SceneError::InvalidVertexColours {
+                problem: format!(
+                    "given for {} triangles, but the geometry has {}",
+                    colours.triangle_count(),
+                    self.geometry.triangle_count()
+                ),
+            });
+        }
+        let valid = |c: &Vec3| c.is_finite() && c.min_element() >= 0.0 && c.max_element() <= 1.0;
+        if let Some(c) = colours.all().iter().flatten().find(|c| !valid(c)) {
+            return Err(SceneError::InvalidVertexColours {
+                problem: format!("{c} is not a colour in [0, 1]"),
+            });
+        }
+        self.colours = colours;
+        Ok(self)
     }
 
     /// The metallic factor and the roughness at barycentrics (b1, b2) of triangle `triangle`:

@@ -323,9 +323,87 @@ impl TexCoords {
     }
 }
 
+/// The colours at the three vertices of the triangles that have them (glTF `COLOR_0`, linear
+/// RGB in [0, 1]), by triangle id: they multiply the base colour. Empty when no triangle has
+/// any, so a scene without vertex colours stores nothing.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct VertexColours {
+    /// Per triangle, its entry of `colours`, or `u32::MAX` for none.
+    index: Vec<u32>,
+    colours: Vec<[Vec3; 3]>,
+}
+
+impl VertexColours {
+    /// Adds the next triangle (ids in order from 0) with its vertices' colours, or none.
+    ///
+    /// # Errors
+    /// [`TooManyTexCoords`] past 2³² − 2 coloured triangles.
+    pub fn push(&mut self, colours: Option<[Vec3; 3]>) -> Result<(), TooManyTexCoords> {
+        let entry = match colours {
+            None => u32::MAX,
+            Some(c) => {
+                let i = u32::try_from(self.colours.len())
+                    .ok()
+                    .filter(|&i| i < u32::MAX)
+                    .ok_or(TooManyTexCoords)?;
+                self.colours.push(c);
+                i
+            }
+        };
+        self.index.push(entry);
+        Ok(())
+    }
+
+    /// The number of triangles added.
+    #[inline]
+    pub fn triangle_count(&self) -> usize {
+        self.index.len()
+    }
+
+    /// Whether no triangle has a colour.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.colours.is_empty()
+    }
+
+    /// The colours of every coloured triangle.
+    #[inline]
+    pub fn all(&self) -> &[[Vec3; 3]] {
+        &self.colours
+    }
+
+    /// The colour of triangle `triangle` at barycentrics (b1, b2), `None` for a triangle
+    /// without colours (or past the end).
+    #[inline]
+    pub fn at(&self, triangle: u32, b1: f32, b2: f32) -> Option<Vec3> {
+        let c = self
+            .colours
+            .get(*self.index.get(triangle as usize)? as usize)?;
+        Some((1.0 - b1 - b2) * c[0] + b1 * c[1] + b2 * c[2])
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Vertex colours interpolate barycentrically on the triangles that have them; the others
+    /// (and ids past the end) have none.
+    #[test]
+    fn vertex_colours_interpolate_per_triangle() {
+        let mut c = VertexColours::default();
+        assert!(c.is_empty());
+        let tri = [Vec3::X, Vec3::Y, Vec3::Z];
+        for entry in [None, Some(tri), None] {
+            c.push(entry).unwrap_or_else(|e| panic!("{e}"));
+        }
+        assert_eq!(c.triangle_count(), 3);
+        assert_eq!(c.at(0, 0.2, 0.3), None);
+        assert_eq!(c.at(1, 0.25, 0.5), Some(Vec3::new(0.25, 0.25, 0.5)));
+        assert_eq!(c.at(1, 0.0, 0.0), Some(Vec3::X));
+        assert_eq!(c.at(2, 0.1, 0.1), None);
+        assert_eq!(c.at(7, 0.1, 0.1), None);
+    }
 
     /// A 2×2 texture: texel (x, y) has value (x, y, 10·y + x) so a lookup names its texels.
     fn two_by_two(wrap: Wrap, filter: Filter) -> Texture {

@@ -284,6 +284,57 @@ pub(crate) fn read_tex_coords(
     })
 }
 
+/// Reads a `COLOR_n` accessor: `VEC3` or `VEC4` (alpha dropped) of `FLOAT`, or of normalized
+/// `UNSIGNED_BYTE` or `UNSIGNED_SHORT` (glTF 2.0 §3.7.2.1), as linear RGB.
+pub(crate) fn read_colours(
+    what: &str,
+    accessor: &gltf::Accessor<'_>,
+    buffers: &Buffers,
+    budget: &mut Budget,
+) -> Result<Vec<[f32; 3]>, String> {
+    let (t, d) = (accessor.data_type(), accessor.dimensions());
+    let readable = match t {
+        DataType::F32 => true,
+        DataType::U8 | DataType::U16 => accessor.normalized(),
+        _ => false,
+    };
+    let components = match d {
+        Dimensions::Vec3 => 3,
+        Dimensions::Vec4 => 4,
+        _ => 0,
+    };
+    if components == 0 || !readable {
+        return Err(format!(
+            "{what} is {} of {}{}; irr reads VEC3 or VEC4 of FLOAT, or of normalized \
+             UNSIGNED_BYTE or UNSIGNED_SHORT",
+            dims_name(d),
+            type_name(t),
+            if accessor.normalized() {
+                " (normalized)"
+            } else {
+                ""
+            }
+        ));
+    }
+    let size = component_size(t);
+    read_elements(
+        what,
+        accessor,
+        components * size,
+        buffers,
+        budget,
+        [0.0; 3],
+        |b| {
+            let c = |k: usize| match t {
+                DataType::U8 => f32::from(b[k]) / 255.0,
+                DataType::U16 => f32::from(u16::from_le_bytes([b[2 * k], b[2 * k + 1]])) / 65535.0,
+                _ => f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]]),
+            };
+            [c(0), c(1), c(2)]
+        },
+    )
+}
+
 /// Reads a `SCALAR` index accessor of `UNSIGNED_BYTE`, `UNSIGNED_SHORT` or `UNSIGNED_INT`.
 pub(crate) fn read_indices(
     what: &str,

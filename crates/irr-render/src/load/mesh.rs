@@ -1,13 +1,15 @@
-//! Triangle primitives: positions, indices by topology, normals, texture coordinates.
+//! Triangle primitives: positions, indices by topology, normals, texture coordinates, vertex
+//! colours.
 
 use super::{Loader, MAX_COORDINATE, describe, plural};
-use crate::accessor::{read_indices, read_tex_coords, read_vec3};
+use crate::accessor::{read_colours, read_indices, read_tex_coords, read_vec3};
 use crate::error::RenderError;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use irr_geometry::TriangleMesh;
 
-/// A primitive instance in world space and the texture coordinates of its triangles.
-type Primitive = (TriangleMesh, Vec<[Vec2; 3]>);
+/// A primitive instance in world space, the texture coordinates of its triangles, and their
+/// vertex colours (empty without `COLOR_0`).
+type Primitive = (TriangleMesh, Vec<[Vec2; 3]>, Vec<[Vec3; 3]>);
 
 impl Loader<'_> {
     /// One primitive instance in world space with material `material.0`, and the texture
@@ -52,13 +54,13 @@ impl Loader<'_> {
                 )
             });
         }
-        let colours = primitive
+        let extra_colours = primitive
             .attributes()
-            .filter(|(s, _)| matches!(s, gltf::Semantic::Colors(_)))
+            .filter(|(s, _)| matches!(s, gltf::Semantic::Colors(k) if *k > 0))
             .count();
-        self.warnings.add("vertex-colours", colours, |n| {
+        self.warnings.add("vertex-colours", extra_colours, |n| {
             format!(
-                "{} (COLOR_n) ignored (irr uses baseColorFactor and baseColorTexture only)",
+                "{} COLOR_n with n ≥ 1 ignored (COLOR_0 multiplies the base colour; the others have no meaning in glTF's material)",
                 plural(n, "vertex colour attribute", "vertex colour attributes")
             )
         });
@@ -183,6 +185,7 @@ impl Loader<'_> {
             }
         };
         let tex_coords = self.tex_coords(&what, primitive, sets, n, &triangles, buffers)?;
+        let colours = self.colours(&what, primitive, n, &triangles, buffers)?;
         let count = triangles.len();
         Ok(Some((
             TriangleMesh {
@@ -192,7 +195,60 @@ impl Loader<'_> {
                 material_ids: vec![material_id; count],
             },
             tex_coords,
+            colours,
         )))
+    }
+
+    /// The `COLOR_0` colours at the vertices of each of `triangles` (vertex indices below `n`,
+    /// the vertex count), or none without the attribute. Float colours outside [0, 1] are
+    /// clamped with a warning (the base colour they multiply must stay in [0, 1]); a non-finite
+    /// one is refused.
+    fn colours(
+        &mut self,
+        what: &str,
+        primitive: &gltf::Primitive<'_>,
+        n: usize,
+        triangles: &[[u32; 3]],
+        buffers: &[Vec<u8>],
+    ) -> Result<Vec<[Vec3; 3]>, RenderError> {
+        let Some(acc) = primitive.get(&gltf::Semantic::Colors(0)) else {
+            return Ok(Vec::new());
+        };
+        let label = format!("{what} COLOR_0 accessor {}", acc.index());
+        let colours =
+            read_colours(&label, &acc, buffers, &mut self.budget).map_err(|e| self.err(e))?;
+        if colours.len() != n {
+            return Err(self.err(format!(
+                "{what}: COLOR_0 has {} elements but POSITION has {n}",
+                colours.len()
+            )));
+        }
+        // Messages name the element, never its value (bytes of a file).
+        if let Some(k) = colours
+            .iter()
+            .position(|c| !c.iter().all(|v| v.is_finite()))
+        {
+            return Err(self.err(format!("{what}: COLOR_0 element {k} is not finite")));
+        }
+        let outside = colours
+            .iter()
+            .filter(|c| c.iter().any(|v| !(0.0..=1.0).contains(v)))
+            .count();
+        self.warnings.add("colour-clamped", outside, |n| {
+            format!(
+                "{} outside [0, 1]: clamped",
+                plural(n, "vertex colour", "vertex colours")
+            )
+        });
+        let mut out = self
+            .budget
+            .vec::<[Vec3; 3]>(&format!("{what} vertex colours"), triangles.len())
+            .map_err(|e| self.err(e))?;
+        // The indices were checked against the vertex count, which `colours` matches.
+        out.extend(triangles.iter().map(|t| {
+            t.map(|i| Vec3::from_array(colours[i as usize]).clamp(Vec3::ZERO, Vec3::ONE))
+        }));
+        Ok(out)
     }
 
     /// The texture coordinates of each of `triangles` (vertex indices below `n`, the vertex

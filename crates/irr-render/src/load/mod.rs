@@ -7,7 +7,8 @@
 //!   front face stays where the file meant it).
 //! - Triangle primitives (`TRIANGLES`, `TRIANGLE_STRIP`, `TRIANGLE_FAN`), indexed (u8, u16, u32
 //!   indices) or not; `POSITION`, `NORMAL` if present, and the `TEXCOORD_n` a textured material
-//!   reads (float, or normalized unsigned byte or short).
+//!   reads (float, or normalized unsigned byte or short); `COLOR_0` (RGB or RGBA, float or
+//!   normalized), which multiplies the base colour.
 //! - Materials: the metallic-roughness model (irr-bsdf, the specification's Appendix B):
 //!   `baseColorFactor.rgb`, `metallicFactor` and `roughnessFactor` (clamped into [0, 1], with a
 //!   warning), and `KHR_materials_specular`'s `specularFactor` (1 without the extension; 0 with
@@ -36,8 +37,8 @@
 //! Normal textures, occlusion textures (baked occlusion would darken light that a global-illumination renderer
 //! already shadows: counted twice), `KHR_materials_specular`'s colour and textures, textures and
 //! images no base-colour, emissive or metallic-roughness texture uses, `minFilter` (no mip maps: every lookup uses
-//! `magFilter`), transparency (`alphaMode` other than `OPAQUE`), vertex
-//! colours, morph targets, skins, animations, points and lines, orthographic cameras, other
+//! `magFilter`), transparency (`alphaMode` other than `OPAQUE`), vertex colours past
+//! `COLOR_0`, morph targets, skins, animations, points and lines, orthographic cameras, other
 //! scenes, a light's `range` (a non-physical cut-off), lights no node of the scene places, and
 //! every extension except `KHR_materials_emissive_strength`, `KHR_materials_specular`,
 //! `KHR_texture_transform` and `KHR_lights_punctual` (transmission, …). A textured material on a
@@ -65,7 +66,7 @@ mod tests;
 mod textures;
 
 pub use textures::MAX_IMAGE_SIDE;
-pub(crate) use textures::tex_coords_by_id;
+pub(crate) use textures::{colours_by_id, tex_coords_by_id};
 
 use json::{count_extensions, prevalidate, validate};
 
@@ -130,6 +131,9 @@ pub struct SceneData {
     /// `t·k..(t+1)·k`, where k is the number of sets its material reads
     /// (`Material::tex_coord_sets`); empty for an untextured material.
     pub tex_coords: Vec<Vec<[Vec2; 3]>>,
+    /// Per mesh, the `COLOR_0` colours at its triangles' vertices, one triple per triangle;
+    /// empty for a mesh without them.
+    pub colours: Vec<Vec<[Vec3; 3]>>,
     /// The file's first perspective camera, if any: `cameras[0]`'s.
     pub camera: Option<Camera>,
     /// Every perspective camera of the default scene, in depth-first order of its nodes.
@@ -331,6 +335,7 @@ impl<'a> Loader<'a> {
             .vec::<NamedCamera>("the cameras", camera_nodes)
             .map_err(|e| self.err(e))?;
         let mut tex_coords = Vec::new();
+        let mut colours = Vec::new();
         let mut used_default_material = 0;
         let mut lights = Vec::new();
         let mut placed = vec![false; self.light_count()];
@@ -366,7 +371,7 @@ impl<'a> Loader<'a> {
                         .get(material_id as usize)
                         .map(|m| m.tex_coord_sets().collect())
                         .unwrap_or_default();
-                    if let Some((m, uv)) = self.primitive(
+                    if let Some((m, uv, c)) = self.primitive(
                         &node,
                         &mesh,
                         &primitive,
@@ -377,6 +382,7 @@ impl<'a> Loader<'a> {
                         used_default_material += usize::from(file_material.is_none());
                         meshes.push(m);
                         tex_coords.push(uv);
+                        colours.push(c);
                     }
                 }
             }
@@ -434,6 +440,7 @@ impl<'a> Loader<'a> {
             materials,
             textures,
             tex_coords,
+            colours,
             camera: cameras.first().map(|c| c.camera),
             cameras,
             lights,

@@ -17,7 +17,9 @@ use crate::files::Budget;
 use crate::uri::{decode_data_uri, percent_decode, scheme};
 use glam::{Affine2, Vec2, Vec3};
 use irr_geometry::{Triangle, TriangleMesh};
-use irr_integrator::{Filter, Material, Sampler, TexCoords, Texture, TextureRef, Wrap};
+use irr_integrator::{
+    Filter, Material, Sampler, TexCoords, Texture, TextureRef, VertexColours, Wrap,
+};
 use std::collections::BTreeMap;
 
 /// The largest image side irr decodes, in texels: the largest texture most GPUs take, and far
@@ -515,6 +517,36 @@ pub(crate) fn tex_coords_by_id(
             }
             let entries = uv.get(t * sets..(t + 1) * sets).unwrap_or(&[]);
             out.push(entries).map_err(|e| e.to_string())?;
+        }
+    }
+    Ok(out)
+}
+
+/// The vertex colours of the triangles of `meshes` (per mesh as
+/// [`SceneData::colours`](super::SceneData::colours) holds them) by the id
+/// [`irr_geometry::Geometry::build`] gives them, as [`tex_coords_by_id`] maps texture
+/// coordinates. Empty when no mesh has any.
+pub(crate) fn colours_by_id(
+    meshes: &[TriangleMesh],
+    colours: &[Vec<[Vec3; 3]>],
+) -> Result<VertexColours, String> {
+    let mut out = VertexColours::default();
+    if colours.iter().all(Vec::is_empty) {
+        return Ok(out);
+    }
+    for (mesh, c) in meshes.iter().zip(colours) {
+        for (t, idx) in mesh.indices.iter().enumerate() {
+            let Some(p) = idx
+                .iter()
+                .map(|&i| mesh.positions.get(i as usize).copied())
+                .collect::<Option<Vec<Vec3>>>()
+            else {
+                continue;
+            };
+            if !Triangle::is_kept(&[p[0], p[1], p[2]]) {
+                continue;
+            }
+            out.push(c.get(t).copied()).map_err(|e| e.to_string())?;
         }
     }
     Ok(out)
