@@ -3,7 +3,9 @@
 //!
 //! A material of metallic 0 and specular weight 0 is exactly Lambertian (irr-bsdf's
 //! `is_lambertian`): it keeps the Lambertian arithmetic (f = ρ/π, cosine sampling, weight ρ),
-//! so scenes without glossy materials render as before, bit for bit. Every other material is
+//! so the path tracer renders scenes without glossy materials as before, bit for bit (the light
+//! cache's paths, whose weights now go through the drawn direction's density, differ in the
+//! last bits). Every other material is
 //! [`Bsdf::Glossy`]: evaluated, sampled (a lobe chosen by its weight, then a visible normal or a
 //! cosine direction) and its density given for multiple importance sampling.
 
@@ -72,8 +74,10 @@ impl Bsdf {
         }
     }
 
-    /// Whether the surface reflects nothing (a black Lambertian surface; a glossy lobe always
-    /// reflects something at grazing angles).
+    /// Whether the surface is known to reflect nothing: a black Lambertian surface. (A glossy
+    /// one is treated as reflecting: its lobe reflects at grazing angles unless its specular
+    /// weight, metallic factor and base colour are all zero there, a case whose draws and
+    /// evaluations are zero anyway.)
     #[inline]
     pub fn is_black(&self) -> bool {
         matches!(self, Bsdf::Lambertian { albedo, .. } if *albedo == Vec3::ZERO)
@@ -223,7 +227,8 @@ impl Bsdf {
     /// The probability with which a light-cache lookup at this surface also traces a sample of
     /// [`Bsdf::residual`] (`IrradianceCacheIntegrator::gather_radiance`): the share of the
     /// albedo estimate that ρ_d leaves out (by luminance), at least [`MIN_RESIDUAL`]; 1 on a
-    /// metal, ≈ 0.07 on a white rough dielectric seen head-on. Zero on a Lambertian surface.
+    /// metal; on a white rough dielectric 0.04 seen head-on (so [`MIN_RESIDUAL`]), ≈ 0.07 at 60°.
+    /// Zero on a Lambertian surface.
     #[inline]
     pub fn residual_probability(&self) -> f32 {
         if self.is_lambertian() {

@@ -1,12 +1,15 @@
 //! irr's integrators: given a scene and a ray, estimate the radiance arriving along it.
 //!
 //! # What it owns
-//! - [`Scene`]: geometry plus Lambertian [`Material`]s (albedo, emission, sidedness, each factor
-//!   optionally times a [`Texture`] read at the point's [`TexCoords`]), the [`PunctualLight`]s
+//! - [`Scene`]: geometry plus [`Material`]s (glTF's metallic-roughness model, Lambertian as its
+//!   special case: base colour, metallic, roughness, specular weight, emission, sidedness, the
+//!   base colour, emission and metallic-roughness optionally times a [`Texture`] read at the
+//!   point's [`TexCoords`], the base colour times [`VertexColours`]), the [`PunctualLight`]s
 //!   (glTF's point, spot and directional lights, in glTF's units read as irr's: no 683 lm/W
 //!   factor), a constant background radiance, and the [`LightSampler`] over emitting triangles
 //!   and punctual lights (by power, then uniformly by area on a triangle). Integrators read a
-//!   point's albedo and emission through [`Scene::albedo`] and [`Scene::emitted`].
+//!   point's albedo and emission through [`Scene::albedo`] and [`Scene::emitted`], its
+//!   reflection through [`Bsdf::at`].
 //! - [`Texture`]: linear RGB images with glTF's wrap modes and nearest or bilinear filtering.
 //! - The [`Integrator`] interface (pbrt-v4's `RayIntegrator::Li`): radiance along one ray, with
 //!   random numbers from an `irr_sampling::rng::Dimensions` cursor, whole (`li`), split by
@@ -81,8 +84,8 @@ pub use path::{PathSettings, PathTracer, Radiance};
 pub use punctual::{Incidence, PunctualLight};
 pub use scene::{Material, Scene, SceneError};
 pub use texture::{
-    Filter, Sampler, TexCoords, Texture, TextureError, TextureRef, TooManyTexCoords, VertexColours,
-    Wrap,
+    Filter, Sampler, TexCoords, Texture, TextureError, TextureRef, TooManyTexCoords,
+    TooManyVertexColours, VertexColours, Wrap,
 };
 
 #[cfg(test)]

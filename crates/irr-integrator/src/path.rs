@@ -289,7 +289,7 @@ pub(crate) fn first_surface(
     Ok((surface, wo, emitted, hit.t))
 }
 
-/// The path-traced reference: Lambertian BSDF, NEE on area and punctual lights combined with BSDF
+/// The path-traced reference: the metallic-roughness BSDF (module `bsdf`), NEE on area and punctual lights combined with BSDF
 /// sampling by MIS, the background found by BSDF sampling, Russian roulette after `rr_start`
 /// bounces (unbiased: survivors are divided by the survival probability).
 #[derive(Clone, Copy, Debug, Default)]

@@ -599,3 +599,56 @@ fn glossy_furnace_one_bounce() {
         }
     }
 }
+
+/// With at most one reflection the background that a surface reflects once (paths `L D B`) is
+/// counted by both integrators, the cache having no level to read it from: an open plane under
+/// a uniform background B reflects A(wo)·B, A its directional albedo (ρ for a Lambertian plane;
+/// by quadrature for a glossy one, `directional_albedo`). Tolerance as in
+/// `glossy_furnace_one_bounce`.
+#[test]
+fn a_background_reflected_once_counts_at_depth_one() {
+    let b = 0.8f32;
+    for material in [
+        Material::diffuse(Vec3::splat(0.6)),
+        Material::metallic_roughness(Vec3::splat(0.7), 0.3, 0.4),
+    ] {
+        let s = scene(&[polygon(Vec3::ZERO, 5.0, 8, 1.0, 0)], vec![material])
+            .with_background(Vec3::splat(b))
+            .unwrap_or_else(|e| panic!("{e}"));
+        let path = PathSettings {
+            max_depth: 1,
+            rr_start: 5,
+        };
+        let mut ic = crate::IrradianceCacheIntegrator::new(crate::IcSettings {
+            path,
+            ..crate::IcSettings::default()
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+        ic.preprocess(&s);
+        let ray = Ray::new(Vec3::new(-0.5, 0.8, 0.0), Vec3::new(0.6, -0.8, 0.0));
+        let x = crate::path::ShadingPoint::new(&first_surface(&s, &ray), -ray.direction);
+        let wo = irr_sampling::Frame::from_normal(x.ns).to_local(x.wo);
+        let m = s.reflection(x.triangle, x.b1, x.b2);
+        let (fine, coarse) = (
+            directional_albedo(&m, wo, 512),
+            directional_albedo(&m, wo, 256),
+        );
+        let expected = f64::from(b) * fine;
+        let quad_err = f64::from(b) * (fine - coarse).abs();
+        for integrator in [&PathTracer::new(path) as &dyn Integrator, &ic] {
+            let mut rays = RayCounter::default();
+            let est = estimate(20_000, |i| {
+                let key = SampleKey::new(12, u64::from(i), 0);
+                integrator.li(&s, &ray, &mut Dimensions::new(key), &mut rays)
+            });
+            let band = 6.0 * est.1 + quad_err + 1e-6 * expected;
+            assert!(
+                (est.0 - expected).abs() < band,
+                "{} on {material:?}: {} vs {expected} (se {})",
+                integrator.name(),
+                est.0,
+                est.1
+            );
+        }
+    }
+}

@@ -323,6 +323,11 @@ impl TexCoords {
     }
 }
 
+/// More coloured triangles than a [`VertexColours`] can index (2³² − 1).
+#[derive(Clone, Copy, Debug, Error, PartialEq, Eq)]
+#[error("more than {} triangles with vertex colours", u32::MAX - 1)]
+pub struct TooManyVertexColours;
+
 /// The colours at the three vertices of the triangles that have them (glTF `COLOR_0`, linear
 /// RGB in [0, 1]), by triangle id: they multiply the base colour. Empty when no triangle has
 /// any, so a scene without vertex colours stores nothing.
@@ -337,15 +342,15 @@ impl VertexColours {
     /// Adds the next triangle (ids in order from 0) with its vertices' colours, or none.
     ///
     /// # Errors
-    /// [`TooManyTexCoords`] past 2³² − 2 coloured triangles.
-    pub fn push(&mut self, colours: Option<[Vec3; 3]>) -> Result<(), TooManyTexCoords> {
+    /// [`TooManyVertexColours`] past 2³² − 2 coloured triangles.
+    pub fn push(&mut self, colours: Option<[Vec3; 3]>) -> Result<(), TooManyVertexColours> {
         let entry = match colours {
             None => u32::MAX,
             Some(c) => {
                 let i = u32::try_from(self.colours.len())
                     .ok()
                     .filter(|&i| i < u32::MAX)
-                    .ok_or(TooManyTexCoords)?;
+                    .ok_or(TooManyVertexColours)?;
                 self.colours.push(c);
                 i
             }

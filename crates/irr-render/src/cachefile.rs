@@ -5,7 +5,7 @@
 //!
 //! | offset | size | content |
 //! |---|---|---|
-//! | 0 | 8 | magic `IRRICSC3` (the last byte is the version of this layout) |
+//! | 0 | 8 | magic `IRRICSC4` (the last byte is the version of this layout and of the light transport its records were computed with: 4 since glTF files render with glossy materials) |
 //! | 8 | 8 | fingerprint: FNV-1a of what the render's records depend on (the caller's: irr-cli hashes the scene file's bytes, the image size, the camera, the cache settings, the background and the seed) |
 //! | 16 | 8 | L, the number of cache levels (the first, then each cached bounce level) |
 //!
@@ -40,7 +40,7 @@ use irr_integrator::{
 use std::path::Path;
 
 /// The first eight bytes of a cache file.
-pub const MAGIC: [u8; 8] = *b"IRRICSC3";
+pub const MAGIC: [u8; 8] = *b"IRRICSC4";
 
 /// The bytes of one record's entry: its leak-guard data and its noise.
 pub const ENTRY_BYTES: usize = 20;

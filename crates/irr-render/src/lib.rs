@@ -3,8 +3,9 @@
 //!
 //! # What it owns
 //! - [`load_scene`] / [`load_gltf`]: glTF 2.0 (`.gltf` with external or `data:` buffers, `.glb`)
-//!   into world-space meshes, Lambertian [`Material`]s with their base-colour and emissive
-//!   textures (PNG and JPEG images, decoded and converted to linear RGB here),
+//!   into world-space meshes, metallic-roughness [`Material`]s with their base-colour, emissive
+//!   and metallic-roughness textures (PNG and JPEG images, decoded to linear RGB here) and vertex
+//!   colours,
 //!   `KHR_lights_punctual` lights ([`PunctualLight`]) and the file's cameras ([`NamedCamera`]);
 //!   every ignored feature becomes a [`Warning`] with a count, every unreadable input a one-line
 //!   [`RenderError`].

@@ -5,7 +5,8 @@
 //! Camera-launched paths ([`trace_light_path`]) deposit, at every vertex v they reach, an
 //! estimate of the irradiance E(v) there: the direct part by one light sample (as the cache's
 //! `direct_nee`), plus the indirect part carried back from the rest of the same path
-//! (π·L_reflected(v₊₁)/q with q the Russian-roulette probability of continuing, or π·B/q when
+//! (cos θ/(pdf·q)·L_reflected(v₊₁) with q the Russian-roulette probability of continuing and
+//! pdf the drawn direction's density: π/q on a Lambertian vertex; B in place of L_reflected when
 //! the path left the scene). Each estimate is unbiased for E(v) (with the path tracer's limit
 //! on reflections), and a path's vertices share its suffix, so a vertex costs about one
 //! closest-hit ray and one shadow ray. Irradiance does not depend on the surface's BSDF, so
@@ -357,7 +358,9 @@ pub fn trace_light_path(
         // irradiance weight cos θ/pdf stays bounded under a narrow lobe.
         let draw = bsdf.sample_defensive(dims.next_2d());
         // A direction below the geometric surface carries no light (as in the path tracer).
-        let Some(d) = draw.filter(|d| !bsdf.is_black() && u_rr < q && d.wi.dot(x.ng) > 0.0) else {
+        let Some(d) = draw.filter(|d| {
+            !bsdf.is_black() && u_rr < q && d.wi.dot(x.ng) > 0.0 && d.cos > 0.0 && d.pdf > 0.0
+        }) else {
             break;
         };
         // The drawn direction's weights: cos θ / (pdf·q) turns the radiance arriving along it

@@ -8,8 +8,10 @@
 //! - `emitted`: Le(x₀), or the background B when the camera ray leaves the scene: paths `L E`
 //!   and `L B`;
 //! - `direct`: next-event estimation at x₀ ([`IcSettings::direct_samples`] light samples), paths
-//!   `L D E`. NEE alone covers every such path (the light sampler reaches every point of every
-//!   emitting triangle, and every punctual light), so no BSDF-sampled emitter hit is needed;
+//!   `L D E`. On a Lambertian x₀ NEE alone covers every such path (the light sampler reaches
+//!   every point of every emitting triangle, and every punctual light), so no BSDF-sampled
+//!   emitter hit is needed; on a glossy one the BSDF sample of "Glossy surfaces" joins it by
+//!   multiple importance sampling;
 //! - `indirect`: (ρ(x₀)/π)·E_ind(x₀), paths `L D D+ E` and `L D+ B`, with E_ind interpolated
 //!   from the cache (on a glossy x₀, see "Glossy surfaces" below). **The background's light that reflects is here**, as in the path tracer:
 //!   the cache stores the irradiance due to the background as well as to reflected light
@@ -330,7 +332,8 @@ impl IrradianceCacheIntegrator {
         let mut dims = Dimensions::starting_at(key, 1);
         let x = ShadingPoint::new(surface, -w);
         // The caches hold irradiance, which stands for a Lambertian surface's reflection only:
-        // a glossy hit's light is path-traced with its whole BSDF.
+        // a glossy hit takes the diffuse lobe's share from the light cache and samples the rest
+        // (below); with the other bounce modes its light is path-traced with its whole BSDF.
         let material = scene.material_of(x.triangle);
         let lambertian = material.is_lambertian();
         let albedo = scene.albedo(x.triangle, x.b1, x.b2);
@@ -383,19 +386,20 @@ impl IrradianceCacheIntegrator {
 
 impl IrradianceCacheIntegrator {
     /// The light a glossy x₀ reflects that the cache's ρ_d/π·E does not stand for, by one
-    /// sample of its BSDF (drawn from `dims`): (`direct`, `indirect`). If the sampled ray meets
-    /// an emitter, its emission counts towards `direct` with the power-heuristic weight
-    /// complementary to [`direct_light`]'s (`light_samples` of them, with `mis`); the light that
-    /// the point it meets reflects (path-traced with x₀'s continuation depth, as a level-0 gather
-    /// ray's, `continuation(0)`), or the background, counts towards `indirect` through the
-    /// residual BSDF f − ρ_d/π (`Bsdf::residual`), so that with ρ_d/π·E from the cache x₀
-    /// reflects ∫ f L_ind cos exactly in expectation: the image converges to the path tracer's.
+    /// sample of its BSDF (drawn from `dims`): (`direct`, `indirect`). With `mis` (the direct
+    /// light's `light_samples` were weighted by [`direct_light`]'s power heuristic), an emitter
+    /// that the sampled ray meets counts towards `direct` with the complementary weight; the
+    /// light that the point it meets reflects (path-traced with x₀'s continuation depth, as a
+    /// level-0 gather ray's, `continuation(0)`), or the background, counts towards `indirect`
+    /// through the residual BSDF f − ρ_d/π (`Bsdf::residual`), so that with ρ_d/π·E from the
+    /// cache x₀ reflects ∫ f L_ind cos exactly in expectation: the image converges to the path
+    /// tracer's. With `whole` (no cache level supplies ρ_d/π·E) through the whole BSDF instead.
     fn glossy_sample(
         &self,
         scene: &Scene,
         x: &ShadingPoint,
-        bsdf: &Bsdf,
-        light_samples: u32,
+        (bsdf, whole): (&Bsdf, bool),
+        (light_samples, mis): (u32, bool),
         dims: &mut Dimensions,
         rays: &mut RayCounter,
     ) -> (Vec3, Vec3) {
@@ -405,7 +409,11 @@ impl IrradianceCacheIntegrator {
         if draw.wi.dot(x.ng) <= 0.0 {
             return (Vec3::ZERO, Vec3::ZERO);
         }
-        let residual = bsdf.residual(draw.wi) * (draw.cos / draw.pdf);
+        let residual = if whole {
+            draw.weight
+        } else {
+            bsdf.residual(draw.wi) * (draw.cos / draw.pdf)
+        };
         let ray = Ray::spawn(x.position, x.ng, draw.wi);
         rays.closest += 1;
         let Some(hit) = scene.geometry().intersect(&ray) else {
@@ -415,7 +423,7 @@ impl IrradianceCacheIntegrator {
         let surface = scene.geometry().surface(&ray, &hit);
         let mut direct = Vec3::ZERO;
         let le = scene.emitted_at(&surface, -draw.wi);
-        if le != Vec3::ZERO && light_samples > 0 {
+        if le != Vec3::ZERO && mis && light_samples > 0 {
             let dist2 = (surface.position - x.position).length_squared();
             let cos_light = surface.geometric_normal.dot(draw.wi).abs();
             let pdf_light = scene.lights().pdf_area(surface.triangle) * dist2 / cos_light;

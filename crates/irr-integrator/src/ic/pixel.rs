@@ -118,10 +118,15 @@ impl IrradianceCacheIntegrator {
             let glossy = !bsdf.is_lambertian();
             let mut direct = direct_light(scene, &x, &bsdf, light_samples, glossy, d, rays);
             let mut indirect = Vec3::ZERO;
-            if glossy {
-                let (more, residual) = self.glossy_sample(scene, &x, &bsdf, light_samples, d, rays);
+            // Without a cache level (at most one reflection) no record brings the background
+            // that x₀ reflects once (paths `L D B`, `indirect` in the path tracer too): the same
+            // BSDF sample does, through the whole BSDF.
+            let whole = self.core.levels.is_empty() && scene.background() != Vec3::ZERO;
+            if glossy || whole {
+                let (more, rest) =
+                    self.glossy_sample(scene, &x, (&bsdf, whole), (light_samples, glossy), d, rays);
                 direct += more;
-                indirect = residual;
+                indirect = rest;
             }
             *o = Radiance {
                 emitted,

@@ -100,7 +100,7 @@ const SUPPORTED_EXTENSIONS: [&str; 4] = [
 pub struct Warning {
     /// The scene file.
     pub file: PathBuf,
-    /// A short stable key for the feature: `textures`, `metallic`, `extension:KHR_lights_punctual`…
+    /// A short stable key for the feature: `textures`, `occlusion-maps`, `extension:KHR_lights_punctual`…
     pub feature: String,
     /// How many times the file uses it.
     pub count: usize,

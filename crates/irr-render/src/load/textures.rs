@@ -42,7 +42,7 @@ pub(super) struct Textures {
 
 impl Textures {
     /// Warns of what the file holds and irr did not read: textures and images no material reads
-    /// as base colour or emission, and `minFilter`s.
+    /// as base colour, emission or metallic-roughness, and `minFilter`s.
     pub(super) fn warn(&self, loader: &mut Loader<'_>) {
         let d = loader.document;
         let distinct = |keys: &mut dyn Iterator<Item = usize>| {
@@ -155,7 +155,9 @@ impl Loader<'_> {
                 sampler(s)
             }
         };
-        textures.min_filters_ignored += usize::from(min_filter_ignored);
+        // Once per glTF texture, though it may load twice (as colour and as data).
+        let first = !textures.by_gltf.keys().any(|k| k.0 == index);
+        textures.min_filters_ignored += usize::from(min_filter_ignored && first);
         let image = json.source.value();
         let texels = match textures.images.get(&(image, linear)) {
             Some(t) => t.clone(),
