@@ -255,12 +255,7 @@ pub(crate) fn read_tex_coords(
     budget: &mut Budget,
 ) -> Result<Vec<[f32; 2]>, String> {
     let (t, d) = (accessor.data_type(), accessor.dimensions());
-    let readable = match t {
-        DataType::F32 => true,
-        DataType::U8 | DataType::U16 => accessor.normalized(),
-        _ => false,
-    };
-    if d != Dimensions::Vec2 || !readable {
+    if d != Dimensions::Vec2 || !float_or_normalized(accessor) {
         return Err(format!(
             "{what} is {} of {}{}; irr reads VEC2 of FLOAT, or of normalized UNSIGNED_BYTE or \
              UNSIGNED_SHORT (KHR_mesh_quantization is not supported)",
@@ -275,13 +270,29 @@ pub(crate) fn read_tex_coords(
     }
     let size = component_size(t);
     read_elements(what, accessor, 2 * size, buffers, budget, [0.0; 2], |b| {
-        let c = |k: usize| match t {
-            DataType::U8 => f32::from(b[k]) / 255.0,
-            DataType::U16 => f32::from(u16::from_le_bytes([b[2 * k], b[2 * k + 1]])) / 65535.0,
-            _ => f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]]),
-        };
-        [c(0), c(1)]
+        [0, 1].map(|k| float_component(t, b, k))
     })
+}
+
+/// Whether `accessor` holds `FLOAT`s, or normalized `UNSIGNED_BYTE`s or `UNSIGNED_SHORT`s: the
+/// component types glTF allows for texture coordinates and colours.
+fn float_or_normalized(accessor: &gltf::Accessor<'_>) -> bool {
+    match accessor.data_type() {
+        DataType::F32 => true,
+        DataType::U8 | DataType::U16 => accessor.normalized(),
+        _ => false,
+    }
+}
+
+/// Component `k` of element `b` of type `t` as a float: a `FLOAT` as it is, a normalized
+/// `UNSIGNED_BYTE` or `UNSIGNED_SHORT` as c / 255 or c / 65535 (glTF 2.0 §3.11's rule). The
+/// caller has checked that `b` holds the element's components.
+fn float_component(t: DataType, b: &[u8], k: usize) -> f32 {
+    match t {
+        DataType::U8 => f32::from(b[k]) / 255.0,
+        DataType::U16 => f32::from(u16::from_le_bytes([b[2 * k], b[2 * k + 1]])) / 65535.0,
+        _ => f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]]),
+    }
 }
 
 /// Reads a `COLOR_n` accessor: `VEC3` or `VEC4` (alpha dropped) of `FLOAT`, or of normalized
@@ -293,17 +304,12 @@ pub(crate) fn read_colours(
     budget: &mut Budget,
 ) -> Result<Vec<[f32; 3]>, String> {
     let (t, d) = (accessor.data_type(), accessor.dimensions());
-    let readable = match t {
-        DataType::F32 => true,
-        DataType::U8 | DataType::U16 => accessor.normalized(),
-        _ => false,
-    };
     let components = match d {
         Dimensions::Vec3 => 3,
         Dimensions::Vec4 => 4,
         _ => 0,
     };
-    if components == 0 || !readable {
+    if components == 0 || !float_or_normalized(accessor) {
         return Err(format!(
             "{what} is {} of {}{}; irr reads VEC3 or VEC4 of FLOAT, or of normalized \
              UNSIGNED_BYTE or UNSIGNED_SHORT",
@@ -324,14 +330,7 @@ pub(crate) fn read_colours(
         buffers,
         budget,
         [0.0; 3],
-        |b| {
-            let c = |k: usize| match t {
-                DataType::U8 => f32::from(b[k]) / 255.0,
-                DataType::U16 => f32::from(u16::from_le_bytes([b[2 * k], b[2 * k + 1]])) / 65535.0,
-                _ => f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]]),
-            };
-            [c(0), c(1), c(2)]
-        },
+        |b| [0, 1, 2].map(|k| float_component(t, b, k)),
     )
 }
 

@@ -506,22 +506,25 @@ pub(crate) fn tex_coords_by_id(
             .first()
             .and_then(|&m| materials.get(m as usize))
             .map_or(0, |m: &Material| m.tex_coord_sets().count());
-        for (t, idx) in mesh.indices.iter().enumerate() {
-            let Some(p) = idx
-                .iter()
-                .map(|&i| mesh.positions.get(i as usize).copied())
-                .collect::<Option<Vec<Vec3>>>()
-            else {
-                continue;
-            };
-            if !Triangle::is_kept(&[p[0], p[1], p[2]]) {
-                continue;
-            }
+        for t in kept_triangles(mesh) {
             let entries = uv.get(t * sets..(t + 1) * sets).unwrap_or(&[]);
             out.push(entries).map_err(|e| e.to_string())?;
         }
     }
     Ok(out)
+}
+
+/// The indices, in order, of the triangles of `mesh` that [`irr_geometry::Geometry::build`]
+/// keeps ([`Triangle::is_kept`]; a triangle whose indices point past the positions is skipped
+/// too).
+fn kept_triangles(mesh: &TriangleMesh) -> impl Iterator<Item = usize> + '_ {
+    mesh.indices.iter().enumerate().filter_map(|(t, idx)| {
+        let p = idx.map(|i| mesh.positions.get(i as usize).copied());
+        match p {
+            [Some(a), Some(b), Some(c)] if Triangle::is_kept(&[a, b, c]) => Some(t),
+            _ => None,
+        }
+    })
 }
 
 /// The vertex colours of the triangles of `meshes` (per mesh as
@@ -537,17 +540,7 @@ pub(crate) fn colours_by_id(
         return Ok(out);
     }
     for (mesh, c) in meshes.iter().zip(colours) {
-        for (t, idx) in mesh.indices.iter().enumerate() {
-            let Some(p) = idx
-                .iter()
-                .map(|&i| mesh.positions.get(i as usize).copied())
-                .collect::<Option<Vec<Vec3>>>()
-            else {
-                continue;
-            };
-            if !Triangle::is_kept(&[p[0], p[1], p[2]]) {
-                continue;
-            }
+        for t in kept_triangles(mesh) {
             out.push(c.get(t).copied()).map_err(|e| e.to_string())?;
         }
     }
