@@ -6,6 +6,7 @@ use super::guard::Query;
 use super::levels::Core;
 use super::settings::RadiusStatistic;
 use super::value::IcValue;
+use crate::bsdf::Bsdf;
 use crate::integrator::RayCounter;
 use crate::scene::Scene;
 use glam::Vec3;
@@ -83,6 +84,14 @@ impl<V: IcValue> Core<V> {
         {
             // A black surface reflects nothing, and a glossy one's light is path-traced: the
             // level above never looks either up.
+            return None;
+        }
+        if level == 0
+            && V::READ_THROUGH_REFLECTANCE
+            && Bsdf::at(scene, &x).diffuse_reflectance() == Vec3::ZERO
+        {
+            // Irradiance multiplies x₀'s diffuse reflectance: a metal or a black surface, seen
+            // from the camera, never reads a record.
             return None;
         }
         let mut guard = 0;

@@ -10,6 +10,10 @@ use irr_gradients::GatherValue;
 pub trait IcValue: CacheValue {
     /// The gather's per-cell value type.
     type Gathered: GatherValue + Send + Sync;
+    /// Whether a record is read only where a surface's diffuse reflectance multiplies it
+    /// (irradiance: a point that reflects no diffuse light, a metal or a black surface, never
+    /// reads one), rather than wherever the camera looks (ambient occlusion).
+    const READ_THROUGH_REFLECTANCE: bool;
     /// The cached value of a gathered one.
     fn from_gathered(g: Self::Gathered) -> Self;
     /// The gathered value of a cached one.
@@ -18,6 +22,7 @@ pub trait IcValue: CacheValue {
 
 impl IcValue for Rgb {
     type Gathered = Vec3;
+    const READ_THROUGH_REFLECTANCE: bool = true;
     #[inline]
     fn from_gathered(g: Vec3) -> Self {
         Rgb::from(g)
@@ -30,6 +35,7 @@ impl IcValue for Rgb {
 
 impl IcValue for f32 {
     type Gathered = f32;
+    const READ_THROUGH_REFLECTANCE: bool = false;
     #[inline]
     fn from_gathered(g: f32) -> Self {
         g
