@@ -256,22 +256,32 @@ pub(crate) fn read_tex_coords(
 ) -> Result<Vec<[f32; 2]>, String> {
     let (t, d) = (accessor.data_type(), accessor.dimensions());
     if d != Dimensions::Vec2 || !float_or_normalized(accessor) {
-        return Err(format!(
-            "{what} is {} of {}{}; irr reads VEC2 of FLOAT, or of normalized UNSIGNED_BYTE or \
-             UNSIGNED_SHORT (KHR_mesh_quantization is not supported)",
-            dims_name(d),
-            type_name(t),
-            if accessor.normalized() {
-                " (normalized)"
-            } else {
-                ""
-            }
+        return Err(unreadable(
+            what,
+            accessor,
+            "VEC2 of FLOAT, or of normalized UNSIGNED_BYTE or UNSIGNED_SHORT \
+             (KHR_mesh_quantization is not supported)",
         ));
     }
     let size = component_size(t);
     read_elements(what, accessor, 2 * size, buffers, budget, [0.0; 2], |b| {
         [0, 1].map(|k| float_component(t, b, k))
     })
+}
+
+/// The message for an accessor (`what`) of a shape or type irr does not read: what it is, and
+/// what irr reads (`wanted`).
+fn unreadable(what: &str, accessor: &gltf::Accessor<'_>, wanted: &str) -> String {
+    format!(
+        "{what} is {} of {}{}; irr reads {wanted}",
+        dims_name(accessor.dimensions()),
+        type_name(accessor.data_type()),
+        if accessor.normalized() {
+            " (normalized)"
+        } else {
+            ""
+        }
+    )
 }
 
 /// Whether `accessor` holds `FLOAT`s, or normalized `UNSIGNED_BYTE`s or `UNSIGNED_SHORT`s: the
@@ -310,16 +320,10 @@ pub(crate) fn read_colours(
         _ => 0,
     };
     if components == 0 || !float_or_normalized(accessor) {
-        return Err(format!(
-            "{what} is {} of {}{}; irr reads VEC3 or VEC4 of FLOAT, or of normalized \
-             UNSIGNED_BYTE or UNSIGNED_SHORT",
-            dims_name(d),
-            type_name(t),
-            if accessor.normalized() {
-                " (normalized)"
-            } else {
-                ""
-            }
+        return Err(unreadable(
+            what,
+            accessor,
+            "VEC3 or VEC4 of FLOAT, or of normalized UNSIGNED_BYTE or UNSIGNED_SHORT",
         ));
     }
     let size = component_size(t);
