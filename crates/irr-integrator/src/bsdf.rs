@@ -70,7 +70,7 @@ impl Bsdf {
                 material.specular,
             ),
             frame,
-            wo: frame.to_local(x.wo),
+            wo: frame.to_local(x.wo.normalize()),
         }
     }
 

@@ -120,16 +120,15 @@ pub struct ShadingPoint {
     pub b1: f32,
     /// The point's barycentric coordinate of vertex 2.
     pub b2: f32,
-    /// The unit direction the light leaves towards (back along the ray that found the point).
+    /// The direction the light leaves towards (back along the ray that found the point), of
+    /// whatever length the caller gave; [`crate::Bsdf::at`] normalises it where a BSDF needs it.
     pub wo: Vec3,
 }
 
 impl ShadingPoint {
-    /// Turns the normals of `surface` to the side of `wo` (reflection is two-sided); `wo` is
-    /// normalised.
+    /// Turns the normals of `surface` to the side of `wo` (reflection is two-sided; any length).
     #[inline]
     pub fn new(surface: &SurfacePoint, wo: Vec3) -> Self {
-        let wo = wo.normalize();
         let ng = if surface.geometric_normal.dot(wo) < 0.0 {
             -surface.geometric_normal
         } else {

@@ -571,7 +571,7 @@ fn glossy_furnace_one_bounce() {
             let surface = first_surface(&s, &ray);
             let x = crate::path::ShadingPoint::new(&surface, -ray.direction);
             let frame = irr_sampling::Frame::from_normal(x.ns);
-            let wo = frame.to_local(x.wo);
+            let wo = frame.to_local(x.wo.normalize());
             let m = s.reflection(x.triangle, x.b1, x.b2);
             let (fine, coarse) = (
                 directional_albedo(&m, wo, 512),
@@ -627,7 +627,7 @@ fn a_background_reflected_once_counts_at_depth_one() {
         ic.preprocess(&s);
         let ray = Ray::new(Vec3::new(-0.5, 0.8, 0.0), Vec3::new(0.6, -0.8, 0.0));
         let x = crate::path::ShadingPoint::new(&first_surface(&s, &ray), -ray.direction);
-        let wo = irr_sampling::Frame::from_normal(x.ns).to_local(x.wo);
+        let wo = irr_sampling::Frame::from_normal(x.ns).to_local(x.wo.normalize());
         let m = s.reflection(x.triangle, x.b1, x.b2);
         let (fine, coarse) = (
             directional_albedo(&m, wo, 512),
