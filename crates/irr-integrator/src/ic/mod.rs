@@ -112,6 +112,9 @@ pub struct CachedLevel {
 /// The stream of the final pass's own gathers (see `SampleKey::new`).
 const FALLBACK_STREAM: u64 = 0x1c_fa11;
 
+/// The stream of the keys of a glossy x₀'s BSDF-sample continuations (`glossy_sample`).
+const GLOSSY_STREAM: u64 = 0x6c_0551;
+
 /// Direct light at `x` by next-event estimation alone: the mean of `samples` light samples of
 /// f·Le·cos θ / pdf (unbiased: the light sampler reaches every point of every emitting triangle
 /// and every punctual light; the background's light is not direct, see the module docs).
@@ -389,9 +392,9 @@ impl IrradianceCacheIntegrator {
     /// sample of its BSDF (drawn from `dims`): (`direct`, `indirect`). With `mis` (the direct
     /// light's `light_samples` were weighted by [`direct_light`]'s power heuristic), an emitter
     /// that the sampled ray meets counts towards `direct` with the complementary weight; the
-    /// light that the point it meets reflects (path-traced with x₀'s continuation depth, as a
-    /// level-0 gather ray's, `continuation(0)`), or the background, counts towards `indirect`
-    /// through the residual BSDF f − ρ_d/π (`Bsdf::residual`), so that with ρ_d/π·E from the
+    /// light that the point it meets reflects (as a level-0 gather ray brings it back,
+    /// `gather_radiance`: from the light cache by default), or the background, counts towards
+    /// `indirect` through the residual BSDF f − ρ_d/π (`Bsdf::residual`), so that with ρ_d/π·E from the
     /// cache x₀ reflects ∫ f L_ind cos exactly in expectation: the image converges to the path
     /// tracer's. With `whole` (no cache level supplies ρ_d/π·E) through the whole BSDF instead.
     fn glossy_sample(
@@ -434,10 +437,12 @@ impl IrradianceCacheIntegrator {
             };
             direct = draw.weight * le * w;
         }
-        let r = self
-            .continuation(0)
-            .reflected(scene, &surface, -draw.wi, dims, rays);
-        (direct, residual * (r.direct + r.indirect))
+        // What the hit reflects, as a level-0 gather ray would bring it back (from the light
+        // cache by default: a cell's mean rather than one path), with randomness of its own.
+        let key = SampleKey::new(dims.key().bits(dims.position()), GLOSSY_STREAM, 0);
+        dims.next_1d();
+        let reflected = self.gather_radiance(scene, 0, Some(&surface), draw.wi, key, rays);
+        (direct, residual * reflected)
     }
 }
 
