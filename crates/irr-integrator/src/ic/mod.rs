@@ -24,10 +24,11 @@
 //! On a glossy x₀ (the glTF metallic-roughness model, module `bsdf`) the cache supplies
 //! ρ_d/π·E_ind with ρ_d the diffuse lobe's directional albedo (irr-bsdf's `diffuse_albedo`,
 //! exact under uniform light), and one sample of x₀'s BSDF per camera sample supplies the rest:
-//! the light its ray finds, path-traced, weighted by the residual f − ρ_d/π (which holds the
-//! glossy lobe and the diffuse lobe's departure from its stand-in, and may be negative), so
-//! that the two together estimate ∫ f L_ind cos exactly and the image converges to the path
-//! tracer's. The same sample's emitter hit joins the direct light by multiple importance
+//! the light its ray's hit reflects, brought back as a level-0 gather ray brings it (from the
+//! light cache by default), weighted by the residual f − ρ_d/π (which holds the glossy lobe and
+//! the diffuse lobe's departure from its stand-in, and may be negative), so that the two
+//! together estimate ∫ f L_ind cos and the image converges to the path tracer's (with the
+//! light cache, as its cells shrink). The same sample's emitter hit joins the direct light by multiple importance
 //! sampling against the light samples. A gather ray that hits a glossy surface takes ρ_d/π·Ē
 //! from the light cache (which glossy vertices fill too) and, with the probability
 //! `Bsdf::residual_probability` (weighted by its inverse), one path-traced sample of the same
