@@ -20,9 +20,7 @@ depth 5 in both.
 """
 
 import json
-import math
 import os
-import struct
 import sys
 import tempfile
 import time
@@ -30,37 +28,10 @@ import time
 import mitsuba as mi
 import numpy as np
 
+from gltf_peer import accessor, emitter, read_rgb, rel_mse, sensor
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 ASSETS = os.path.join(HERE, "..", "..", "assets")
-
-
-def accessor(doc, blob, i):
-    a = doc["accessors"][i]
-    v = doc["bufferViews"][a["bufferView"]]
-    n = {"SCALAR": 1, "VEC3": 3}[a["type"]]
-    fmt = {5126: "f", 5125: "I", 5123: "H", 5121: "B"}[a["componentType"]]
-    size = struct.calcsize(fmt)
-    off = v.get("byteOffset", 0) + a.get("byteOffset", 0)
-    data = struct.unpack_from("<" + fmt * (n * a["count"]), blob, off)
-    return np.array(data).reshape(-1, n) if n > 1 else np.array(data)
-
-
-def quat_to_matrix(q):
-    x, y, z, w = q
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
-
-
-def rel_mse(img, reference):
-    return float(np.mean((img - reference) ** 2 / (reference ** 2 + 0.01)))
-
-
-def read_rgb(path):
-    return np.array(mi.Bitmap(path).convert(
-        mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, False))
 
 
 def main():
@@ -101,29 +72,11 @@ def main():
                          "bsdf": {"type": "twosided",
                                   "bsdf": {"type": "diffuse",
                                            "reflectance": {"type": "rgb", "value": rho}}}}
-                if "emissiveFactor" in mat:
-                    strength = mat.get("extensions", {}).get(
-                        "KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
-                    le = [c * strength for c in mat["emissiveFactor"]]
-                    shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": le}}
+                if emitter(mat) is not None:
+                    shape["emitter"] = emitter(mat)
                 scene[f"m{k}_{p}"] = shape
         if "camera" in node:
-            cam = doc["cameras"][node["camera"]]["perspective"]
-            t = np.array(node.get("translation", [0, 0, 0]))
-            r = quat_to_matrix(node.get("rotation", [0, 0, 0, 1]))
-            forward = r @ np.array([0, 0, -1.0])
-            up = r @ np.array([0, 1.0, 0])
-            scene["sensor"] = {
-                "type": "perspective",
-                "fov_axis": "y",
-                "fov": math.degrees(cam["yfov"]),
-                "near_clip": cam.get("znear", 0.001),
-                "to_world": mi.ScalarTransform4f().look_at(
-                    origin=t.tolist(), target=(t + forward).tolist(), up=up.tolist()),
-                "film": {"type": "hdrfilm", "width": width, "height": height,
-                         "rfilter": {"type": "box"}, "pixel_format": "rgb"},
-                "sampler": {"type": "independent", "sample_count": spp},
-            }
+            scene["sensor"] = sensor(doc, node, width, height, spp)
     s = mi.load_dict(scene)
     # One warm-up render compiles the kernels (Mitsuba's JIT), as a user's second render would.
     mi.render(s, spp=1)

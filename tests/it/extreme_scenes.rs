@@ -314,15 +314,9 @@ fn an_emitter_a_tenth_of_a_millimetre_from_a_wall() {
         vec![
             grey(0.8),
             Material {
-                albedo: Vec3::splat(0.8),
                 emission: Vec3::splat(50.0),
                 two_sided: false,
-                metallic: 0.0,
-                roughness: 1.0,
-                specular: 0.0,
-                albedo_texture: None,
-                emission_texture: None,
-                metallic_roughness_texture: None,
+                ..Material::diffuse(Vec3::splat(0.8))
             },
             light(10.0),
         ],
@@ -452,15 +446,8 @@ fn back_faces_reflect_and_double_sided_emitters_emit() {
     let sc = scene(
         &meshes,
         vec![Material {
-            albedo: Vec3::splat(0.5),
             emission: Vec3::splat(3.0),
-            two_sided: true,
-            metallic: 0.0,
-            roughness: 1.0,
-            specular: 0.0,
-            albedo_texture: None,
-            emission_texture: None,
-            metallic_roughness_texture: None,
+            ..Material::diffuse(Vec3::splat(0.5))
         }],
     );
     let camera = Camera::look_at(Vec3::new(0.0, -1.0, 0.0), Vec3::ZERO, Vec3::Z, 0.5)

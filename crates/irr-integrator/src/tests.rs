@@ -149,15 +149,8 @@ pub(crate) fn sphere_with_light() -> Scene {
 /// emits `le` from both faces, so every direction inside sees the same radiance.
 pub(crate) fn furnace(c: Vec3, rho: f32, le: f32) -> Scene {
     let material = Material {
-        albedo: Vec3::splat(rho),
         emission: Vec3::splat(le),
-        two_sided: true,
-        metallic: 0.0,
-        roughness: 1.0,
-        specular: 0.0,
-        albedo_texture: None,
-        emission_texture: None,
-        metallic_roughness_texture: None,
+        ..Material::diffuse(Vec3::splat(rho))
     };
     scene(&[icosphere(c, 2.0, 2, 0)], vec![material])
 }
@@ -224,15 +217,8 @@ fn white_furnace_bounded_depth() {
     let rho = 0.7f64;
     let le = 2.0f64;
     let material = Material {
-        albedo: Vec3::splat(rho as f32),
         emission: Vec3::splat(le as f32),
-        two_sided: true,
-        metallic: 0.0,
-        roughness: 1.0,
-        specular: 0.0,
-        albedo_texture: None,
-        emission_texture: None,
-        metallic_roughness_texture: None,
+        ..Material::diffuse(Vec3::splat(rho as f32))
     };
     let s = scene(&[icosphere(Vec3::ZERO, 1.0, 2, 0)], vec![material]);
     for (d, rr_start) in [(0u32, 100u32), (1, 100), (3, 100), (5, 2)] {
@@ -356,15 +342,8 @@ fn light_sampler_is_a_distribution() {
             Material::diffuse(Vec3::splat(0.5)),
             Material::emitter(Vec3::new(1.0, 2.0, 3.0)),
             Material {
-                albedo: Vec3::ZERO,
                 emission: Vec3::splat(0.1),
-                two_sided: true,
-                metallic: 0.0,
-                roughness: 1.0,
-                specular: 0.0,
-                albedo_texture: None,
-                emission_texture: None,
-                metallic_roughness_texture: None,
+                ..Material::diffuse(Vec3::ZERO)
             },
         ],
     );
