@@ -9,6 +9,7 @@ mod geometry;
 mod hostile;
 mod ic;
 mod lights;
+mod normal_maps;
 mod render;
 mod sampling;
 mod signals;

@@ -44,7 +44,7 @@ fn lin3(c: [u8; 3]) -> Vec3 {
 }
 
 /// An 8-bit RGB PNG of `texels` (rows from the top).
-fn png(width: u32, height: u32, texels: &[[u8; 3]]) -> Vec<u8> {
+pub(crate) fn png(width: u32, height: u32, texels: &[[u8; 3]]) -> Vec<u8> {
     let mut out = Vec::new();
     {
         let mut e = png::Encoder::new(&mut out, width, height);
@@ -59,7 +59,7 @@ fn png(width: u32, height: u32, texels: &[[u8; 3]]) -> Vec<u8> {
 
 /// A quad: its four corners (counter-clockwise seen from the front), its normal, and the
 /// texture coordinates of its corners.
-type Quad = ([[f32; 3]; 4], [f32; 3], [[f32; 2]; 4]);
+pub(crate) type Quad = ([[f32; 3]; 4], [f32; 3], [[f32; 2]; 4]);
 
 /// A hostile case: its name, the image file, an edit of the JSON, and what the error must say.
 type Case = (
@@ -72,7 +72,7 @@ type Case = (
 /// Builds a glTF's binary buffer, views and accessors the way Blender's exporter does (one
 /// view per accessor, `target` set, `min`/`max` on positions).
 #[derive(Default)]
-struct Builder {
+pub(crate) struct Builder {
     bin: Vec<u8>,
     views: Vec<Value>,
     accessors: Vec<Value>,
@@ -93,7 +93,12 @@ impl Builder {
         self.accessors.len() - 1
     }
 
-    fn floats<const N: usize>(&mut self, v: &[[f32; N]], kind: &str, bounds: bool) -> usize {
+    pub(crate) fn floats<const N: usize>(
+        &mut self,
+        v: &[[f32; N]],
+        kind: &str,
+        bounds: bool,
+    ) -> usize {
         let bytes: Vec<u8> = v
             .as_flattened()
             .iter()
@@ -113,7 +118,7 @@ impl Builder {
         self.add(&bytes, 34962, a)
     }
 
-    fn indices(&mut self, v: &[u16]) -> usize {
+    pub(crate) fn indices(&mut self, v: &[u16]) -> usize {
         let bytes: Vec<u8> = v.iter().flat_map(|i| i.to_le_bytes()).collect();
         self.add(
             &bytes,
@@ -124,7 +129,7 @@ impl Builder {
 
     /// A mesh primitive from quads, each given by its four corners (counter-clockwise seen from
     /// the front), a normal and the texture coordinates of its corners.
-    fn quads(&mut self, quads: &[Quad], material: usize) -> Value {
+    pub(crate) fn quads(&mut self, quads: &[Quad], material: usize) -> Value {
         let (mut p, mut n, mut uv, mut idx) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for (corners, normal, coords) in quads {
             let base = p.len() as u16;
@@ -144,7 +149,7 @@ impl Builder {
     }
 
     /// Writes `dir/name.gltf` and `dir/name.bin`, completing `doc` with the buffer.
-    fn finish(self, dir: &Path, name: &str, mut doc: Value) -> PathBuf {
+    pub(crate) fn finish(self, dir: &Path, name: &str, mut doc: Value) -> PathBuf {
         write(&dir.join(format!("{name}.bin")), &self.bin);
         doc["buffers"] = json!([{"byteLength": self.bin.len(), "uri": format!("{name}.bin")}]);
         doc["bufferViews"] = json!(self.views);
@@ -160,7 +165,7 @@ impl Builder {
 
 /// The six inward faces of the cube [−s, s]³ (the walls are double-sided, so the winding only
 /// matters for the normals Blender would write).
-fn cube(s: f32) -> Vec<Quad> {
+pub(crate) fn cube(s: f32) -> Vec<Quad> {
     let mut faces = Vec::new();
     for axis in 0..3 {
         for sign in [-1.0f32, 1.0] {
@@ -192,7 +197,7 @@ fn cube(s: f32) -> Vec<Quad> {
 /// The quad [−½, ½]² at z = 0 facing +z, with texture coordinates u = 3(x + ½) − 1 and
 /// v = 3(½ − y) − 1: three periods of the texture, from −1 to 2, v growing downwards as image
 /// rows do.
-const QUAD: Quad = (
+pub(crate) const QUAD: Quad = (
     [
         [-0.5, -0.5, 0.0],
         [0.5, -0.5, 0.0],
@@ -205,7 +210,7 @@ const QUAD: Quad = (
 
 /// The camera 1 m above the quad's centre, looking down −z (glTF's camera axis), with
 /// yfov = 2·atan(½): it frames exactly the quad.
-fn camera_node() -> (Value, Value) {
+pub(crate) fn camera_node() -> (Value, Value) {
     (
         json!({"name": "Camera", "camera": 0, "translation": [0.0, 0.0, 1.0]}),
         json!([{"name": "Camera", "type": "perspective",

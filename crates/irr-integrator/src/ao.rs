@@ -60,7 +60,7 @@ impl Integrator for AmbientOcclusion {
         // Occlusion is measured on the side the camera looks at.
         let ShadingPoint {
             position, ng, ns, ..
-        } = ShadingPoint::new(&surface, -ray.direction);
+        } = scene.shading_point(&surface, -ray.direction);
         let frame = Frame::from_normal(ns);
         let samples = self.settings.samples.max(1);
         let mut visible = 0u32;

@@ -1,7 +1,7 @@
 //! The interface every integrator implements, the ray counter it reports into, and what a
 //! camera ray sees first ([`first_hit`], for a renderer's auxiliary images).
 
-use crate::path::{Radiance, ShadingPoint};
+use crate::path::Radiance;
 use crate::scene::Scene;
 use glam::Vec3;
 use irr_geometry::{Ray, SurfacePoint};
@@ -214,7 +214,7 @@ impl FirstHit {
         FirstHit {
             distance: t,
             albedo: scene.albedo(surface.triangle, surface.b1, surface.b2),
-            normal: ShadingPoint::new(surface, wo).ns,
+            normal: scene.shading_point(surface, wo).ns,
         }
     }
 }

@@ -84,8 +84,8 @@ pub use path::{PathSettings, PathTracer, Radiance};
 pub use punctual::{Incidence, PunctualLight};
 pub use scene::{Material, Scene, SceneError};
 pub use texture::{
-    Filter, Sampler, TexCoords, Texture, TextureError, TextureRef, TooManyTexCoords,
-    TooManyVertexColours, VertexColours, Wrap,
+    Filter, Sampler, TexCoords, Texture, TextureError, TextureRef, TooManyAttributeTriangles,
+    TooManyTexCoords, VertexAttribute, VertexColours, VertexTangents, Wrap,
 };
 
 #[cfg(test)]

@@ -348,7 +348,7 @@ impl PathTracer {
         rays: &mut RayCounter,
     ) -> Radiance {
         let geometry = scene.geometry();
-        let mut path = Path::new(surface, wo, *dims);
+        let mut path = Path::new(scene, surface, wo, *dims);
         while let Some(b) = self.begin(scene, &mut path, rays) {
             let occluded = b.shadow.is_some_and(|r| geometry.occluded(&r));
             let hit = b.ray.and_then(|r| geometry.intersect(&r));
@@ -385,7 +385,7 @@ impl PathTracer {
         let mut paths: Vec<Path> = starts
             .iter()
             .zip(dims.iter())
-            .map(|((surface, wo), d)| Path::new(surface, *wo, *d))
+            .map(|((surface, wo), d)| Path::new(scene, surface, *wo, *d))
             .collect();
         // The paths still going, in order, and this bounce's work for each.
         let mut live: Vec<usize> = (0..paths.len()).collect();
@@ -541,7 +541,7 @@ impl PathTracer {
 
         let Some(surface) = next else { return false };
         path.beta *= weight;
-        path.x = ShadingPoint::new(&surface, -b.wi);
+        path.x = scene.shading_point(&surface, -b.wi);
         path.depth += 1;
         // Russian roulette: past rr_start bounces, continue with probability q = min(1, max β)
         // and divide the survivors by q, so the expectation is unchanged.
@@ -567,9 +567,9 @@ struct Path {
 }
 
 impl Path {
-    fn new(surface: &SurfacePoint, wo: Vec3, dims: Dimensions) -> Path {
+    fn new(scene: &Scene, surface: &SurfacePoint, wo: Vec3, dims: Dimensions) -> Path {
         Path {
-            x: ShadingPoint::new(surface, wo),
+            x: scene.shading_point(surface, wo),
             beta: Vec3::ONE,
             dims,
             out: Radiance::default(),

@@ -4,8 +4,9 @@
 //! (emitting triangles and punctual lights) with a sampler over them, and the background.
 
 use crate::light::LightSampler;
+use crate::path::ShadingPoint;
 use crate::punctual::PunctualLight;
-use crate::texture::{TexCoords, Texture, TextureRef, VertexColours};
+use crate::texture::{TexCoords, Texture, TextureRef, VertexColours, VertexTangents};
 use glam::{Vec2, Vec3};
 use irr_bsdf::MetallicRoughness;
 use irr_geometry::{Geometry, SurfacePoint};
@@ -47,6 +48,14 @@ pub struct Material {
     /// `roughness` × its green channel and the metallic factor `metallic` × its blue channel;
     /// `None`: the factors everywhere.
     pub metallic_roughness_texture: Option<TextureRef>,
+    /// glTF `normalTexture` (linear, not sRGB): a tangent-space normal per texel, each channel
+    /// c mapped to 2c − 1, whose x and y are scaled by `normal_scale`, turning the shading
+    /// normal within the frame of the triangle's [`VertexTangents`]; `None`: the interpolated
+    /// vertex normal.
+    pub normal_texture: Option<TextureRef>,
+    /// glTF `normalTexture.scale`: the factor on the normal texture's x and y (finite; 1 by
+    /// default, 0 leaves the vertex normal).
+    pub normal_scale: f32,
 }
 
 impl Material {
@@ -62,6 +71,8 @@ impl Material {
             albedo_texture: None,
             emission_texture: None,
             metallic_roughness_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
         }
     }
 
@@ -110,9 +121,9 @@ impl Material {
 
     /// The texture coordinate sets this material reads, in the order a triangle's entries of
     /// [`TexCoords`] hold them: each distinct set once, in the order of first use by the albedo,
-    /// the emission and the metallic-roughness texture. Between 0 and 3 sets.
+    /// the emission, the metallic-roughness and the normal texture. Between 0 and 4 sets.
     pub fn tex_coord_sets(&self) -> impl Iterator<Item = u32> {
-        let mut sets = [0u32; 3];
+        let mut sets = [0u32; 4];
         let mut n = 0;
         for t in self.textures().into_iter().flatten() {
             if !sets[..n].contains(&t.tex_coord) {
@@ -123,13 +134,14 @@ impl Material {
         sets.into_iter().take(n)
     }
 
-    /// The albedo, emission and metallic-roughness textures, in that order.
+    /// The albedo, emission, metallic-roughness and normal textures, in that order.
     #[inline]
-    fn textures(&self) -> [Option<TextureRef>; 3] {
+    fn textures(&self) -> [Option<TextureRef>; 4] {
         [
             self.albedo_texture,
             self.emission_texture,
             self.metallic_roughness_texture,
+            self.normal_texture,
         ]
     }
 
@@ -161,7 +173,7 @@ pub enum SceneError {
     InvalidTextureRef {
         /// The material's index.
         index: usize,
-        /// `albedo texture`, `emission texture` or `metallic-roughness texture`.
+        /// `albedo texture`, `emission texture`, `metallic-roughness texture` or `normal texture`.
         what: &'static str,
         /// What is wrong.
         problem: String,
@@ -217,6 +229,13 @@ pub enum SceneError {
         /// What is wrong.
         problem: String,
     },
+    /// Vertex tangents that do not cover the geometry's triangles one for one, or a tangent
+    /// that is not finite or has a zero direction.
+    #[error("vertex tangents: {problem}")]
+    InvalidVertexTangents {
+        /// What is wrong.
+        problem: String,
+    },
     /// A background radiance that is negative or not finite.
     #[error("the background radiance {value} must be finite and ≥ 0 in every channel")]
     InvalidBackground {
@@ -238,6 +257,7 @@ pub struct Scene {
     textures: Vec<Texture>,
     tex_coords: TexCoords,
     colours: VertexColours,
+    tangents: VertexTangents,
     lights: LightSampler,
     background: Vec3,
 }
@@ -295,6 +315,13 @@ impl Scene {
                     value: m.emission,
                 });
             }
+            if !m.normal_scale.is_finite() {
+                return Err(SceneError::InvalidMaterial {
+                    index,
+                    what: "normal scale",
+                    value: Vec3::splat(m.normal_scale),
+                });
+            }
         }
         for id in 0..geometry.triangle_count() as u32 {
             let material = geometry.material_id(id);
@@ -314,6 +341,7 @@ impl Scene {
             textures,
             tex_coords,
             colours: VertexColours::default(),
+            tangents: VertexTangents::default(),
             lights,
             background: Vec3::ZERO,
         })
@@ -359,6 +387,90 @@ impl Scene {
         }
         self.colours = colours;
         Ok(self)
+    }
+
+    /// The scene with per-vertex tangents (glTF `TANGENT`, world space), which orient the
+    /// normal textures: `tangents` must cover every triangle by id (or be empty), each finite
+    /// with a non-zero direction. A triangle of a normal-textured material without tangents
+    /// shades with its vertex normals.
+    pub fn with_tangents(mut self, tangents: VertexTangents) -> Result<Self, SceneError> {
+        if tangents.is_empty() {
+            return Ok(self);
+        }
+        if tangents.triangle_count() != self.geometry.triangle_count() {
+            return Err(SceneError::InvalidVertexTangents {
+                problem: format!(
+                    "given for {} triangles, but the geometry has {}",
+                    tangents.triangle_count(),
+                    self.geometry.triangle_count()
+                ),
+            });
+        }
+        let valid = |t: &glam::Vec4| t.is_finite() && t.truncate() != Vec3::ZERO;
+        if let Some(t) = tangents.all().iter().flatten().find(|t| !valid(t)) {
+            return Err(SceneError::InvalidVertexTangents {
+                problem: format!("{t} is not finite or has no direction"),
+            });
+        }
+        self.tangents = tangents;
+        Ok(self)
+    }
+
+    /// The shading normal at `surface`: the interpolated vertex normal
+    /// ([`SurfacePoint::shading_normal`]), turned by the material's normal texture where it has
+    /// one (glTF 2.0 §3.9.3: n = normalize(t·x + b·y + n·z) for the texel's (x, y, z) = (2c −
+    /// 1)·(scale, scale, 1), with t the tangent made orthogonal to n and b = w·(n × t)). The
+    /// result is a unit vector on the winding normal's side, at least `MIN_COS_TO_GEOMETRY`
+    /// above its surface: a texel that would turn it further is clamped there.
+    #[inline]
+    pub fn shading_normal(&self, surface: &SurfacePoint) -> Vec3 {
+        let n = surface.shading_normal;
+        if self.tangents.is_empty() {
+            return n;
+        }
+        let (triangle, b1, b2) = (surface.triangle, surface.b1, surface.b2);
+        let m = self.material_of(triangle);
+        let (Some(texture), Some(tangent)) =
+            (&m.normal_texture, self.tangents.at(triangle, b1, b2))
+        else {
+            return n;
+        };
+        let c = self.lookup(triangle, texture, b1, b2) * 2.0 - Vec3::ONE;
+        let t = tangent.truncate();
+        let Some(t) = (t - n * n.dot(t)).try_normalize() else {
+            return n;
+        };
+        let b = n.cross(t) * if tangent.w < 0.0 { -1.0 } else { 1.0 };
+        let scale = m.normal_scale;
+        let Some(bumped) = (t * (c.x * scale) + b * (c.y * scale) + n * c.z).try_normalize() else {
+            return n;
+        };
+        let ng = surface.geometric_normal;
+        let above = bumped.dot(ng);
+        if above >= MIN_COS_TO_GEOMETRY {
+            return bumped;
+        }
+        // Below the surface or too close to it: its tangential part, lifted to the limit.
+        let tangential = (bumped - ng * above).normalize_or_zero();
+        (tangential * (1.0 - MIN_COS_TO_GEOMETRY * MIN_COS_TO_GEOMETRY).sqrt()
+            + ng * MIN_COS_TO_GEOMETRY)
+            .normalize_or(ng)
+    }
+
+    /// `surface` prepared for shading towards `wo`: [`ShadingPoint::new`] with the normal
+    /// texture's [`Scene::shading_normal`].
+    #[inline]
+    pub fn shading_point(&self, surface: &SurfacePoint, wo: Vec3) -> ShadingPoint {
+        if self.tangents.is_empty() {
+            return ShadingPoint::new(surface, wo);
+        }
+        ShadingPoint::new(
+            &SurfacePoint {
+                shading_normal: self.shading_normal(surface),
+                ..*surface
+            },
+            wo,
+        )
     }
 
     /// The metallic factor and the roughness at barycentrics (b1, b2) of triangle `triangle`:
@@ -510,6 +622,12 @@ impl Scene {
     }
 }
 
+/// The least cosine between a normal-textured shading normal and the winding normal
+/// ([`Scene::shading_normal`]): a shading normal at or below the surface would leave no
+/// direction that is above both, so no light at all; 0.01 (89.4°) keeps every texel's
+/// tilt but the extreme ones.
+pub const MIN_COS_TO_GEOMETRY: f32 = 0.01;
+
 /// The materials as the light sampler weighs them, by their `emission`: for a textured
 /// emitter, the factor × the texture's mean (every [`TextureRef`] checked to be in range).
 fn light_weights(materials: &[Material], textures: &[Texture]) -> Vec<Material> {
@@ -538,6 +656,7 @@ fn check_textures(
             ("albedo texture", m.albedo_texture),
             ("emission texture", m.emission_texture),
             ("metallic-roughness texture", m.metallic_roughness_texture),
+            ("normal texture", m.normal_texture),
         ] {
             let Some(r) = r else { continue };
             textured = true;
@@ -551,7 +670,7 @@ fn check_textures(
                     Some("has a texture transform that is not finite".to_string())
                 }
                 Some(t) if what != "emission texture" && t.max_value() > 1.0 => Some(format!(
-                    "has a texel of {} (albedo, metallic and roughness must lie in [0, 1])",
+                    "has a texel of {} (albedo, metallic, roughness and normal texels must lie in [0, 1])",
                     t.max_value()
                 )),
                 Some(_) => None,

@@ -6,7 +6,7 @@
 //! top-left corner as a file stores it), u grows along a row and v down the rows. Texel (i, j)
 //! covers [i/W, (i+1)/W] × [j/H, (j+1)/H] and its centre is at ((i + ½)/W, (j + ½)/H).
 
-use glam::{Affine2, Vec2, Vec3};
+use glam::{Affine2, Vec2, Vec3, Vec4};
 use std::sync::Arc;
 use thiserror::Error;
 
@@ -323,35 +323,54 @@ impl TexCoords {
     }
 }
 
-/// More coloured triangles than a [`VertexColours`] can index (2³² − 1).
+/// More triangles with values than a [`VertexAttribute`] can index (2³² − 1).
 #[derive(Clone, Copy, Debug, Error, PartialEq, Eq)]
-#[error("more than {} triangles with vertex colours", u32::MAX - 1)]
-pub struct TooManyVertexColours;
+#[error("more than {} triangles with per-vertex values", u32::MAX - 1)]
+pub struct TooManyAttributeTriangles;
 
-/// The colours at the three vertices of the triangles that have them (glTF `COLOR_0`, linear
-/// RGB in [0, 1]), by triangle id: they multiply the base colour. Empty when no triangle has
-/// any, so a scene without vertex colours stores nothing.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct VertexColours {
-    /// Per triangle, its entry of `colours`, or `u32::MAX` for none.
+/// Values at the three vertices of the triangles that have them, by triangle id, interpolated
+/// barycentrically: [`VertexColours`] (glTF `COLOR_0`) and [`VertexTangents`] (glTF
+/// `TANGENT`). Empty when no triangle has any, so a scene without them stores nothing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VertexAttribute<T> {
+    /// Per triangle, its entry of `values`, or `u32::MAX` for none.
     index: Vec<u32>,
-    colours: Vec<[Vec3; 3]>,
+    values: Vec<[T; 3]>,
 }
 
-impl VertexColours {
-    /// Adds the next triangle (ids in order from 0) with its vertices' colours, or none.
+impl<T> Default for VertexAttribute<T> {
+    fn default() -> Self {
+        Self {
+            index: Vec::new(),
+            values: Vec::new(),
+        }
+    }
+}
+
+/// The colours at the three vertices of the triangles that have them (glTF `COLOR_0`, linear
+/// RGB in [0, 1]), by triangle id: they multiply the base colour.
+pub type VertexColours = VertexAttribute<Vec3>;
+
+/// The tangents at the three vertices of the triangles whose material has a normal texture
+/// (glTF `TANGENT`, or MikkTSpace's where the file has none), in world space: xyz a unit
+/// tangent along which the normal texture's u grows, w = ±1 the handedness, so that the
+/// bitangent is w·(n × t).
+pub type VertexTangents = VertexAttribute<Vec4>;
+
+impl<T: Copy + std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>> VertexAttribute<T> {
+    /// Adds the next triangle (ids in order from 0) with its vertices' values, or none.
     ///
     /// # Errors
-    /// [`TooManyVertexColours`] past 2³² − 2 coloured triangles.
-    pub fn push(&mut self, colours: Option<[Vec3; 3]>) -> Result<(), TooManyVertexColours> {
-        let entry = match colours {
+    /// [`TooManyAttributeTriangles`] past 2³² − 2 triangles with values.
+    pub fn push(&mut self, values: Option<[T; 3]>) -> Result<(), TooManyAttributeTriangles> {
+        let entry = match values {
             None => u32::MAX,
             Some(c) => {
-                let i = u32::try_from(self.colours.len())
+                let i = u32::try_from(self.values.len())
                     .ok()
                     .filter(|&i| i < u32::MAX)
-                    .ok_or(TooManyVertexColours)?;
-                self.colours.push(c);
+                    .ok_or(TooManyAttributeTriangles)?;
+                self.values.push(c);
                 i
             }
         };
@@ -365,26 +384,32 @@ impl VertexColours {
         self.index.len()
     }
 
-    /// Whether no triangle has a colour.
+    /// Whether no triangle has values.
     #[inline]
     pub fn is_empty(&self) -> bool {
-        self.colours.is_empty()
+        self.values.is_empty()
     }
 
-    /// The colours of every coloured triangle.
+    /// The values of every triangle that has them.
     #[inline]
-    pub fn all(&self) -> &[[Vec3; 3]] {
-        &self.colours
+    pub fn all(&self) -> &[[T; 3]] {
+        &self.values
     }
 
-    /// The colour of triangle `triangle` at barycentrics (b1, b2), `None` for a triangle
-    /// without colours (or past the end).
+    /// The values at the vertices of triangle `triangle`, `None` for a triangle without
+    /// values (or past the end).
     #[inline]
-    pub fn at(&self, triangle: u32, b1: f32, b2: f32) -> Option<Vec3> {
-        let c = self
-            .colours
-            .get(*self.index.get(triangle as usize)? as usize)?;
-        Some((1.0 - b1 - b2) * c[0] + b1 * c[1] + b2 * c[2])
+    pub fn corners(&self, triangle: u32) -> Option<&[T; 3]> {
+        self.values
+            .get(*self.index.get(triangle as usize)? as usize)
+    }
+
+    /// The value of triangle `triangle` at barycentrics (b1, b2), `None` for a triangle
+    /// without values (or past the end).
+    #[inline]
+    pub fn at(&self, triangle: u32, b1: f32, b2: f32) -> Option<T> {
+        let c = self.corners(triangle)?;
+        Some(c[0] * (1.0 - b1 - b2) + c[1] * b1 + c[2] * b2)
     }
 }
 
@@ -549,6 +574,73 @@ mod tests {
         crate::Scene::with_textures(geometry, materials, textures, tex_coords)
     }
 
+    /// A normal texture of one texel `c` (linear, in [0, 1]) turns the shading normal of the
+    /// unit square (winding normal +z) to normalize((2c − 1)·(s, s, 1)) in the frame of
+    /// tangent t, bitangent w·(n × t), normal n; scale 0 leaves the vertex normal; a texel
+    /// that would tilt it below the surface is clamped to `MIN_COS_TO_GEOMETRY` above it; and
+    /// a triangle without tangents keeps its vertex normal.
+    #[test]
+    fn normal_textures_turn_the_shading_normal_in_the_tangent_frame() {
+        use crate::scene::MIN_COS_TO_GEOMETRY;
+        use glam::Vec4;
+        let texel = Vec3::new(0.8, 0.3, 0.9);
+        let texture = |texel: Vec3| {
+            Texture::new(1, 1, vec![texel], Sampler::default()).unwrap_or_else(|e| panic!("{e}"))
+        };
+        let mut tex_coords = TexCoords::default();
+        for _ in 0..2 {
+            tex_coords
+                .push(&[[Vec2::ZERO; 3]])
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
+        let material = |scale: f32| crate::Material {
+            normal_texture: Some(TextureRef::new(0, 0)),
+            normal_scale: scale,
+            ..crate::Material::diffuse(Vec3::splat(0.5))
+        };
+        // Tangent +y with w = −1: bitangent −(z × y) = +x.
+        let tangent = Vec4::new(0.0, 2.0, 0.0, -1.0);
+        let shading = |texel: Vec3, scale: f32, tangents: [Option<[Vec4; 3]>; 2]| {
+            let mut t = VertexTangents::default();
+            for c in tangents {
+                t.push(c).unwrap_or_else(|e| panic!("{e}"));
+            }
+            let s = scene(
+                &[square(0)],
+                vec![material(scale)],
+                vec![texture(texel)],
+                tex_coords.clone(),
+            )
+            .and_then(|s| s.with_tangents(t))
+            .unwrap_or_else(|e| panic!("{e}"));
+            let ray = irr_geometry::Ray::new(Vec3::new(0.7, 0.2, 1.0), -Vec3::Z);
+            let hit = s
+                .geometry()
+                .intersect(&ray)
+                .unwrap_or_else(|| panic!("no hit"));
+            s.shading_normal(&s.geometry().surface(&ray, &hit))
+        };
+        let both = [Some([tangent; 3]); 2];
+        for scale in [1.0f32, 0.5, -2.0] {
+            let c = texel * 2.0 - Vec3::ONE;
+            // x along t = +y, y along b = +x.
+            let expected = Vec3::new(c.y * scale, c.x * scale, c.z).normalize();
+            let n = shading(texel, scale, both);
+            // A handful of f32 operations, each within 2⁻²⁴ relative, on unit-sized values.
+            assert!(
+                (n - expected).length() < 1e-6,
+                "scale {scale}: {n} ≠ {expected}"
+            );
+        }
+        assert_eq!(shading(texel, 0.0, both), Vec3::Z);
+        // A texel of blue below ½ points below the surface: clamped to the limit.
+        let n = shading(Vec3::new(0.8, 0.3, 0.3), 1.0, both);
+        assert!((n.z - MIN_COS_TO_GEOMETRY).abs() < 1e-6, "{n}");
+        assert!((n.length() - 1.0).abs() < 1e-6);
+        // The point is on triangle 0 (x > y); without its tangents it keeps the vertex normal.
+        assert_eq!(shading(texel, 1.0, [None, Some([tangent; 3])]), Vec3::Z);
+    }
+
     #[test]
     fn scene_reads_albedo_and_emission_at_the_point() {
         let nearest = Sampler {
@@ -569,15 +661,12 @@ mod tests {
             albedo: Vec3::new(0.5, 0.5, 0.05),
             emission: Vec3::splat(2.0),
             two_sided: false,
-            metallic: 0.0,
-            roughness: 1.0,
-            specular: 0.0,
             albedo_texture: Some(TextureRef::new(1, 3)),
             emission_texture: Some(TextureRef {
                 transform: shift,
                 ..TextureRef::new(0, 0)
             }),
-            metallic_roughness_texture: None,
+            ..crate::Material::diffuse(Vec3::ZERO)
         };
         assert_eq!(material.tex_coord_sets().collect::<Vec<_>>(), [3, 0]);
         // A third texture on a set already read adds no set; on a new one, a third, after the
@@ -590,6 +679,13 @@ mod tests {
         assert_eq!(on(1).tex_coord_sets().collect::<Vec<_>>(), [3, 0, 1]);
         assert_eq!(on(1).slot(&TextureRef::new(0, 1)), 2);
         assert_eq!(on(1).slot(&TextureRef::new(0, 0)), 1);
+        // A normal texture on a fourth set makes four.
+        let normal = crate::Material {
+            normal_texture: Some(TextureRef::new(0, 2)),
+            ..on(1)
+        };
+        assert_eq!(normal.tex_coord_sets().collect::<Vec<_>>(), [3, 0, 1, 2]);
+        assert_eq!(normal.slot(&TextureRef::new(0, 2)), 3);
         // Set 3 (albedo) spans the square's corners as uv = (x, y); set 0 (emission) is (y, x).
         let corners = |t: [usize; 3], f: fn(Vec2) -> Vec2| {
             let c = [Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y];

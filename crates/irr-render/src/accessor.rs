@@ -230,18 +230,41 @@ pub(crate) fn read_vec3(
     buffers: &Buffers,
     budget: &mut Budget,
 ) -> Result<Vec<[f32; 3]>, String> {
+    read_floats(what, accessor, Dimensions::Vec3, buffers, budget)
+}
+
+/// Reads a `VEC4` accessor of `FLOAT` (`TANGENT`).
+pub(crate) fn read_vec4(
+    what: &str,
+    accessor: &gltf::Accessor<'_>,
+    buffers: &Buffers,
+    budget: &mut Budget,
+) -> Result<Vec<[f32; 4]>, String> {
+    read_floats(what, accessor, Dimensions::Vec4, buffers, budget)
+}
+
+/// Reads an accessor of `N` `FLOAT` components, whose dimensions must be `dims`.
+fn read_floats<const N: usize>(
+    what: &str,
+    accessor: &gltf::Accessor<'_>,
+    dims: Dimensions,
+    buffers: &Buffers,
+    budget: &mut Budget,
+) -> Result<Vec<[f32; N]>, String> {
     let (t, d) = (accessor.data_type(), accessor.dimensions());
-    if d != Dimensions::Vec3 || t != DataType::F32 {
+    if d != dims || t != DataType::F32 {
         return Err(format!(
-            "{what} is {} of {}; irr reads VEC3 of FLOAT only (quantized attributes, \
+            "{what} is {} of {}; irr reads {} of FLOAT only (quantized attributes, \
              KHR_mesh_quantization, are not supported)",
             dims_name(d),
-            type_name(t)
+            type_name(t),
+            dims_name(dims)
         ));
     }
-    read_elements(what, accessor, 12, buffers, budget, [0.0; 3], |b| {
-        let f = |k: usize| f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]]);
-        [f(0), f(1), f(2)]
+    read_elements(what, accessor, 4 * N, buffers, budget, [0.0; N], |b| {
+        std::array::from_fn(|k| {
+            f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]])
+        })
     })
 }
 

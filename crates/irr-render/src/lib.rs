@@ -216,6 +216,7 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
         textures,
         tex_coords,
         colours,
+        tangents,
         camera,
         cameras,
         lights,
@@ -228,7 +229,9 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
     let tex_coords = load::tex_coords_by_id(&meshes, &materials, &tex_coords)
         .map_err(|e| RenderError::scene(path, e))?;
     let colours =
-        load::colours_by_id(&meshes, &colours).map_err(|e| RenderError::scene(path, e))?;
+        load::attribute_by_id(&meshes, &colours).map_err(|e| RenderError::scene(path, e))?;
+    let tangents =
+        load::attribute_by_id(&meshes, &tangents).map_err(|e| RenderError::scene(path, e))?;
     // The meshes are consumed: each part is freed as soon as the BVH's leaves hold it, so a
     // large scene is never in memory twice.
     let geometry =
@@ -253,6 +256,7 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
     let bounds = geometry.bounds();
     let scene = Scene::with_textures(geometry, materials, textures, tex_coords)
         .and_then(|s| s.with_vertex_colours(colours))
+        .and_then(|s| s.with_tangents(tangents))
         .and_then(|s| s.with_lights(lights))
         .map_err(|e| RenderError::scene(path, e.to_string()))?;
     Ok(LoadedScene {

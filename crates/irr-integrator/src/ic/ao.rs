@@ -87,7 +87,7 @@ impl Integrator for CachedAmbientOcclusion {
             return Vec3::ZERO;
         };
         let surface = scene.geometry().surface(ray, &hit);
-        let x = ShadingPoint::new(&surface, -ray.direction.normalize());
+        let x = scene.shading_point(&surface, -ray.direction.normalize());
         let a = match self.core.lookup(scene, 0, &Query::from(&x), rays) {
             Some(a) => a,
             None => {

@@ -86,7 +86,7 @@ impl<V: IcValue> Core<V> {
         let hit = scene.geometry().intersect(ray)?;
         let surface = scene.geometry().surface(ray, &hit);
         let mut t = (surface.position - ray.origin).length();
-        let mut x = ShadingPoint::new(&surface, -ray.direction.normalize());
+        let mut x = scene.shading_point(&surface, -ray.direction.normalize());
         for bounce in 0..level {
             let w = Frame::from_normal(x.ns)
                 .to_world(sample_cosine_hemisphere(key.uniform_2d(1 + bounce)));
@@ -98,7 +98,7 @@ impl<V: IcValue> Core<V> {
             let hit = scene.geometry().intersect(&r)?;
             let surface = scene.geometry().surface(&r, &hit);
             t = (surface.position - x.position).length();
-            x = ShadingPoint::new(&surface, -w);
+            x = scene.shading_point(&surface, -w);
         }
         Some((x, t))
     }

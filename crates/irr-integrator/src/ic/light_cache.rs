@@ -315,7 +315,7 @@ pub fn trace_light_path(
             break;
         }
         let surface = geometry.surface(&ray, &hit);
-        let x = ShadingPoint::new(&surface, -ray.direction);
+        let x = scene.shading_point(&surface, -ray.direction);
         let bsdf = Bsdf::at(scene, &x);
         if j < DEPOSITS_PER_PATH {
             slots.push(Slot {

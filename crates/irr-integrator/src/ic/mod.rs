@@ -334,7 +334,7 @@ impl IrradianceCacheIntegrator {
             return scene.background();
         };
         let mut dims = Dimensions::starting_at(key, 1);
-        let x = ShadingPoint::new(surface, -w);
+        let x = scene.shading_point(surface, -w);
         // The caches hold irradiance, which stands for a Lambertian surface's reflection only:
         // a glossy hit takes the diffuse lobe's share from the light cache and samples the rest
         // (below); with the other bounce modes its light is path-traced with its whole BSDF.

@@ -110,7 +110,7 @@ impl IrradianceCacheIntegrator {
                 };
                 continue;
             }
-            let x = ShadingPoint::new(&surface, wo);
+            let x = scene.shading_point(&surface, wo);
             let bsdf = Bsdf::at(scene, &x);
             let light_samples = self.core.settings.direct_samples;
             // Direct light: NEE at x₀; on a glossy x₀ weighted against the BSDF sample that

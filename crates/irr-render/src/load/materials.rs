@@ -59,13 +59,12 @@ impl Loader<'_> {
                 plural(n, "other scene", "other scenes")
             )
         });
-        let (mut alpha, mut maps, mut occlusion, mut specular_colour) = (0, 0, 0, 0);
+        let (mut alpha, mut occlusion, mut specular_colour) = (0, 0, 0);
         for (m, json) in d.materials().zip(&d.as_json().materials) {
             if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
                 alpha += 1;
             }
             // Read from the JSON: the typed accessors look the textures up with an unwrap.
-            maps += usize::from(json.normal_texture.is_some());
             occlusion += usize::from(json.occlusion_texture.is_some());
             if let Some(s) = json.extensions.as_ref().and_then(|e| e.specular.as_ref()) {
                 specular_colour += usize::from(
@@ -75,12 +74,6 @@ impl Loader<'_> {
                 );
             }
         }
-        self.warnings.add("material-maps", maps, |n| {
-            format!(
-                "{} ignored (irr shades with the meshes' own normals)",
-                plural(n, "normal texture", "normal textures")
-            )
-        });
         self.warnings.add("occlusion-maps", occlusion, |n| {
             format!(
                 "{} ignored (a global-illumination renderer computes occlusion: baked occlusion would count it twice)",
@@ -182,6 +175,20 @@ impl Loader<'_> {
                 )?),
                 None => None,
             };
+            let (normal_texture, normal_scale) = match &json.normal_texture {
+                Some(normal) => {
+                    let what = format!("material {name} normalTexture");
+                    if !normal.scale.is_finite() {
+                        return Err(
+                            self.err(format!("{what}: scale {} is not finite", normal.scale))
+                        );
+                    }
+                    let info = self.normal_texture_info(normal, &what)?;
+                    let r = self.texture_ref(&mut textures, &info, &what, buffers, true)?;
+                    (Some(r), normal.scale)
+                }
+                None => (None, 1.0),
+            };
             out.push(Material {
                 albedo: clamped_albedo,
                 emission,
@@ -192,6 +199,8 @@ impl Loader<'_> {
                 albedo_texture,
                 emission_texture,
                 metallic_roughness_texture,
+                normal_texture,
+                normal_scale,
             });
         }
         textures.warn(self);
@@ -209,5 +218,31 @@ impl Loader<'_> {
         });
         let default = out.len() as u32;
         Ok((out, default, textures.list))
+    }
+
+    /// A `normalTexture` as the `textureInfo` it extends (its `scale` aside), with its
+    /// `KHR_texture_transform`, which the gltf crate keeps only as JSON there.
+    fn normal_texture_info(
+        &self,
+        normal: &gltf::json::material::NormalTexture,
+        what: &str,
+    ) -> Result<gltf::json::texture::Info, RenderError> {
+        use gltf::json::extensions::texture::{Info, TextureTransform};
+        let transform = normal
+            .extensions
+            .as_ref()
+            .and_then(|e| e.others.get("KHR_texture_transform"))
+            .map(|v| serde_json::from_value::<TextureTransform>(v.clone()))
+            .transpose()
+            .map_err(|e| self.err(format!("{what}: KHR_texture_transform: {e}")))?;
+        Ok(gltf::json::texture::Info {
+            index: normal.index,
+            tex_coord: normal.tex_coord,
+            extensions: transform.map(|t| Info {
+                texture_transform: Some(t),
+                others: Default::default(),
+            }),
+            extras: Default::default(),
+        })
     }
 }

@@ -2,29 +2,40 @@
 //! colours.
 
 use super::{Loader, MAX_COORDINATE, describe, plural};
-use crate::accessor::{read_colours, read_indices, read_tex_coords, read_vec3};
+use crate::accessor::{read_colours, read_indices, read_tex_coords, read_vec3, read_vec4};
 use crate::error::RenderError;
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use irr_geometry::TriangleMesh;
 
-/// A primitive instance in world space, the texture coordinates of its triangles, and their
-/// vertex colours (empty without `COLOR_0`).
-type Primitive = (TriangleMesh, Vec<[Vec2; 3]>, Vec<[Vec3; 3]>);
+/// A primitive instance in world space and the per-vertex data of its triangles.
+pub(super) struct Primitive {
+    /// The triangles, in world space.
+    pub mesh: TriangleMesh,
+    /// The texture coordinates of each triangle, one triple per set its material reads.
+    pub tex_coords: Vec<[Vec2; 3]>,
+    /// The `COLOR_0` colours of each triangle (empty without them).
+    pub colours: Vec<[Vec3; 3]>,
+    /// The world-space tangents of each triangle (empty unless the material has a normal
+    /// texture).
+    pub tangents: Vec<[Vec4; 3]>,
+}
 
 impl Loader<'_> {
-    /// One primitive instance in world space with material `material.0`, and the texture
+    /// One primitive instance in world space with material `material.0`, the texture
     /// coordinates of its triangles for the sets `material.1` its material reads (see
-    /// `SceneData::tex_coords`); `None` for a primitive irr does not render.
+    /// `SceneData::tex_coords`), and their tangents if the material has a normal texture,
+    /// which reads entry `material.2` of those sets; `None` for a primitive irr does not
+    /// render.
     pub(super) fn primitive(
         &mut self,
         node: &gltf::Node<'_>,
         mesh: &gltf::Mesh<'_>,
         primitive: &gltf::Primitive<'_>,
         world: Mat4,
-        material: (u32, &[u32]),
+        material: (u32, &[u32], Option<usize>),
         buffers: &[Vec<u8>],
     ) -> Result<Option<Primitive>, RenderError> {
-        let (material_id, sets) = material;
+        let (material_id, sets, normal_set) = material;
         use gltf::mesh::Mode;
         let what = format!(
             "mesh {} primitive {} (node {})",
@@ -187,16 +198,108 @@ impl Loader<'_> {
         let tex_coords = self.tex_coords(&what, primitive, sets, n, &triangles, buffers)?;
         let colours = self.colours(&what, primitive, n, &triangles, buffers)?;
         let count = triangles.len();
-        Ok(Some((
-            TriangleMesh {
-                positions,
-                indices: triangles,
-                normals,
-                material_ids: vec![material_id; count],
-            },
+        let mesh = TriangleMesh {
+            positions,
+            indices: triangles,
+            normals,
+            material_ids: vec![material_id; count],
+        };
+        let tangents = match normal_set {
+            None => Vec::new(),
+            Some(slot) => {
+                let uv = |t: usize| {
+                    tex_coords
+                        .get(t * sets.len() + slot)
+                        .copied()
+                        .unwrap_or_default()
+                };
+                self.tangents(&what, primitive, &mesh, uv, linear, buffers)?
+            }
+        };
+        Ok(Some(Primitive {
+            mesh,
             tex_coords,
             colours,
-        )))
+            tangents,
+        }))
+    }
+
+    /// The world-space tangents at the vertices of each triangle of `mesh` (already in world
+    /// space, windings as the geometry will have them), whose texture coordinates for the
+    /// normal texture are `uv(t)`: the file's `TANGENT` turned by `linear` (the node's linear
+    /// part; its handedness flips with a mirroring transform), or, without it, MikkTSpace's
+    /// (glTF 2.0 §3.7.2.1: "client implementations SHOULD calculate tangents using default
+    /// MikkTSpace algorithms"), computed in world space. Triangles MikkTSpace gives no tangent
+    /// (degenerate texture coordinates with no neighbour to borrow from) get any tangent
+    /// perpendicular to their normal.
+    fn tangents(
+        &mut self,
+        what: &str,
+        primitive: &gltf::Primitive<'_>,
+        mesh: &TriangleMesh,
+        uv: impl Fn(usize) -> [Vec2; 3],
+        linear: Mat3,
+        buffers: &[Vec<u8>],
+    ) -> Result<Vec<[Vec4; 3]>, RenderError> {
+        let count = mesh.indices.len();
+        let mut out = self
+            .budget
+            .vec::<[Vec4; 3]>(&format!("{what} tangents"), count)
+            .map_err(|e| self.err(e))?;
+        if let Some(acc) = primitive.get(&gltf::Semantic::Tangents) {
+            let label = format!("{what} TANGENT accessor {}", acc.index());
+            let local =
+                read_vec4(&label, &acc, buffers, &mut self.budget).map_err(|e| self.err(e))?;
+            let n = mesh.positions.len();
+            if local.len() != n {
+                return Err(self.err(format!(
+                    "{what}: TANGENT has {} elements but POSITION has {n}",
+                    local.len()
+                )));
+            }
+            let mirror = if linear.determinant() < 0.0 {
+                -1.0
+            } else {
+                1.0
+            };
+            let world: Option<Vec<Vec4>> = local
+                .iter()
+                .map(|t| {
+                    let t = Vec4::from_array(*t);
+                    let xyz = (linear * t.truncate()).try_normalize()?;
+                    let sign = if t.w < 0.0 { -mirror } else { mirror };
+                    t.w.is_finite().then_some(xyz.extend(sign))
+                })
+                .collect();
+            if let Some(world) = world {
+                // The indices were checked against the vertex count, which `world` matches.
+                out.extend(mesh.indices.iter().map(|t| t.map(|i| world[i as usize])));
+                return Ok(out);
+            }
+            self.warnings.add("bad-tangents", 1, |n| {
+                format!(
+                    "{} zero-length or non-finite tangents: MikkTSpace's are used instead",
+                    plural(n, "primitive has", "primitives have")
+                )
+            });
+        }
+        let mut faces = MikkFaces {
+            mesh,
+            uv: &uv,
+            out: vec![[None; 3]; count],
+        };
+        // The error type has no values: generation cannot fail.
+        let _ = bevy_mikktspace::generate_tangents(&mut faces);
+        for (t, corners) in faces.out.iter().enumerate() {
+            let normal = faces.corner_normals(t);
+            out.push(std::array::from_fn(|k| {
+                corners[k].unwrap_or_else(|| {
+                    let n = normal[k].try_normalize().unwrap_or(Vec3::Z);
+                    n.any_orthonormal_vector().extend(1.0)
+                })
+            }));
+        }
+        Ok(out)
     }
 
     /// The `COLOR_0` colours at the vertices of each of `triangles` (vertex indices below `n`,
@@ -310,6 +413,81 @@ impl Loader<'_> {
             }
         }
         Ok(out)
+    }
+}
+
+/// A mesh's triangles as MikkTSpace reads them (its positions and normals, the normal
+/// texture's coordinates), and the tangents it writes, per triangle and corner.
+struct MikkFaces<'a, F: Fn(usize) -> [Vec2; 3]> {
+    mesh: &'a TriangleMesh,
+    uv: &'a F,
+    out: Vec<[Option<Vec4>; 3]>,
+}
+
+impl<F: Fn(usize) -> [Vec2; 3]> MikkFaces<'_, F> {
+    /// The corners of triangle `t`.
+    fn corners(&self, t: usize) -> [Vec3; 3] {
+        // The loader checked every index against the positions.
+        self.mesh.indices[t].map(|i| {
+            self.mesh
+                .positions
+                .get(i as usize)
+                .copied()
+                .unwrap_or_default()
+        })
+    }
+
+    /// The normals at the corners of triangle `t`: the mesh's, or its winding normal at each
+    /// (glTF's flat normals for a primitive without `NORMAL`).
+    fn corner_normals(&self, t: usize) -> [Vec3; 3] {
+        match &self.mesh.normals {
+            Some(n) => self.mesh.indices[t].map(|i| n.get(i as usize).copied().unwrap_or_default()),
+            None => {
+                let [a, b, c] = self.corners(t);
+                [(b - a).cross(c - a).normalize_or_zero(); 3]
+            }
+        }
+    }
+}
+
+impl<F: Fn(usize) -> [Vec2; 3]> bevy_mikktspace::Geometry for MikkFaces<'_, F> {
+    fn num_faces(&self) -> usize {
+        self.mesh.indices.len()
+    }
+
+    fn num_vertices_of_face(&self, _face: usize) -> usize {
+        3
+    }
+
+    fn position(&self, face: usize, vert: usize) -> [f32; 3] {
+        self.corners(face)[vert].to_array()
+    }
+
+    fn normal(&self, face: usize, vert: usize) -> [f32; 3] {
+        self.corner_normals(face)[vert].to_array()
+    }
+
+    fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
+        // MikkTSpace takes v up from the image's bottom row (Blender's convention, whose
+        // tangents a file's TANGENT carries); glTF's v runs down from the top row. With 1 − v
+        // the bitangent points up the image, the +Y of glTF's normal texels.
+        let uv = (self.uv)(face)[vert];
+        [uv.x, 1.0 - uv.y]
+    }
+
+    fn set_tangent(
+        &mut self,
+        tangent_space: Option<bevy_mikktspace::TangentSpace>,
+        face: usize,
+        vert: usize,
+    ) {
+        let t = tangent_space.and_then(|s| {
+            let e = Vec4::from_array(s.tangent_encoded());
+            e.truncate().try_normalize().map(|xyz| xyz.extend(e.w))
+        });
+        if let Some(slot) = self.out.get_mut(face).and_then(|f| f.get_mut(vert)) {
+            *slot = t;
+        }
     }
 }
 

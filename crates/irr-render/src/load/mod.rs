@@ -18,13 +18,17 @@
 //!   radiance in W·sr⁻¹·m⁻²; `doubleSided` says whether a surface emits from both faces or only
 //!   from its front face (counter-clockwise winding). A primitive without a material gets glTF's
 //!   default material (a white rough metal), with a warning.
-//! - `baseColorTexture`, `emissiveTexture` and `metallicRoughnessTexture` (module `textures`):
-//!   PNG or JPEG images from a `bufferView`, a `data:` URI or a file inside the asset root,
-//!   converted from sRGB to linear once (the metallic-roughness texture is linear data, only
-//!   scaled to [0, 1]) and multiplied by `baseColorFactor` / the emission / the metallic
-//!   (blue) and roughness (green) factors at shading time (alpha is dropped); their `texCoord`; the sampler's `wrapS`/`wrapT` (`REPEAT`, `CLAMP_TO_EDGE`,
-//!   `MIRRORED_REPEAT`) and `magFilter` (`NEAREST`, or `LINEAR`: bilinear, the default); and
-//!   `KHR_texture_transform` (offset, rotation, scale, texCoord).
+//! - `baseColorTexture`, `emissiveTexture`, `metallicRoughnessTexture` and `normalTexture`
+//!   (module `textures`): PNG or JPEG images from a `bufferView`, a `data:` URI or a file
+//!   inside the asset root, converted from sRGB to linear once (the metallic-roughness and
+//!   normal textures are linear data, only scaled to [0, 1]) and multiplied by
+//!   `baseColorFactor` / the emission / the metallic (blue) and roughness (green) factors at
+//!   shading time (alpha is dropped); their `texCoord`; the sampler's `wrapS`/`wrapT`
+//!   (`REPEAT`, `CLAMP_TO_EDGE`, `MIRRORED_REPEAT`) and `magFilter` (`NEAREST`, or `LINEAR`:
+//!   bilinear, the default); and `KHR_texture_transform` (offset, rotation, scale, texCoord).
+//! - For a normal texture, its `scale` and the primitive's `TANGENT` (world space; the
+//!   handedness flips under a mirroring transform), or, without it, MikkTSpace tangents
+//!   computed from the normal texture's coordinates (module `mesh`).
 //! - Every perspective camera, in the order of a depth-first walk of the scene's nodes, with its
 //!   node's name (the first is the default; `--camera N` picks another).
 //! - `KHR_lights_punctual` (lights.rs): every point, spot and directional light that a node of
@@ -34,9 +38,9 @@
 //!   `innerConeAngle` and `outerConeAngle` with glTF's smooth falloff.
 //!
 //! # What irr ignores, always with a warning
-//! Normal textures, occlusion textures (baked occlusion would darken light that a global-illumination renderer
+//! Occlusion textures (baked occlusion would darken light that a global-illumination renderer
 //! already shadows: counted twice), `KHR_materials_specular`'s colour and textures, textures and
-//! images no base-colour, emissive or metallic-roughness texture uses, `minFilter` (no mip maps: every lookup uses
+//! images no base-colour, emissive, metallic-roughness or normal texture uses, `minFilter` (no mip maps: every lookup uses
 //! `magFilter`), transparency (`alphaMode` other than `OPAQUE`), vertex colours past
 //! `COLOR_0`, morph targets, skins, animations, points and lines, orthographic cameras, other
 //! scenes, a light's `range` (a non-physical cut-off), lights no node of the scene places, and
@@ -66,7 +70,7 @@ mod tests;
 mod textures;
 
 pub use textures::MAX_IMAGE_SIDE;
-pub(crate) use textures::{colours_by_id, tex_coords_by_id};
+pub(crate) use textures::{attribute_by_id, tex_coords_by_id};
 
 use json::{count_extensions, prevalidate, validate};
 
@@ -74,7 +78,7 @@ use crate::camera::{Camera, NamedCamera};
 use crate::error::{RenderError, one_line};
 use crate::files::{Budget, Confinement, LoadOptions, MAX_JSON_BYTES, read_scene_file};
 use crate::glb;
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 use irr_geometry::TriangleMesh;
 use irr_integrator::{Material, PunctualLight, Texture};
 use std::collections::BTreeMap;
@@ -134,6 +138,10 @@ pub struct SceneData {
     /// Per mesh, the `COLOR_0` colours at its triangles' vertices, one triple per triangle;
     /// empty for a mesh without them.
     pub colours: Vec<Vec<[Vec3; 3]>>,
+    /// Per mesh, the world-space tangents at its triangles' vertices (xyz a unit tangent, w
+    /// = ±1 the bitangent's sign), one triple per triangle, for a mesh whose material has a
+    /// normal texture (the file's `TANGENT`, else MikkTSpace's); empty for the others.
+    pub tangents: Vec<Vec<[Vec4; 3]>>,
     /// The file's first perspective camera, if any: `cameras[0]`'s.
     pub camera: Option<Camera>,
     /// Every perspective camera of the default scene, in depth-first order of its nodes.
@@ -336,6 +344,7 @@ impl<'a> Loader<'a> {
             .map_err(|e| self.err(e))?;
         let mut tex_coords = Vec::new();
         let mut colours = Vec::new();
+        let mut tangents = Vec::new();
         let mut used_default_material = 0;
         let mut lights = Vec::new();
         let mut placed = vec![false; self.light_count()];
@@ -367,22 +376,26 @@ impl<'a> Loader<'a> {
                 for primitive in mesh.primitives() {
                     let file_material = primitive.material().index();
                     let material_id = file_material.map_or(default_material, |i| i as u32);
-                    let sets: Vec<u32> = materials
-                        .get(material_id as usize)
+                    let material = materials.get(material_id as usize);
+                    let sets: Vec<u32> = material
                         .map(|m| m.tex_coord_sets().collect())
                         .unwrap_or_default();
-                    if let Some((m, uv, c)) = self.primitive(
+                    let normal_set = material
+                        .and_then(|m| m.normal_texture)
+                        .and_then(|t| sets.iter().position(|&s| s == t.tex_coord));
+                    if let Some(p) = self.primitive(
                         &node,
                         &mesh,
                         &primitive,
                         world,
-                        (material_id, &sets),
+                        (material_id, &sets, normal_set),
                         &buffers,
                     )? {
                         used_default_material += usize::from(file_material.is_none());
-                        meshes.push(m);
-                        tex_coords.push(uv);
-                        colours.push(c);
+                        meshes.push(p.mesh);
+                        tex_coords.push(p.tex_coords);
+                        colours.push(p.colours);
+                        tangents.push(p.tangents);
                     }
                 }
             }
@@ -441,6 +454,7 @@ impl<'a> Loader<'a> {
             textures,
             tex_coords,
             colours,
+            tangents,
             camera: cameras.first().map(|c| c.camera),
             cameras,
             lights,

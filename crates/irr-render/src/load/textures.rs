@@ -18,7 +18,7 @@ use crate::uri::{decode_data_uri, percent_decode, scheme};
 use glam::{Affine2, Vec2, Vec3};
 use irr_geometry::{Triangle, TriangleMesh};
 use irr_integrator::{
-    Filter, Material, Sampler, TexCoords, Texture, TextureRef, VertexColours, Wrap,
+    Filter, Material, Sampler, TexCoords, Texture, TextureRef, VertexAttribute, Wrap,
 };
 use std::collections::BTreeMap;
 
@@ -42,7 +42,7 @@ pub(super) struct Textures {
 
 impl Textures {
     /// Warns of what the file holds and irr did not read: textures and images no material reads
-    /// as base colour, emission or metallic-roughness, and `minFilter`s.
+    /// as base colour, emission, metallic-roughness or normals, and `minFilter`s.
     pub(super) fn warn(&self, loader: &mut Loader<'_>) {
         let d = loader.document;
         let distinct = |keys: &mut dyn Iterator<Item = usize>| {
@@ -54,7 +54,7 @@ impl Textures {
             .saturating_sub(distinct(&mut self.by_gltf.keys().map(|k| k.0)));
         loader.warnings.add("textures", textures, |n| {
             format!(
-                "{} ignored (irr reads baseColorTexture, emissiveTexture and metallicRoughnessTexture only)",
+                "{} ignored (irr reads baseColorTexture, emissiveTexture, metallicRoughnessTexture and normalTexture only)",
                 plural(n, "texture", "textures")
             )
         });
@@ -64,7 +64,7 @@ impl Textures {
             .saturating_sub(distinct(&mut self.images.keys().map(|k| k.0)));
         loader.warnings.add("images", images, |n| {
             format!(
-                "{} ignored (no baseColorTexture, emissiveTexture or metallicRoughnessTexture uses {})",
+                "{} ignored (no baseColorTexture, emissiveTexture, metallicRoughnessTexture or normalTexture uses {})",
                 plural(n, "image", "images"),
                 if n == 1 { "it" } else { "them" }
             )
@@ -527,19 +527,22 @@ fn kept_triangles(mesh: &TriangleMesh) -> impl Iterator<Item = usize> + '_ {
     })
 }
 
-/// The vertex colours of the triangles of `meshes` (per mesh as
-/// [`SceneData::colours`](super::SceneData::colours) holds them) by the id
-/// [`irr_geometry::Geometry::build`] gives them, as [`tex_coords_by_id`] maps texture
-/// coordinates. Empty when no mesh has any.
-pub(crate) fn colours_by_id(
+/// The per-vertex values of the triangles of `meshes` (per mesh, one triple per triangle, or
+/// none: [`SceneData::colours`](super::SceneData::colours),
+/// [`SceneData::tangents`](super::SceneData::tangents)) by the id the geometry gives each kept
+/// triangle; empty when no mesh has any.
+pub(crate) fn attribute_by_id<T>(
     meshes: &[TriangleMesh],
-    colours: &[Vec<[Vec3; 3]>],
-) -> Result<VertexColours, String> {
-    let mut out = VertexColours::default();
-    if colours.iter().all(Vec::is_empty) {
+    values: &[Vec<[T; 3]>],
+) -> Result<VertexAttribute<T>, String>
+where
+    T: Copy + std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>,
+{
+    let mut out = VertexAttribute::default();
+    if values.iter().all(Vec::is_empty) {
         return Ok(out);
     }
-    for (mesh, c) in meshes.iter().zip(colours) {
+    for (mesh, c) in meshes.iter().zip(values) {
         for t in kept_triangles(mesh) {
             out.push(c.get(t).copied()).map_err(|e| e.to_string())?;
         }
