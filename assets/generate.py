@@ -14,6 +14,13 @@ Run from anywhere with `python3 assets/generate.py`; it rewrites, next to itself
   Cornell box (with its own light) with base-colour textures carrying fine detail: parquet on
   the floor, glyphs and stripes on the back wall, a checker on the blocks. External buffer
   and PNG files.
+- glossy-room.gltf + glossy-room.bin: the Cornell box with glTF metallic-roughness materials
+  (rough gold and glossy plastic blocks, a rough dielectric floor, the textured room's poster on
+  the back wall). External buffer; the poster is textured-room-back-wall.png.
+- detail-room.gltf + detail-room.bin + detail-room-{floor-normal,lattice}.png: the glossy room
+  with surface detail: a normal texture of bevelled tiles on the floor (normalTexture, tangents
+  left to the renderer) and a wooden lattice standing in front of the back wall, cut out by its
+  RGBA base colour texture's alpha (alphaMode MASK). External buffer and PNG files.
 - furnace.glb: the white furnace, a closed sphere with albedo RHO and emission LE: every pixel sees
   LE / (1 - RHO) (with unbounded depth). Binary glTF.
 - disk-light.gltf: a disk light of radius R at height H over a large diffuse plane; the irradiance
@@ -152,11 +159,15 @@ class Builder:
 
     def glossy_material(
         self, name, base, metallic, roughness, specular=1.0, emission=(0.0, 0.0, 0.0),
-        double_sided=True, texture=None,
+        double_sided=True, texture=None, normal_texture=None, alpha_cutoff=None,
     ):
         """glTF's metallic-roughness material (specularFactor 1 is the specification's own
         dielectric; other values are written as KHR_materials_specular). See `material()` for
-        `emission` and `texture`."""
+        `emission` and `texture`. `normal_texture` (an index from `texture()`, its image written
+        by `write_normal_texture()`) becomes the normalTexture, scale 1, read through
+        TEXCOORD_0. `alpha_cutoff` makes the material a cut-out, alphaMode MASK with that
+        alphaCutoff: the surface is absent where the base colour's alpha (the texture's alpha
+        channel, which `write_rgba_texture()` writes) is below it."""
         m = {
             "name": name,
             "pbrMetallicRoughness": {
@@ -172,6 +183,11 @@ class Builder:
             self.extensions_used.add("KHR_materials_specular")
         if texture is not None:
             m["pbrMetallicRoughness"]["baseColorTexture"] = {"index": texture, "texCoord": 0}
+        if normal_texture is not None:
+            m["normalTexture"] = {"index": normal_texture, "texCoord": 0, "scale": 1.0}
+        if alpha_cutoff is not None:
+            m["alphaMode"] = "MASK"
+            m["alphaCutoff"] = alpha_cutoff
         peak = max(emission)
         if peak > 0.0:
             m["emissiveFactor"] = [e / peak for e in emission]
@@ -691,11 +707,18 @@ def block_texture():
     return 16, 16, rows
 
 
-def png_bytes(width, height, rows):
-    """An 8-bit RGB PNG whose zlib stream holds stored (uncompressed) deflate blocks: the same
-    bytes from any zlib (compressed output may differ between zlib versions and forks)."""
-    raw = b"".join(b"\0" + bytes(c for texel in row for c in texel) for row in rows)
-    assert len(raw) == height * (1 + 3 * width)
+def png_scanlines(rows):
+    """The PNG's filtered image data: each row of texels (tuples of 8-bit channels) behind a
+    filter-type byte 0 (None)."""
+    return b"".join(b"\0" + bytes(c for texel in row for c in texel) for row in rows)
+
+
+def png_encode(width, height, rows, colour_type, channels):
+    """An 8-bit PNG of colour type `colour_type` (`channels` channels a texel) whose zlib stream
+    holds stored (uncompressed) deflate blocks: the same bytes from any zlib (compressed output
+    may differ between zlib versions and forks)."""
+    raw = png_scanlines(rows)
+    assert len(raw) == height * (1 + channels * width)
     stream = bytearray(b"\x78\x01")  # deflate, 32 K window, no dictionary, FCHECK
     for start in range(0, len(raw), 65535):
         block = raw[start : start + 65535]
@@ -707,26 +730,58 @@ def png_bytes(width, height, rows):
         crc = struct.pack(">I", zlib.crc32(kind + body))
         return struct.pack(">I", len(body)) + kind + body + crc
 
-    ihdr = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)  # 8-bit truecolour
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, colour_type, 0, 0, 0)
     signature = b"\x89PNG\r\n\x1a\n"
     return signature + chunk(b"IHDR", ihdr) + chunk(b"IDAT", bytes(stream)) + chunk(b"IEND", b"")
 
 
-def write_texture(name, image):
+def png_bytes(width, height, rows):
+    """An 8-bit RGB PNG (colour type 2, truecolour), see `png_encode`."""
+    return png_encode(width, height, rows, 2, 3)
+
+
+def png_rgba_bytes(width, height, rows):
+    """An 8-bit RGBA PNG (colour type 6, truecolour with alpha, not premultiplied), see
+    `png_encode`."""
+    return png_encode(width, height, rows, 6, 4)
+
+
+def check_image(name, image, channels):
     width, height, rows = image
-    assert len(rows) == height and all(len(r) == width for r in rows)
-    brightest = max(c for row in rows for texel in row for c in texel)
+    assert len(rows) == height and all(len(r) == width for r in rows), name
+    assert all(len(t) == channels and all(0 <= c <= 255 for c in t) for r in rows for t in r), name
+
+
+def check_albedo(name, rows):
+    """Colour texels (sRGB; the alpha channel, if any, aside) stay at most TEX_MAX_ALBEDO."""
+    brightest = max(c for row in rows for texel in row for c in texel[:3])
     assert srgb_to_linear(brightest) <= TEX_MAX_ALBEDO, (name, brightest)
-    data = png_bytes(width, height, rows)
-    # The encoder's output must decode back to the texels: the IDAT payload lies after the
-    # signature (8 bytes), IHDR (4 + 4 + 13 + 4) and IDAT's length and type (8), and before
-    # IDAT's CRC (4) and IEND (12).
+
+
+def write_png(name, data, rows):
+    """Writes PNG bytes `data`, encoding `rows`, next to this script, after checking that they
+    decode back to the texels: the IDAT payload lies after the signature (8 bytes), IHDR
+    (4 + 4 + 13 + 4) and IDAT's length and type (8), and before IDAT's CRC (4) and IEND (12)."""
     idat = data[8 + 25 + 8 : -4 - 12]
-    assert zlib.decompress(idat) == b"".join(
-        b"\0" + bytes(c for texel in row for c in texel) for row in rows
-    )
+    assert zlib.decompress(idat) == png_scanlines(rows)
     with open(os.path.join(HERE, name), "wb") as f:
         f.write(data)
+
+
+def write_texture(name, image):
+    """A base colour texture: RGB, sRGB, albedo at most TEX_MAX_ALBEDO."""
+    check_image(name, image, 3)
+    width, height, rows = image
+    check_albedo(name, rows)
+    write_png(name, png_bytes(width, height, rows), rows)
+
+
+def write_rgba_texture(name, image):
+    """A base colour texture with coverage: RGB as `write_texture`'s, alpha linear."""
+    check_image(name, image, 4)
+    width, height, rows = image
+    check_albedo(name, rows)
+    write_png(name, png_rgba_bytes(width, height, rows), rows)
 
 
 X_AXIS, Z_AXIS, DOWN = (1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (0.0, -1.0, 0.0)
@@ -806,10 +861,11 @@ GOLD = (1.0, 0.766, 0.336)
 BLUE = (0.05, 0.15, 0.5)
 
 
-def glossy_room():
-    b = Builder()
+def glossy_room_surfaces(b, floor, floor_uvs=None):
+    """The glossy room's surfaces, as `add_cornell_surfaces` takes them, with the floor's
+    material `floor` (and its uv mapping, if any); adds the other materials and the poster's
+    texture to `b`."""
     wall_tex = b.texture("glyphs and stripes", "textured-room-back-wall.png", 9729)  # LINEAR
-    floor = b.glossy_material("floor, rough dielectric", WHITE, 0.0, 0.35)
     ceiling = b.glossy_material("ceiling, matte", WHITE, 0.0, 1.0)
     red = b.glossy_material("red, matte", RED, 0.0, 1.0)
     green = b.glossy_material("green, matte", GREEN, 0.0, 1.0)
@@ -819,8 +875,8 @@ def glossy_room():
     light = b.material("light", LIGHT_ALBEDO, emission=LIGHT_RADIANCE, double_sided=False)
     wall_size = 0.556
     wall_corner, minus_x = (wall_size, 0.5488, 0.0), (-1.0, 0.0, 0.0)
-    surfaces = [
-        ("floor", floor, None),
+    return [
+        ("floor", floor, floor_uvs),
         ("ceiling", ceiling, None),
         ("back_wall", poster, lambda p: planar_uvs(p, wall_corner, minus_x, DOWN, wall_size)),
         ("right_wall", green, None),
@@ -829,9 +885,226 @@ def glossy_room():
         ("tall_block", gold, None),
         ("light", light, None),
     ]
-    add_cornell_surfaces(b, surfaces)
+
+
+def glossy_floor(b, normal_texture=None):
+    """The glossy room's floor, a rough dielectric."""
+    name = "floor, rough dielectric" + (", bevelled tiles" if normal_texture is not None else "")
+    return b.glossy_material(name, WHITE, 0.0, 0.35, normal_texture=normal_texture)
+
+
+def glossy_room():
+    b = Builder()
+    add_cornell_surfaces(b, glossy_room_surfaces(b, glossy_floor(b)))
     cornell_camera(b)
     write_scene(b, "glossy-room", "Cornell box with glTF metallic-roughness materials, metres")
+
+
+# ---------------------------------------------------------------------------------------------
+# The detail room: the glossy room with a normal-mapped floor and a cut-out lattice
+# ---------------------------------------------------------------------------------------------
+
+# The glossy room (same geometry, camera, light and materials, so the two compare directly)
+# with two kinds of surface detail finer than its geometry:
+# - the floor's normal texture (glTF normalTexture, scale 1; no TANGENT, so the renderer makes
+#   MikkTSpace tangents from the floor's planar uvs): square tiles DETAIL_TILE texels wide,
+#   2 x 2 to a 128 x 128 texture that repeats every DETAIL_TILE_M metres (about 4 x 4 repeats,
+#   8 x 8 tiles of 7 cm over the floor), each a flat top with bevelled edges sloping down
+#   (slope DETAIL_DEPTH / DETAIL_BEVEL) to a flat grout line, so the rough floor's reflection
+#   of the light and the blocks breaks up along the tiles' edges; LINEAR filter;
+# - a lattice, a free-standing wooden trellis panel: one double-sided quad, standing on the
+#   floor parallel to the back wall and LATTICE_GAP_MM in front of it, beside the tall block
+#   on the camera's right (behind the short block, which hides its bottom few cm), cut out
+#   by the alpha channel of its RGBA base colour texture (alphaMode MASK, alphaCutoff 0.5): a
+#   grid of square holes between bars. The ceiling light lights its front and casts the
+#   grid's shadow on the back wall behind it (and on the strip of floor between), shifted
+#   down by a few cm and softened by the light's size; NEAREST filter, so the holes are
+#   exactly the transparent texels.
+# Both images are computed without libm (integers, IEEE arithmetic and square roots only) and
+# stored as uncompressed PNGs, as the textured room's.
+DETAIL_TILE_M = 0.139  # metres per repeat of the floor's normal texture
+DETAIL_N = 128  # the normal texture's width and height, texels
+DETAIL_TILE = 64  # a tile's pitch, texels (1.09 mm a texel)
+DETAIL_GROUT = 1  # half the grout line's width, texels
+DETAIL_BEVEL = 6  # the bevel's run, texels
+DETAIL_DEPTH = 3  # the bevel's rise (top above grout), texels: a slope of 1/2 (26.6 degrees)
+
+# The lattice, in millimetres as the Cornell data (LATTICE_TEXEL_MM a texel): a frame of
+# LATTICE_FRAME texels around LATTICE_COLUMNS x LATTICE_ROWS square holes of LATTICE_HOLE
+# texels, between bars of LATTICE_BAR texels.
+LATTICE_TEXEL_MM = 2.5
+LATTICE_FRAME, LATTICE_HOLE, LATTICE_BAR = 6, 10, 6
+LATTICE_COLUMNS, LATTICE_ROWS = 5, 9
+LATTICE_GAP_MM = 25.0  # in front of the back wall (z = 559.2 mm)
+LATTICE_RIGHT_X_MM = 35.0  # its edge on the camera's right, 35 mm from the green wall (x = 0)
+
+
+def lattice_size():
+    """The lattice texture's width and height, texels."""
+    side = lambda k: 2 * LATTICE_FRAME + k * LATTICE_HOLE + (k - 1) * LATTICE_BAR
+    return side(LATTICE_COLUMNS), side(LATTICE_ROWS)
+
+
+def tile_height(col, row):
+    """The floor tiles' height field at texel (col, row)'s centre, in units of
+    1 / (2 DETAIL_BEVEL) texel (an integer): 0 on the grout, DETAIL_DEPTH texels on a tile's top,
+    rising linearly over DETAIL_BEVEL texels with the distance to the nearest tile edge.
+    Periodic in DETAIL_TILE, so the texture repeats seamlessly."""
+
+    def edge(i):  # twice the distance from texel i's centre to the nearest tile edge
+        s = 2 * (i % DETAIL_TILE) + 1
+        return min(s, 2 * DETAIL_TILE - s)
+
+    run = min(max(min(edge(col), edge(row)) - 2 * DETAIL_GROUT, 0), 2 * DETAIL_BEVEL)
+    return run * DETAIL_DEPTH
+
+
+def encode_normal(n):
+    """A unit tangent-space normal as 8-bit RGB (glTF 2.0 §3.9.3): round(255 (n + 1) / 2)."""
+    return tuple(int(math.floor(255.0 * (c + 1.0) / 2.0 + 0.5)) for c in n)
+
+
+def decode_normal(rgb):
+    return tuple(c / 255.0 * 2.0 - 1.0 for c in rgb)
+
+
+def tile_normal_texture():
+    """DETAIL_N x DETAIL_N tangent-space normals of `tile_height`, by central differences.
+
+    glTF's tangent space: +X along increasing u (to the right in the image), +Y up the image
+    (towards decreasing v: v, like the row index, grows down), +Z out of the surface. For a
+    height field h(x, y) over that frame, the surface (x, y, h) has tangents (1, 0, h_x) and
+    (0, 1, h_y), and normal (1, 0, h_x) x (0, 1, h_y) = (-h_x, -h_y, 1). With x = col and
+    y = -row: n ~ (-dh/dcol, +dh/drow, 1)."""
+    n = DETAIL_N
+    # The central differences are (h(i + 1) - h(i - 1)) / 2 texels; with h in units of
+    # 1 / (2 DETAIL_BEVEL) texel, the vector below is n times 4 DETAIL_BEVEL, all integers.
+    rows = []
+    for row in range(n):
+        texels = []
+        for col in range(n):
+            dh_dcol = tile_height((col + 1) % n, row) - tile_height((col - 1) % n, row)
+            dh_drow = tile_height(col, (row + 1) % n) - tile_height(col, (row - 1) % n)
+            v = (-dh_dcol, dh_drow, 4 * DETAIL_BEVEL)
+            length = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+            texels.append(encode_normal(tuple(c / length for c in v)))
+        rows.append(texels)
+    return n, n, rows
+
+
+def check_tile_normals(image):
+    """The encoding's signs, checked on the height field itself (not on the formula above).
+    - On a tile's right-hand bevel (row 32 across the middle, col 60, 3.5 texels from the edge
+      at col 64) the height decreases to the right, so the surface faces right: n_x > 0, red
+      > 128.
+    - On a tile's bottom bevel (col 32, row 60) the height rises towards the top of the image
+      (decreasing row). A surface sloping up towards the top of the image leans back: its
+      normal tilts away from the rise, towards the bottom of the image, which is -Y in glTF's
+      tangent space (+Y is up the image): n_y < 0, green < 128.
+    - The left and top bevels mirror these (red < 128, green > 128); a tile's top
+      is flat, (128, 128, 255). (The grout, 2 texels wide, tilts slightly: its central
+      differences reach the bevel's first texel.)"""
+    _, _, rows = image
+    assert tile_height(59, 32) > tile_height(61, 32)  # decreasing to the right
+    r, g, b = rows[32][60]
+    assert r > 128 and g == 128 and b < 255, (r, g, b)
+    assert tile_height(32, 59) > tile_height(32, 61)  # rising towards the top (smaller row)
+    r, g, b = rows[60][32]
+    assert g < 128 and r == 128 and b < 255, (r, g, b)
+    assert rows[32][4][0] < 128 and rows[4][32][1] > 128
+    assert rows[32][32] == rows[10][50] == (128, 128, 255)
+    # The bevel's exact normal, (1, 0, 2) / sqrt(5) for a slope of 1/2, and its mirror images.
+    s = DETAIL_DEPTH / DETAIL_BEVEL
+    k = 1.0 / math.sqrt(1.0 + s * s)
+    assert rows[32][60] == encode_normal((s * k, 0.0, k)) == (185, 128, 242)
+    assert rows[60][32] == encode_normal((0.0, -s * k, k)) == (128, 70, 242)
+
+
+def write_normal_texture(name, image):
+    """A normal texture: data (linear RGB), not albedo, so no albedo check; instead every texel
+    must decode to a nearly unit vector facing out of the surface."""
+    check_image(name, image, 3)
+    width, height, rows = image
+    for row in rows:
+        for texel in row:
+            n = decode_normal(texel)
+            assert n[2] > 0.0 and abs(math.sqrt(dot(n, n)) - 1.0) < 0.01, (name, texel)
+    write_png(name, png_bytes(width, height, rows), rows)
+
+
+def lattice_texture():
+    """The lattice: RGBA, bars and frame opaque wood (per-bar shade and grain), holes alpha 0
+    (their colour the wood's, so no filter could bleed a dark fringe in)."""
+    width, height = lattice_size()
+    pitch = LATTICE_HOLE + LATTICE_BAR
+    wood = (150, 98, 56)
+
+    def in_hole(i, count):  # whether texel i (along an axis with `count` holes) is in one
+        j = i - LATTICE_FRAME
+        return j >= 0 and j % pitch < LATTICE_HOLE and j // pitch < count
+
+    rows = []
+    for y in range(height):
+        row = []
+        for x in range(width):
+            in_col = in_hole(x, LATTICE_COLUMNS)
+            if in_col and in_hole(y, LATTICE_ROWS):
+                row.append(wood + (0,))
+                continue
+            # The vertical bars (and the frame's sides) run the full height; the horizontal
+            # ones lie between them. Each bar is 0-8 % darker than `wood`, and each line of
+            # texels along it (its grain) another 0-9 %.
+            vertical = not in_col
+            bar = (x + LATTICE_BAR) // pitch if vertical else 1000 + (y + LATTICE_BAR) // pitch
+            across = x if vertical else y
+            percent = 100 - hash32(bar) % 3 * 4 - hash32(bar, across) % 4 * 3
+            row.append(shade(wood, percent) + (255,))
+        rows.append(row)
+    return width, height, rows
+
+
+def detail_room():
+    b = Builder()
+    tiles_tex = b.texture("bevelled tiles (normals)", "detail-room-floor-normal.png", 9729)
+    lattice_tex = b.texture("lattice", "detail-room-lattice.png", 9728)  # NEAREST
+    normals = tile_normal_texture()
+    check_tile_normals(normals)
+    write_normal_texture("detail-room-floor-normal.png", normals)
+    lattice_image = lattice_texture()
+    write_rgba_texture("detail-room-lattice.png", lattice_image)
+
+    floor = glossy_floor(b, normal_texture=tiles_tex)
+    floor_uvs = lambda p: planar_uvs(p, (0.0, 0.0, 0.0), X_AXIS, Z_AXIS, DETAIL_TILE_M)
+    add_cornell_surfaces(b, glossy_room_surfaces(b, floor, floor_uvs))
+
+    # The lattice: a quad from the floor up, its front face (towards the camera, -Z) wound
+    # counter-clockwise; u from the camera's left (larger x) to its right, v down from the
+    # top, the texture once over the quad.
+    lattice = b.glossy_material(
+        "lattice, wood", (1.0, 1.0, 1.0), 0.0, 0.6, texture=lattice_tex, alpha_cutoff=0.5
+    )
+    width, height = lattice_size()
+    x0 = LATTICE_RIGHT_X_MM
+    x1 = x0 + width * LATTICE_TEXEL_MM
+    top = height * LATTICE_TEXEL_MM
+    z = CORNELL_MM["back_wall"][0][0][2] - LATTICE_GAP_MM
+    quad = [(x1, 0.0, z), (x0, 0.0, z), (x0, top, z), (x1, top, z)]
+    points, triangles = quads_to_mesh([quad])
+    for t in triangles:
+        assert face_normal(points, t)[2] < 0.0  # the front faces the camera
+    # Clear of the tall block in the camera's view: its rightmost corner in the image,
+    # (265, 296) mm, seen from the camera, passes the lattice's plane at a larger x.
+    cx, _, cz = CAMERA_POSITION_MM
+    assert x1 < cx + (265.0 - cx) * (z - cz) / (296.0 - cz) - 5.0, x1
+    uvs = [(0.0, 1.0), (1.0, 1.0), (1.0, 0.0), (0.0, 0.0)]
+    b.mesh("lattice", points, triangles, lattice, component_type=5121, uvs=uvs)
+
+    cornell_camera(b)
+    write_scene(
+        b,
+        "detail-room",
+        "the glossy room with a normal-mapped tiled floor and an alpha-masked lattice, metres",
+    )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -971,6 +1244,7 @@ if __name__ == "__main__":
     indirect_room()
     textured_room()
     glossy_room()
+    detail_room()
     furnace()
     disk_light()
     ao_plane()
