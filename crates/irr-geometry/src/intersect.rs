@@ -588,6 +588,39 @@ impl Tri4Hits {
             },
         )
     }
+
+    /// The closest of the hits in lanes `mask` (some of `self.mask`'s, at least one), as
+    /// (lane, hit); of equal distances, the lowest lane. For the whole mask, the lane and hit
+    /// [`Tri4Hits::closest`] gives. With a loop over the lanes: only hit filters ask for it,
+    /// retrying without each lane their filter rejects.
+    #[inline(always)]
+    pub(crate) fn closest_in(&self, mask: u32) -> (usize, TriHit) {
+        debug_assert!(
+            mask != 0 && mask & !self.mask == 0,
+            "{mask:#b} of {:#b}",
+            self.mask
+        );
+        // A hit's distance is finite, so the first lane of `mask` beats the initial ∞.
+        let t = self.t.to_array();
+        let (mut lane, mut t_min) = (0, f32::INFINITY);
+        for (l, &tl) in t.iter().enumerate() {
+            if mask & (1 << l) != 0 && tl < t_min {
+                (lane, t_min) = (l, tl);
+            }
+        }
+        (lane, self.lane(lane))
+    }
+
+    /// Lane `lane`'s hit (meaningful only for a lane of `self.mask`).
+    #[inline(always)]
+    pub(crate) fn lane(&self, lane: usize) -> TriHit {
+        // Arrays, not `Vec4` indexing (see `Tri4::lane`).
+        TriHit {
+            t: self.t.to_array()[lane],
+            b1: self.b1.to_array()[lane],
+            b2: self.b2.to_array()[lane],
+        }
+    }
 }
 
 /// A packet translated to the ray's origin and permuted (`p`: per axis x, y, z of the permuted

@@ -8,6 +8,7 @@ use obvhs::bvh2::node::Bvh2Node;
 
 use crate::Geometry;
 use crate::intersect::{PreparedRay, TriHit, box_entry, intersect_triangle};
+use crate::query::{Hit, RayFilter};
 #[cfg(target_arch = "x86_64")]
 use crate::wide::Lanes8;
 use crate::wide::{Lanes4, NodeTest, WideBvh};
@@ -106,20 +107,26 @@ impl Geometry {
         }
     }
 
-    /// BVH2 closest hit: returns the index into `bvh_triangles` and the hit.
+    /// BVH2 closest hit that `filter` accepts: returns the index into `bvh_triangles` and the
+    /// hit.
     #[inline(always)]
-    pub(crate) fn bvh2_closest<const KZ: usize>(
+    pub(crate) fn bvh2_closest<const KZ: usize, B: RayFilter>(
         &self,
         nodes: &[Bvh2Node],
         r: &PreparedRay,
         stack: &mut [UVec2],
+        filter: B,
     ) -> Option<(usize, TriHit)> {
         let mut best: Option<(usize, TriHit)> = None;
         let mut t_best = r.t_max;
-        let mut leaf = |node: &Bvh2Node, t_best: &mut f32| {
+        // The filter is an argument rather than a capture: captured, it would be a reference
+        // (to nothing, unfiltered) kept in the closure, and the unfiltered code would differ.
+        let mut leaf = |node: &Bvh2Node, t_best: &mut f32, filter: B| {
             let first = node.first_index as usize;
             for i in first..first + node.prim_count as usize {
-                if let Some(h) = intersect_triangle::<KZ>(&self.bvh_triangles[i], r, *t_best) {
+                if let Some(h) = intersect_triangle::<KZ>(&self.bvh_triangles[i], r, *t_best)
+                    && (B::ALL || filter.accept(&self.bvh2_candidate(i, h)))
+                {
                     *t_best = h.t;
                     best = Some((i, h));
                 }
@@ -131,7 +138,7 @@ impl Geometry {
             return None;
         }
         if root.is_leaf() {
-            leaf(root, &mut t_best);
+            leaf(root, &mut t_best, filter);
             return best;
         }
         let mut sp = 0;
@@ -149,7 +156,7 @@ impl Geometry {
             let mut next = None;
             if ta != f32::INFINITY {
                 if a.is_leaf() {
-                    leaf(a, &mut t_best);
+                    leaf(a, &mut t_best, filter);
                 } else {
                     next = Some(a.first_index as usize);
                 }
@@ -158,7 +165,7 @@ impl Geometry {
             // (a miss is ∞, which must not pass when t_best is still an infinite t_max).
             if tb != f32::INFINITY && tb <= t_best {
                 if b.is_leaf() {
-                    leaf(b, &mut t_best);
+                    leaf(b, &mut t_best, filter);
                 } else if next.is_some() {
                     stack[sp].x = b.first_index;
                     sp += 1;
@@ -179,25 +186,43 @@ impl Geometry {
         }
     }
 
-    /// BVH2 any hit.
+    /// The [`Hit`] a filter is asked about: `bvh_triangles[i]`, hit as `h`.
     #[inline(always)]
-    pub(crate) fn bvh2_any<const KZ: usize>(
+    fn bvh2_candidate(&self, i: usize, h: TriHit) -> Hit {
+        Hit {
+            t: h.t,
+            triangle: self.bvh_ids[i],
+            b1: h.b1,
+            b2: h.b2,
+        }
+    }
+
+    /// BVH2 any hit that `filter` accepts.
+    #[inline(always)]
+    pub(crate) fn bvh2_any<const KZ: usize, B: RayFilter>(
         &self,
         nodes: &[Bvh2Node],
         r: &PreparedRay,
         stack: &mut [UVec2],
+        filter: B,
     ) -> bool {
-        let leaf = |node: &Bvh2Node| {
+        // The filter an argument, as in `bvh2_closest`, and moved into the inner closure for
+        // the same reason.
+        let leaf = |node: &Bvh2Node, filter: B| {
             let first = node.first_index as usize;
-            (first..first + node.prim_count as usize)
-                .any(|i| intersect_triangle::<KZ>(&self.bvh_triangles[i], r, r.t_max).is_some())
+            (first..first + node.prim_count as usize).any(move |i| {
+                matches!(
+                    intersect_triangle::<KZ>(&self.bvh_triangles[i], r, r.t_max),
+                    Some(h) if B::ALL || filter.accept(&self.bvh2_candidate(i, h))
+                )
+            })
         };
         let root = &nodes[0];
         if box_entry(root.aabb().min, root.aabb().max, r, r.t_max) == f32::INFINITY {
             return false;
         }
         if root.is_leaf() {
-            return leaf(root);
+            return leaf(root, filter);
         }
         let mut sp = 0;
         let mut pair = root.first_index as usize;
@@ -207,7 +232,7 @@ impl Geometry {
             let mut next = None;
             if box_entry(a.aabb().min, a.aabb().max, r, r.t_max) != f32::INFINITY {
                 if a.is_leaf() {
-                    if leaf(a) {
+                    if leaf(a, filter) {
                         return true;
                     }
                 } else {
@@ -216,7 +241,7 @@ impl Geometry {
             }
             if box_entry(b.aabb().min, b.aabb().max, r, r.t_max) != f32::INFINITY {
                 if b.is_leaf() {
-                    if leaf(b) {
+                    if leaf(b, filter) {
                         return true;
                     }
                 } else if next.is_some() {

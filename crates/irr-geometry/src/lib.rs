@@ -16,6 +16,13 @@
 //!   a coherent one in one dispatch ([`Geometry::intersect_many`]), and incoherent ones
 //!   ([`Geometry::intersect_stream`], [`Geometry::occluded_stream`]); [`Geometry::streams`]
 //!   tells a caller whether batching pays (`query.rs`).
+//! - Hit filters: each of those queries, and the brute-force references, also as
+//!   `*_filtered`, taking a caller's [`HitFilter`] that is asked about each candidate hit
+//!   during traversal and may reject it; the traversal then goes on as if that triangle were
+//!   not hit. For alpha cut-outs (glTF `MASK`, and `BLEND` as stochastic transparency): the
+//!   caller tests its texture, so the crate still knows no materials. The filter is a type
+//!   parameter of the traversal, and the unfiltered queries pass one that accepts everything
+//!   at compile time, so they run the same code as without filters.
 //! - [`Geometry::surface`]: the hit point computed from the barycentrics in `f64`, the geometric
 //!   normal (from the winding, never flipped), the shading normal, and the barycentrics, with
 //!   which callers interpolate their own per-vertex data ([`Triangle::is_kept`] tells which
@@ -129,7 +136,7 @@ pub use error::GeometryError;
 pub use geometry::{Geometry, MAX_TRIANGLES};
 pub use layout::BvhLayout;
 pub use mesh::{BuildReport, Triangle, TriangleMesh};
-pub use query::{Hit, SurfacePoint};
+pub use query::{Hit, HitFilter, SurfacePoint};
 pub use ray::{
     POSITION_ERROR_FLOOR, POSITION_RELATIVE_ERROR, Ray, offset_ray_origin,
     offset_ray_origin_with_error, position_error,

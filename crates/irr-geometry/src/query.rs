@@ -1,6 +1,11 @@
 //! The queries on a built [`Geometry`]: the closest hit ([`Hit`]) and occlusion, for one ray,
-//! a coherent batch or a stream of incoherent rays; the surface point at a hit
-//! ([`SurfacePoint`]); their brute-force references; and the traversal stacks they run with.
+//! a coherent batch or a stream of incoherent rays, each also with a caller's [`HitFilter`];
+//! the surface point at a hit ([`SurfacePoint`]); their brute-force references; and the
+//! traversal stacks they run with.
+//!
+//! A filter reaches the traversals as a type parameter ([`RayFilter`]): the unfiltered queries
+//! pass [`AcceptAll`], whose `ALL` compiles every filter branch out, so they run the code they
+//! ran before filters existed.
 
 use glam::Vec3;
 use obvhs::bvh2::node::Bvh2Node;
@@ -23,6 +28,113 @@ pub struct Hit {
     pub b1: f32,
     /// Barycentric coordinate of vertex 2.
     pub b2: f32,
+}
+
+/// A caller's test of each candidate hit, asked during traversal: a candidate it rejects is
+/// treated as if its triangle had not been hit, and the traversal goes on. For alpha cut-outs
+/// (glTF's `MASK` and, as stochastic transparency, `BLEND`): the caller looks up the
+/// triangle's material and texture at the hit's barycentrics, which this crate knows nothing
+/// of.
+///
+/// It gets the ray as the caller gave it (to hash its bits with the triangle id, say, for a
+/// deterministic random number) and the candidate: its distance, triangle id and barycentrics,
+/// with `t` in `(0, ray.t_max)` and within the margins of [`Geometry::intersect`]. Candidates
+/// come in no particular order, and one may be asked about more than once (or not at all, once
+/// the answer is known): the filter must be a pure function of its arguments. It is shared by
+/// reference, so a batch traced on many threads needs it to be `Sync`.
+///
+/// Closures `Fn(&Ray, &Hit) -> bool` are filters (their argument types must then be written
+/// out: `|_: &Ray, h: &Hit| h.triangle != 3`), and so is `dyn HitFilter`.
+pub trait HitFilter {
+    /// Whether the candidate `hit` of `ray` counts as a hit.
+    fn accept(&self, ray: &Ray, hit: &Hit) -> bool;
+}
+
+impl<F: Fn(&Ray, &Hit) -> bool + ?Sized> HitFilter for F {
+    #[inline(always)]
+    fn accept(&self, ray: &Ray, hit: &Hit) -> bool {
+        self(ray, hit)
+    }
+}
+
+/// A filter as a batch's traversals take it: [`AcceptAll`] or a caller's [`HitFilter`], which
+/// [`Filter::on`] binds to each ray in turn.
+pub(crate) trait Filter: Copy {
+    /// The filter bound to one ray.
+    type On<'r>: RayFilter
+    where
+        Self: 'r;
+    fn on<'r>(self, ray: &'r Ray) -> Self::On<'r>
+    where
+        Self: 'r;
+}
+
+/// A filter bound to the ray it tests the candidates of, as the traversals call it.
+pub(crate) trait RayFilter: Copy {
+    /// Whether it accepts every candidate: the traversals then never call it, and compile out
+    /// what they would do for a rejection.
+    const ALL: bool;
+    fn accept(self, hit: &Hit) -> bool;
+}
+
+/// The unfiltered queries' filter: every candidate is a hit.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct AcceptAll;
+
+impl Filter for AcceptAll {
+    type On<'r> = AcceptAll;
+
+    #[inline(always)]
+    fn on<'r>(self, _: &'r Ray) -> AcceptAll
+    where
+        Self: 'r,
+    {
+        AcceptAll
+    }
+}
+
+impl RayFilter for AcceptAll {
+    const ALL: bool = true;
+
+    #[inline(always)]
+    fn accept(self, _: &Hit) -> bool {
+        true
+    }
+}
+
+impl<H: HitFilter + ?Sized> Filter for &H {
+    type On<'r>
+        = OnRay<'r, H>
+    where
+        Self: 'r;
+
+    #[inline(always)]
+    fn on<'r>(self, ray: &'r Ray) -> OnRay<'r, H>
+    where
+        Self: 'r,
+    {
+        OnRay(self, ray)
+    }
+}
+
+/// A caller's filter and the ray it is asked about.
+pub(crate) struct OnRay<'a, H: ?Sized>(&'a H, &'a Ray);
+
+impl<H: ?Sized> Clone for OnRay<'_, H> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<H: ?Sized> Copy for OnRay<'_, H> {}
+
+impl<H: HitFilter + ?Sized> RayFilter for OnRay<'_, H> {
+    const ALL: bool = false;
+
+    #[inline(always)]
+    fn accept(self, hit: &Hit) -> bool {
+        self.0.accept(self.1, hit)
+    }
 }
 
 /// What an integrator needs at a hit.
@@ -94,11 +206,16 @@ impl Geometry {
     /// direction, zero direction, NaN `t_max`) returns `None`.
     #[must_use]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        if !PreparedRay::traceable(ray) {
-            return None;
-        }
-        let mut r = PreparedRay::prepare(ray, self.coordinate_bound);
-        self.trace(Closest(&mut r))
+        self.closest(ray, AcceptAll)
+    }
+
+    /// The closest hit that `filter` accepts (with `t` in `(0, ray.t_max)`, as
+    /// [`Geometry::intersect`]), or `None`: the closest candidate is asked first, and a
+    /// rejected one is passed through, as if its triangle were not there. For alpha cut-outs
+    /// (see [`HitFilter`]). With a filter that accepts everything, exactly `intersect`'s hit.
+    #[must_use]
+    pub fn intersect_filtered<F: HitFilter + ?Sized>(&self, ray: &Ray, filter: &F) -> Option<Hit> {
+        self.closest(ray, filter.on(ray))
     }
 
     /// The closest hits of many rays: `hits[i]` is exactly what [`Geometry::intersect`]
@@ -115,7 +232,22 @@ impl Geometry {
     /// If `rays` and `hits` differ in length.
     pub fn intersect_many(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
-        self.trace(Many(rays, hits, false));
+        self.trace(Many(rays, hits, false, AcceptAll));
+    }
+
+    /// [`Geometry::intersect_many`] with a hit filter: `hits[i]` is exactly what
+    /// [`Geometry::intersect_filtered`] returns for `rays[i]`.
+    ///
+    /// # Panics
+    /// If `rays` and `hits` differ in length.
+    pub fn intersect_many_filtered<F: HitFilter + ?Sized>(
+        &self,
+        rays: &[Ray],
+        hits: &mut [Option<Hit>],
+        filter: &F,
+    ) {
+        assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
+        self.trace(Many(rays, hits, false, filter));
     }
 
     /// The closest hits of many incoherent rays (one bounce of many paths, from all over the
@@ -131,7 +263,22 @@ impl Geometry {
     /// If `rays` and `hits` differ in length.
     pub fn intersect_stream(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
-        self.trace(Many(rays, hits, true));
+        self.trace(Many(rays, hits, true, AcceptAll));
+    }
+
+    /// [`Geometry::intersect_stream`] with a hit filter: `hits[i]` is exactly what
+    /// [`Geometry::intersect_filtered`] returns for `rays[i]`.
+    ///
+    /// # Panics
+    /// If `rays` and `hits` differ in length.
+    pub fn intersect_stream_filtered<F: HitFilter + ?Sized>(
+        &self,
+        rays: &[Ray],
+        hits: &mut [Option<Hit>],
+        filter: &F,
+    ) {
+        assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
+        self.trace(Many(rays, hits, true, filter));
     }
 
     /// Whether each of many incoherent rays is occluded: `occluded[i]` is exactly what
@@ -142,7 +289,22 @@ impl Geometry {
     /// If `rays` and `occluded` differ in length.
     pub fn occluded_stream(&self, rays: &[Ray], occluded: &mut [bool]) {
         assert_eq!(rays.len(), occluded.len(), "one answer slot per ray");
-        self.trace(Many(rays, occluded, true));
+        self.trace(Many(rays, occluded, true, AcceptAll));
+    }
+
+    /// [`Geometry::occluded_stream`] with a hit filter: `occluded[i]` is exactly what
+    /// [`Geometry::occluded_filtered`] returns for `rays[i]`.
+    ///
+    /// # Panics
+    /// If `rays` and `occluded` differ in length.
+    pub fn occluded_stream_filtered<F: HitFilter + ?Sized>(
+        &self,
+        rays: &[Ray],
+        occluded: &mut [bool],
+        filter: &F,
+    ) {
+        assert_eq!(rays.len(), occluded.len(), "one answer slot per ray");
+        self.trace(Many(rays, occluded, true, filter));
     }
 
     /// Whether anything is hit with `t` in `(0, ray.t_max)` (with the same error margins as
@@ -151,11 +313,36 @@ impl Geometry {
     /// wait for memory overlaps the other's work.
     #[must_use]
     pub fn occluded(&self, ray: &Ray) -> bool {
+        self.any(ray, AcceptAll)
+    }
+
+    /// Whether anything that `filter` accepts is hit with `t` in `(0, ray.t_max)` (as
+    /// [`Geometry::occluded`]): a shadow ray through alpha cut-outs (see [`HitFilter`]). The
+    /// traversal stops at the first accepted candidate, in no particular order. With a filter
+    /// that accepts everything, exactly `occluded`'s answer.
+    #[must_use]
+    pub fn occluded_filtered<F: HitFilter + ?Sized>(&self, ray: &Ray, filter: &F) -> bool {
+        self.any(ray, filter.on(ray))
+    }
+
+    /// [`Geometry::intersect`] with filter `filter` bound to `ray`.
+    #[inline(always)]
+    fn closest<B: RayFilter>(&self, ray: &Ray, filter: B) -> Option<Hit> {
+        if !PreparedRay::traceable(ray) {
+            return None;
+        }
+        let mut r = PreparedRay::prepare(ray, self.coordinate_bound);
+        self.trace(Closest(&mut r, filter))
+    }
+
+    /// [`Geometry::occluded`] with filter `filter` bound to `ray`.
+    #[inline(always)]
+    fn any<B: RayFilter>(&self, ray: &Ray, filter: B) -> bool {
         if !PreparedRay::traceable(ray) {
             return false;
         }
         let mut r = PreparedRay::prepare(ray, self.coordinate_bound);
-        self.trace(Any(&mut r))
+        self.trace(Any(&mut r, filter))
     }
 
     /// The surface point of a hit returned by [`Geometry::intersect`]. The ray is not needed
@@ -201,6 +388,38 @@ impl Geometry {
     /// id order. O(n); the reference that the BVH is tested against.
     #[must_use]
     pub fn intersect_brute_force(&self, ray: &Ray) -> Option<Hit> {
+        self.closest_brute_force(ray, AcceptAll)
+    }
+
+    /// [`Geometry::intersect_filtered`] without the BVH (O(n) reference): every triangle in id
+    /// order, each hit closer than the closest accepted so far asked to `filter`.
+    #[must_use]
+    pub fn intersect_brute_force_filtered<F: HitFilter + ?Sized>(
+        &self,
+        ray: &Ray,
+        filter: &F,
+    ) -> Option<Hit> {
+        self.closest_brute_force(ray, filter.on(ray))
+    }
+
+    /// [`Geometry::occluded`] without the BVH (O(n) reference).
+    #[must_use]
+    pub fn occluded_brute_force(&self, ray: &Ray) -> bool {
+        self.any_brute_force(ray, AcceptAll)
+    }
+
+    /// [`Geometry::occluded_filtered`] without the BVH (O(n) reference).
+    #[must_use]
+    pub fn occluded_brute_force_filtered<F: HitFilter + ?Sized>(
+        &self,
+        ray: &Ray,
+        filter: &F,
+    ) -> bool {
+        self.any_brute_force(ray, filter.on(ray))
+    }
+
+    /// The brute-force closest hit, with filter `filter` bound to `ray`.
+    fn closest_brute_force<B: RayFilter>(&self, ray: &Ray, filter: B) -> Option<Hit> {
         let r = PreparedRay::new(ray)?;
         let mut t_best = r.t_max;
         let mut best = None;
@@ -212,32 +431,41 @@ impl Geometry {
                 _ => intersect_triangle::<2>(&soa, &r, t_best),
             };
             if let Some(h) = h {
-                t_best = h.t;
-                best = Some(Hit {
+                let hit = Hit {
                     t: h.t,
                     triangle: id as u32,
                     b1: h.b1,
                     b2: h.b2,
-                });
+                };
+                if filter.accept(&hit) {
+                    t_best = h.t;
+                    best = Some(hit);
+                }
             }
         }
         best
     }
 
-    /// [`Geometry::occluded`] without the BVH (O(n) reference).
-    #[must_use]
-    pub fn occluded_brute_force(&self, ray: &Ray) -> bool {
+    /// The brute-force any hit, with filter `filter` bound to `ray`.
+    fn any_brute_force<B: RayFilter>(&self, ray: &Ray, filter: B) -> bool {
         let Some(r) = PreparedRay::new(ray) else {
             return false;
         };
-        self.triangles().any(|tri| {
+        self.triangles().enumerate().any(|(id, tri)| {
             let soa = TriSoa::new(tri.p);
             match r.kz() {
                 0 => intersect_triangle::<0>(&soa, &r, r.t_max),
                 1 => intersect_triangle::<1>(&soa, &r, r.t_max),
                 _ => intersect_triangle::<2>(&soa, &r, r.t_max),
             }
-            .is_some()
+            .is_some_and(|h| {
+                filter.accept(&Hit {
+                    t: h.t,
+                    triangle: id as u32,
+                    b1: h.b1,
+                    b2: h.b2,
+                })
+            })
         })
     }
 
@@ -256,10 +484,10 @@ impl Geometry {
     }
 }
 
-/// One ray's closest hit.
-struct Closest<'a>(&'a mut PreparedRay);
+/// One ray's closest hit, with its filter.
+struct Closest<'a, B>(&'a mut PreparedRay, B);
 
-impl Job for Closest<'_> {
+impl<B: RayFilter> Job for Closest<'_, B> {
     type Output = Option<Hit>;
 
     #[inline(always)]
@@ -270,7 +498,7 @@ impl Job for Closest<'_> {
         test: N,
     ) -> Option<Hit> {
         on_stack!(g.stack_len, Entry, false, |s| Option::<Hit>::trace(
-            w, self.0, s, test
+            w, self.0, s, test, self.1
         ))
     }
 
@@ -279,11 +507,13 @@ impl Job for Closest<'_> {
     #[inline(never)]
     fn bvh2(self, g: &Geometry, nodes: &[Bvh2Node]) -> Option<Hit> {
         self.0.finish();
-        let r = &*self.0;
+        // `move`: the filter by value, not a reference to it (to nothing, unfiltered) kept in
+        // the closure, which made the unfiltered code differ.
+        let (r, f) = (&*self.0, self.1);
         let found = match r.kz() {
-            0 => g.with_stack(|s| g.bvh2_closest::<0>(nodes, r, s)),
-            1 => g.with_stack(|s| g.bvh2_closest::<1>(nodes, r, s)),
-            _ => g.with_stack(|s| g.bvh2_closest::<2>(nodes, r, s)),
+            0 => g.with_stack(move |s| g.bvh2_closest::<0, B>(nodes, r, s, f)),
+            1 => g.with_stack(move |s| g.bvh2_closest::<1, B>(nodes, r, s, f)),
+            _ => g.with_stack(move |s| g.bvh2_closest::<2, B>(nodes, r, s, f)),
         };
         found.map(|(i, h)| Hit {
             t: h.t,
@@ -294,17 +524,17 @@ impl Job for Closest<'_> {
     }
 }
 
-/// Whether one ray hits anything.
-struct Any<'a>(&'a mut PreparedRay);
+/// Whether one ray hits anything, with its filter.
+struct Any<'a, B>(&'a mut PreparedRay, B);
 
-impl Job for Any<'_> {
+impl<B: RayFilter> Job for Any<'_, B> {
     type Output = bool;
 
     #[inline(always)]
     fn wide<const G: usize, N: NodeTest<G>>(self, w: &WideBvh<G>, g: &Geometry, test: N) -> bool {
         let walks = WideBvh::<G>::walks::<bool, N>();
         on_stack!(g.stack_len * walks, Entry, walks == 2, |s| bool::trace(
-            w, self.0, s, test
+            w, self.0, s, test, self.1
         ))
     }
 
@@ -312,27 +542,28 @@ impl Job for Any<'_> {
     #[inline(never)]
     fn bvh2(self, g: &Geometry, nodes: &[Bvh2Node]) -> bool {
         self.0.finish();
-        let r = &*self.0;
+        let (r, f) = (&*self.0, self.1);
         match r.kz() {
-            0 => g.with_stack(|s| g.bvh2_any::<0>(nodes, r, s)),
-            1 => g.with_stack(|s| g.bvh2_any::<1>(nodes, r, s)),
-            _ => g.with_stack(|s| g.bvh2_any::<2>(nodes, r, s)),
+            0 => g.with_stack(move |s| g.bvh2_any::<0, B>(nodes, r, s, f)),
+            1 => g.with_stack(move |s| g.bvh2_any::<1, B>(nodes, r, s, f)),
+            _ => g.with_stack(move |s| g.bvh2_any::<2, B>(nodes, r, s, f)),
         }
     }
 }
 
 /// The answers for many rays, written in place (`hits[i]` for `rays[i]`), within one run-time
 /// dispatch whose setup is then paid once: a ray at a time, in order, or where the third field
-/// asks for a stream and the tree is large, as a stream ([`wide_stream`]).
-struct Many<'a, A>(&'a [Ray], &'a mut [A], bool);
+/// asks for a stream and the tree is large, as a stream ([`wide_stream`]); the fourth is the
+/// filter, bound to each ray in turn.
+struct Many<'a, A, F>(&'a [Ray], &'a mut [A], bool, F);
 
-impl<A: Answer> Job for Many<'_, A> {
+impl<A: Answer, F: Filter> Job for Many<'_, A, F> {
     type Output = ();
 
     #[inline(always)]
     fn wide<const G: usize, N: NodeTest<G>>(self, w: &WideBvh<G>, g: &Geometry, test: N) {
         if N::LARGE && self.2 {
-            return wide_stream::<G, N, STREAM, A>(w, g, self.0, self.1, test);
+            return wide_stream::<G, N, STREAM, A, F>(w, g, self.0, self.1, test, self.3);
         }
         let walks = WideBvh::<G>::walks::<A, N>();
         let len = g.stack_len * walks;
@@ -340,7 +571,8 @@ impl<A: Answer> Job for Many<'_, A> {
             // No closure here: it would be compiled outside the dispatched instruction set.
             *hit = if PreparedRay::traceable(ray) {
                 let mut r = PreparedRay::prepare(ray, g.coordinate_bound);
-                on_stack!(len, Entry, walks == 2, |s| A::trace(w, &mut r, s, test))
+                let f = self.3.on(ray);
+                on_stack!(len, Entry, walks == 2, |s| A::trace(w, &mut r, s, test, f))
             } else {
                 A::MISS
             };
@@ -349,7 +581,7 @@ impl<A: Answer> Job for Many<'_, A> {
 
     fn bvh2(self, g: &Geometry, _: &[Bvh2Node]) {
         for (ray, hit) in self.0.iter().zip(self.1.iter_mut()) {
-            *hit = A::bvh2(g, ray);
+            *hit = A::bvh2(g, ray, self.3.on(ray));
         }
     }
 }
@@ -362,25 +594,28 @@ trait Answer: Query + Copy {
     /// The answer from a finished traversal's `walk.best`.
     fn from_best<const G: usize>(w: &WideBvh<G>, best: Option<(u32, usize, TriHit)>) -> Self;
     /// One ray's answer on a wide BVH, with a stack of `WideBvh::walks` times its
-    /// `stack_len` entries.
+    /// `stack_len` entries, counting only the hits `filter` accepts.
     #[inline(always)]
-    fn trace<const G: usize, N: NodeTest<G>>(
+    fn trace<const G: usize, N: NodeTest<G>, B: RayFilter>(
         w: &WideBvh<G>,
         r: &mut PreparedRay,
         stack: &mut [Entry],
         test: N,
+        filter: B,
     ) -> Self {
         let (nodes, packets, ids) = w.arrays();
         if WideBvh::<G>::walks::<Self, N>() == 2 {
-            let best = WideBvh::two_walks::<Self, N>(nodes, packets, ids, r, stack, test);
+            let best =
+                WideBvh::two_walks::<Self, N, B>(nodes, packets, ids, r, stack, test, filter);
             return Self::from_best(w, best);
         }
         let mut walk = Walk::new(r);
-        while !WideBvh::step::<Self, N>(nodes, packets, ids, r, stack, &mut walk, test) {}
+        while !WideBvh::step::<Self, N, B>(nodes, packets, ids, r, stack, &mut walk, test, filter) {
+        }
         Self::from_best(w, walk.best)
     }
-    /// One ray's answer on the BVH2 layout.
-    fn bvh2(g: &Geometry, ray: &Ray) -> Self;
+    /// One ray's answer on the BVH2 layout, with filter `filter` bound to it.
+    fn bvh2<B: RayFilter>(g: &Geometry, ray: &Ray, filter: B) -> Self;
 }
 
 impl Query for Option<Hit> {
@@ -400,8 +635,14 @@ impl Answer for Option<Hit> {
         })
     }
 
-    fn bvh2(g: &Geometry, ray: &Ray) -> Self {
-        g.intersect(ray)
+    fn bvh2<B: RayFilter>(g: &Geometry, ray: &Ray, filter: B) -> Self {
+        // Unfiltered, through the public call, which the batch then calls rather than inlines
+        // (as before filters: inlined, the dispatch made the batch's loop too large to inline).
+        if B::ALL {
+            g.intersect(ray)
+        } else {
+            g.closest(ray, filter)
+        }
     }
 }
 
@@ -417,8 +658,13 @@ impl Answer for bool {
         best.is_some()
     }
 
-    fn bvh2(g: &Geometry, ray: &Ray) -> Self {
-        g.occluded(ray)
+    fn bvh2<B: RayFilter>(g: &Geometry, ray: &Ray, filter: B) -> Self {
+        // As for the closest hit.
+        if B::ALL {
+            g.occluded(ray)
+        } else {
+            g.any(ray, filter)
+        }
     }
 }
 
@@ -431,43 +677,53 @@ const STREAM: usize = 8;
 /// overlaps the others' work (memory-level parallelism). For large trees: on one in cache it
 /// only adds work.
 #[inline(always)]
-fn wide_stream<const G: usize, N: NodeTest<G>, const K: usize, A: Answer>(
+fn wide_stream<const G: usize, N: NodeTest<G>, const K: usize, A: Answer, F: Filter>(
     w: &WideBvh<G>,
     g: &Geometry,
     rays: &[Ray],
     out: &mut [A],
     test: N,
+    filter: F,
 ) {
     let (nodes, packets, ids) = w.arrays();
     let len = g.stack_len;
     let mut stacks = vec![Entry::default(); K * len];
     let mut next = 0;
-    let mut lanes: [Option<(usize, PreparedRay, Walk)>; K] = [None; K];
+    let mut lanes: [Option<Lane<'_, F>>; K] = [None; K];
     for lane in &mut lanes {
-        *lane = refill(g, rays, out, &mut next);
+        *lane = refill(g, rays, out, &mut next, filter);
     }
     let mut active = lanes.iter().filter(|l| l.is_some()).count();
     while active > 0 {
         for (lane, stack) in lanes.iter_mut().zip(stacks.chunks_exact_mut(len)) {
-            let Some((i, r, walk)) = lane else { continue };
-            if WideBvh::step::<A, N>(nodes, packets, ids, r, stack, walk, test) {
+            let Some(((i, r, walk), f)) = lane else {
+                continue;
+            };
+            if WideBvh::step::<A, N, _>(nodes, packets, ids, r, stack, walk, test, *f) {
                 out[*i] = A::from_best(w, walk.best);
-                *lane = refill(g, rays, out, &mut next);
+                *lane = refill(g, rays, out, &mut next, filter);
                 active -= usize::from(lane.is_none());
             }
         }
     }
 }
 
-/// The next traceable ray of `rays` from `*next` on, prepared, with its index and a walk at
-/// the root; the answers of those skipped (untraceable) are set to a miss.
+/// A ray in flight in a stream: its index, the ray prepared, its walk, and the filter bound to
+/// it (beside the rest, not among its fields: an unfiltered stream's lanes keep the layout
+/// they had without filters).
+type Lane<'r, F> = ((usize, PreparedRay, Walk), <F as Filter>::On<'r>);
+
+/// The next traceable ray of `rays` from `*next` on, prepared, with its index, a walk at the
+/// root and `filter` bound to it; the answers of those skipped (untraceable) are set to a
+/// miss.
 #[inline(always)]
-fn refill<A: Answer>(
+fn refill<'r, A: Answer, F: Filter + 'r>(
     g: &Geometry,
-    rays: &[Ray],
+    rays: &'r [Ray],
     out: &mut [A],
     next: &mut usize,
-) -> Option<(usize, PreparedRay, Walk)> {
+    filter: F,
+) -> Option<Lane<'r, F>> {
     while *next < rays.len() {
         let i = *next;
         *next += 1;
@@ -475,7 +731,7 @@ fn refill<A: Answer>(
         if PreparedRay::traceable(ray) {
             let r = PreparedRay::prepare(ray, g.coordinate_bound);
             let walk = Walk::new(&r);
-            return Some((i, r, walk));
+            return Some(((i, r, walk), filter.on(ray)));
         }
         out[i] = A::MISS;
     }
@@ -487,7 +743,7 @@ mod tests {
     use super::*;
     use crate::TriangleMesh;
     use crate::layout::{BvhLayout, Nodes};
-    use crate::test_meshes::{grid, quad, thin_slab, xorshift};
+    use crate::test_meshes::{grid, quad, stacked_grids, thin_slab, xorshift};
 
     #[test]
     fn closest_of_two_quads_and_its_surface() {
@@ -666,5 +922,364 @@ mod tests {
         let hit = g.intersect(&ray).unwrap_or_else(|| panic!("missed"));
         let s = g.surface(&ray, &hit);
         assert_eq!(s.shading_normal, Vec3::Z);
+    }
+    /// Each layout built from `mesh`, as each of its traversals runs it: the small and the
+    /// large tree's (for a wide layout: prefetching, two walks for any hit, and streams), each
+    /// through the detected dispatch and the baseline's. Named for messages.
+    fn every_traversal(mesh: &TriangleMesh) -> Vec<(String, Geometry)> {
+        let mut out = Vec::new();
+        for layout in [BvhLayout::Bvh2, BvhLayout::Wide4, BvhLayout::Wide8] {
+            let g = Geometry::build_with_layout(std::slice::from_ref(mesh), layout)
+                .unwrap_or_else(|e| panic!("{e}"));
+            let baseline = Geometry {
+                arch: pulp::Arch::Scalar,
+                #[cfg(target_arch = "x86_64")]
+                v3: None,
+                ..g.clone()
+            };
+            if layout != BvhLayout::Bvh2 {
+                out.push((format!("{layout:?} large"), forced_large(&g)));
+                out.push((
+                    format!("{layout:?} large baseline"),
+                    forced_large(&baseline),
+                ));
+                out.push((format!("{layout:?} baseline"), baseline));
+            }
+            out.push((format!("{layout:?}"), g));
+        }
+        out
+    }
+
+    /// Random rays through the stacked grids' box, from inside it as well as outside (so some
+    /// triangles are behind their origin), a third of them segments; among them rays that
+    /// cannot hit anything.
+    fn rays_through_layers(seed: u32, n: usize) -> Vec<Ray> {
+        let mut next = xorshift(seed);
+        (0..n)
+            .map(|i| {
+                let o = Vec3::new(next(), next(), next()) * Vec3::new(1.5, 1.0, 1.5);
+                let target = Vec3::new(next(), next() * 0.5, next());
+                let mut ray = Ray::new(o, target - o);
+                match i % 13 {
+                    1 | 4 | 7 => ray.t_max = 1.5 * next().abs(),
+                    5 => ray.direction = Vec3::ZERO,
+                    11 => ray.t_max = 0.0,
+                    _ => {}
+                }
+                ray
+            })
+            .collect()
+    }
+
+    /// A filter is only asked about candidates in front of the origin and before `t_max`.
+    fn in_range(ray: &Ray, hit: &Hit) {
+        assert!(
+            hit.t > 0.0 && hit.t < ray.t_max,
+            "asked about {hit:?} of {ray:?}"
+        );
+    }
+
+    /// Every filtered query of `g` (one ray, a batch, a stream; closest and any hit) against
+    /// the filtered brute-force oracle, ray by ray.
+    fn filtered_like_the_oracle<F: HitFilter + ?Sized>(
+        name: &str,
+        g: &Geometry,
+        rays: &[Ray],
+        filter: &F,
+    ) -> Result<(), proptest::test_runner::TestCaseError> {
+        let mut many = vec![None; rays.len()];
+        g.intersect_many_filtered(rays, &mut many, filter);
+        let mut stream = vec![None; rays.len()];
+        g.intersect_stream_filtered(rays, &mut stream, filter);
+        let mut occluded = vec![true; rays.len()];
+        g.occluded_stream_filtered(rays, &mut occluded, filter);
+        for (k, ray) in rays.iter().enumerate() {
+            let closest = g.intersect_brute_force_filtered(ray, filter);
+            let any = g.occluded_brute_force_filtered(ray, filter);
+            proptest::prop_assert_eq!(any, closest.is_some(), "{} oracle {:?}", name, ray);
+            let one = g.intersect_filtered(ray, filter);
+            proptest::prop_assert_eq!(one, closest, "{} intersect {:?}", name, ray);
+            proptest::prop_assert_eq!(many[k], closest, "{} many {:?}", name, ray);
+            proptest::prop_assert_eq!(stream[k], closest, "{} stream {:?}", name, ray);
+            let blocked = g.occluded_filtered(ray, filter);
+            proptest::prop_assert_eq!(blocked, any, "{} occluded {:?}", name, ray);
+            proptest::prop_assert_eq!(occluded[k], any, "{} occluded stream {:?}", name, ray);
+        }
+        Ok(())
+    }
+
+    /// A filter that accepts every hit answers every query exactly as the unfiltered query,
+    /// on every layout and traversal, for single rays, batches and streams, and the filtered
+    /// oracles answer as the unfiltered ones.
+    #[test]
+    fn a_filter_that_accepts_everything_changes_no_answer() {
+        let mesh = stacked_grids(3);
+        let rays = rays_through_layers(0xACCE_0A11, 400);
+        let all = |ray: &Ray, hit: &Hit| {
+            in_range(ray, hit);
+            true
+        };
+        for (name, g) in every_traversal(&mesh) {
+            let (mut many, mut stream) = (vec![None; rays.len()], vec![None; rays.len()]);
+            g.intersect_many(&rays, &mut many);
+            g.intersect_stream(&rays, &mut stream);
+            let (mut many_f, mut stream_f) = (vec![None; rays.len()], vec![None; rays.len()]);
+            g.intersect_many_filtered(&rays, &mut many_f, &all);
+            g.intersect_stream_filtered(&rays, &mut stream_f, &all);
+            let (mut occluded, mut occluded_f) = (vec![false; rays.len()], vec![false; rays.len()]);
+            g.occluded_stream(&rays, &mut occluded);
+            g.occluded_stream_filtered(&rays, &mut occluded_f, &all);
+            assert_eq!(many, many_f, "{name}");
+            assert_eq!(stream, stream_f, "{name}");
+            assert_eq!(occluded, occluded_f, "{name}");
+            let mut hits = 0;
+            for ray in &rays {
+                let hit = g.intersect(ray);
+                assert_eq!(g.intersect_filtered(ray, &all), hit, "{name} {ray:?}");
+                assert_eq!(
+                    g.occluded_filtered(ray, &all),
+                    g.occluded(ray),
+                    "{name} {ray:?}"
+                );
+                let brute = g.intersect_brute_force(ray);
+                assert_eq!(g.intersect_brute_force_filtered(ray, &all), brute);
+                assert_eq!(
+                    g.occluded_brute_force_filtered(ray, &all),
+                    g.occluded_brute_force(ray)
+                );
+                hits += usize::from(hit.is_some());
+            }
+            assert!(hits > 200, "{name}: {hits} hits");
+        }
+    }
+
+    /// The filters of `filtered_queries_answer_as_the_filtered_oracle` do change answers: in
+    /// the stacked grids, rejected hits reveal farther layers, and rays that only cut-outs
+    /// stood in the way of get through.
+    #[test]
+    fn rejected_hits_reveal_farther_layers() {
+        let g = Geometry::build(&[stacked_grids(3)]).unwrap_or_else(|e| panic!("{e}"));
+        let rays = rays_through_layers(0x1A7E_5EED, 400);
+        let by_id = |_: &Ray, hit: &Hit| hit.triangle.wrapping_mul(0x9e37_79b9) >> 31 == 0;
+        let cut_out = |_: &Ray, hit: &Hit| hit.b1 <= 0.5;
+        for (name, filter) in [("by id", &by_id as &dyn HitFilter), ("cut-out", &cut_out)] {
+            let (mut farther, mut through) = (0, 0);
+            for ray in &rays {
+                let (hit, filtered) = (g.intersect(ray), g.intersect_filtered(ray, filter));
+                match (hit, filtered) {
+                    (Some(h), Some(f)) if f.t > h.t => farther += 1,
+                    (Some(_), None) => through += 1,
+                    (h, f) => assert_eq!(h, f, "{name} {ray:?}"),
+                }
+                assert_eq!(g.occluded_filtered(ray, filter), filtered.is_some());
+            }
+            assert!(
+                farther > 30 && through > 10,
+                "{name}: {farther} farther, {through} through"
+            );
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
+
+        /// Filtered queries equal the filtered brute-force oracle on every layout and
+        /// traversal, for random rays through stacked grids, with filters that reject: a
+        /// pseudo-random half of the triangles by id; a pseudo-random half of the candidates by
+        /// ray and triangle (stochastic transparency, which streams must ask about with each
+        /// lane's own ray); part of each triangle (`b1 > 0.5`, a cut-out); and everything.
+        #[test]
+        fn filtered_queries_answer_as_the_filtered_oracle(seed in 1u32.., which in 0usize..4) {
+            let mesh = stacked_grids(3);
+            let rays = rays_through_layers(seed, 48);
+            let hash = |x: u32| (x ^ (x >> 16)).wrapping_mul(0x7feb_352d) >> 31 == 0;
+            let by_id = |ray: &Ray, hit: &Hit| {
+                in_range(ray, hit);
+                hash(hit.triangle.wrapping_mul(0x9e37_79b9) ^ seed)
+            };
+            let stochastic = |ray: &Ray, hit: &Hit| {
+                in_range(ray, hit);
+                let bits = ray.origin.to_array().map(f32::to_bits);
+                hash(bits[0] ^ bits[1].rotate_left(11) ^ bits[2].rotate_left(22) ^ hit.triangle)
+            };
+            let cut_out = |ray: &Ray, hit: &Hit| {
+                in_range(ray, hit);
+                hit.b1 <= 0.5
+            };
+            let none = |ray: &Ray, hit: &Hit| {
+                in_range(ray, hit);
+                false
+            };
+            let filters: [&dyn HitFilter; 4] = [&by_id, &stochastic, &cut_out, &none];
+            for (name, g) in every_traversal(&mesh) {
+                filtered_like_the_oracle(&name, &g, &rays, filters[which])?;
+            }
+            if which == 3 {
+                for (name, g) in every_traversal(&mesh) {
+                    for ray in &rays {
+                        proptest::prop_assert_eq!(g.intersect_filtered(ray, &none), None, "{}", name);
+                        proptest::prop_assert!(!g.occluded_filtered(ray, &none), "{}", name);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Two quads, one above the other: rejecting the near one makes the far one the closest
+    /// hit, and occludes the ray only if the far one is before `t_max`; rejecting both lets
+    /// the ray through. On every layout and traversal, one ray and a stream.
+    #[test]
+    fn a_rejected_near_quad_reveals_the_far_one() {
+        let meshes = [quad(0.0, 0), quad(1.0, 1)];
+        let mut both = meshes[0].clone();
+        both.positions.extend(meshes[1].positions.iter().copied());
+        both.indices.extend([[4, 5, 6], [4, 6, 7]]);
+        both.material_ids.extend([1, 1]);
+        let down = Ray::new(Vec3::new(0.7, 0.2, 2.0), Vec3::NEG_Z);
+        for (name, g) in every_traversal(&both) {
+            let near = g
+                .intersect(&down)
+                .unwrap_or_else(|| panic!("{name}: missed"));
+            assert_eq!(g.material_id(near.triangle), 1, "{name}");
+            let not_near = |ray: &Ray, hit: &Hit| {
+                in_range(ray, hit);
+                assert_eq!(ray.origin, down.origin, "the ray as given");
+                g.material_id(hit.triangle) != 1
+            };
+            let neither = |ray: &Ray, hit: &Hit| {
+                in_range(ray, hit);
+                false
+            };
+            let far = g
+                .intersect_filtered(&down, &not_near)
+                .unwrap_or_else(|| panic!("{name}: the far quad is behind the near one"));
+            assert_eq!(g.material_id(far.triangle), 0, "{name}");
+            // t = 2 exactly in exact arithmetic (see `closest_of_two_quads_and_its_surface`).
+            assert!((far.t - 2.0).abs() < 1e-6, "{name}: {}", far.t);
+            assert_eq!(g.intersect_filtered(&down, &neither), None, "{name}");
+            // Segments ending beyond the far quad, between the two, and before the near one.
+            for (t_max, blocked) in [(3.0, true), (1.5, false), (0.5, false)] {
+                let ray = Ray { t_max, ..down };
+                assert_eq!(
+                    g.occluded_filtered(&ray, &not_near),
+                    blocked,
+                    "{name} {t_max}"
+                );
+                assert_eq!(g.occluded(&ray), t_max > 1.0, "{name} {t_max}");
+                assert!(!g.occluded_filtered(&ray, &neither), "{name} {t_max}");
+                let want = blocked.then_some(far);
+                assert_eq!(
+                    g.intersect_filtered(&ray, &not_near),
+                    want,
+                    "{name} {t_max}"
+                );
+            }
+            let rays = [down, Ray { t_max: 1.5, ..down }, down];
+            let mut hits = [None; 3];
+            g.intersect_stream_filtered(&rays, &mut hits, &not_near);
+            assert_eq!(hits, [Some(far), None, Some(far)], "{name}");
+            let mut occluded = [false; 3];
+            g.occluded_stream_filtered(&rays, &mut occluded, &not_near);
+            assert_eq!(occluded, [true, false, true], "{name}");
+        }
+    }
+
+    /// In a stack of 32 quads (1/100 apart, so that leaves and packets hold triangles of
+    /// several), accepting the hits of one layer only finds that layer, however deep in its
+    /// packet: the closest lanes are rejected one after the other, and any hit asks every lane.
+    #[test]
+    fn a_stack_of_cut_outs_is_seen_through_to_the_accepted_layer() {
+        let mut stack = TriangleMesh::default();
+        for layer in 0..32u32 {
+            let q = quad(0.01 * layer as f32, layer);
+            stack
+                .indices
+                .extend(q.indices.iter().map(|t| t.map(|v| v + 4 * layer)));
+            stack.positions.extend(q.positions);
+            stack.material_ids.extend(q.material_ids);
+        }
+        let mut next = xorshift(0x57AC_4ED0);
+        let rays: Vec<Ray> = (0..8)
+            .map(|_| {
+                let o = Vec3::new(0.5 + 0.4 * next(), 0.5 + 0.4 * next(), 1.0);
+                Ray::new(o, Vec3::new(0.05 * next(), 0.05 * next(), -1.0))
+            })
+            .collect();
+        for (name, g) in every_traversal(&stack) {
+            for layer in 0..32u32 {
+                let only = |ray: &Ray, hit: &Hit| {
+                    in_range(ray, hit);
+                    g.material_id(hit.triangle) == layer
+                };
+                // Layer `layer` and, behind it, the bottom one: the closest is `layer`.
+                let and_bottom =
+                    |ray: &Ray, hit: &Hit| only(ray, hit) || g.material_id(hit.triangle) == 0;
+                for ray in &rays {
+                    let hit = g
+                        .intersect_filtered(ray, &only)
+                        .unwrap_or_else(|| panic!("{name}: layer {layer} not found"));
+                    assert_eq!(g.material_id(hit.triangle), layer, "{name}");
+                    assert_eq!(
+                        Some(hit),
+                        g.intersect_brute_force_filtered(ray, &only),
+                        "{name}"
+                    );
+                    assert_eq!(g.intersect_filtered(ray, &and_bottom), Some(hit), "{name}");
+                    assert!(g.occluded_filtered(ray, &only), "{name} {layer}");
+                    // A segment ending between the layer and the one above it (whose hits,
+                    // like all above, are rejected).
+                    let short = Ray {
+                        t_max: hit.t - 0.005,
+                        ..*ray
+                    };
+                    assert!(!g.occluded_filtered(&short, &only), "{name} {layer}");
+                    assert_eq!(g.intersect_filtered(&short, &only), None, "{name} {layer}");
+                }
+                let mut occluded = vec![false; rays.len()];
+                g.occluded_stream_filtered(&rays, &mut occluded, &only);
+                assert!(occluded.iter().all(|&o| o), "{name} {layer}");
+            }
+        }
+    }
+
+    /// A ray starting between the quads is not asked about the quad behind it, whichever way
+    /// it points, nor about one beyond its `t_max`.
+    #[test]
+    fn a_filter_is_never_asked_about_what_is_behind_or_beyond() {
+        let mut both = quad(0.0, 0);
+        let top = quad(1.0, 1);
+        both.positions.extend(top.positions);
+        both.indices.extend([[4, 5, 6], [4, 6, 7]]);
+        both.material_ids.extend([1, 1]);
+        for (name, g) in every_traversal(&both) {
+            for (d, ahead) in [(Vec3::NEG_Z, 0), (Vec3::Z, 1)] {
+                let ray = Ray::new(Vec3::new(0.3, 0.6, 0.5), d);
+                let asked = std::sync::Mutex::new(Vec::new());
+                let record = |r: &Ray, hit: &Hit| {
+                    in_range(r, hit);
+                    asked
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .push(hit.triangle);
+                    true
+                };
+                let hit = g.intersect_filtered(&ray, &record);
+                assert!(g.occluded_filtered(&ray, &record), "{name}");
+                assert!(
+                    !g.occluded_filtered(&Ray { t_max: 0.25, ..ray }, &record),
+                    "{name}"
+                );
+                assert_eq!(
+                    hit.map(|h| g.material_id(h.triangle)),
+                    Some(ahead),
+                    "{name}"
+                );
+                let asked = asked.into_inner().unwrap_or_else(|e| e.into_inner());
+                assert!(!asked.is_empty(), "{name}");
+                for t in asked {
+                    assert_eq!(g.material_id(t), ahead, "{name}: asked about triangle {t}");
+                }
+            }
+        }
     }
 }

@@ -139,3 +139,28 @@ pub(crate) fn mixed_meshes(soup: u32) -> Vec<TriangleMesh> {
     top.normals = Some(vec![Vec3::new(0.1, 0.2, 1.0); 4]);
     vec![a, TriangleMesh::default(), grid, top]
 }
+
+/// `layers` wavy 16 × 16-quad grids over [−1, 1]² in x and z, stacked 0.3 apart in y (each
+/// its own material id), so that most rays cross several: a scene where rejecting hits
+/// changes which one is closest.
+pub(crate) fn stacked_grids(layers: u32) -> TriangleMesh {
+    let mut mesh = TriangleMesh::default();
+    for layer in 0..layers {
+        let y = 0.3 * (layer as f32 - (layers - 1) as f32 / 2.0);
+        let g = grid(16, |i, j| {
+            let (x, z) = (i as f32 / 8.0 - 1.0, j as f32 / 8.0 - 1.0);
+            Vec3::new(
+                x,
+                y + 0.1 * (3.0 * x + layer as f32).sin() * (2.0 * z).cos(),
+                z,
+            )
+        });
+        let base = mesh.positions.len() as u32;
+        mesh.positions.extend(g.positions);
+        mesh.indices
+            .extend(g.indices.iter().map(|t| t.map(|v| v + base)));
+        mesh.material_ids
+            .extend(std::iter::repeat_n(layer, g.material_ids.len()));
+    }
+    mesh
+}

@@ -32,8 +32,9 @@
 
 use obvhs::{aabb::Aabb, bvh2::node::Bvh2Node};
 
-use crate::intersect::{PreparedRay, Tri4, TriHit, TriSoa, intersect_tri4};
+use crate::intersect::{PreparedRay, Tri4, Tri4Hits, TriHit, TriSoa, intersect_tri4};
 use crate::pages::{Pages, Plain};
+use crate::query::{Hit, RayFilter};
 
 /// A child reference with this bit set is a leaf: the rest is the index of its [`Tri4`] (and
 /// [`PAIR`]).
@@ -468,8 +469,17 @@ impl<const G: usize> WideBvh<G> {
     ///
     /// The alternatives measured and rejected (branch-free variants of both, other visit
     /// orders) are in docs/performance.md, node child order and traversal shortcuts.
+    ///
+    /// Only hits that `filter` accepts count: a packet's hit lanes are asked closest first
+    /// (closest hit) or in lane order (any hit) until one is accepted; rejected lanes leave
+    /// `t_best` as it was. With [`RayFilter::ALL`] (the unfiltered queries) none of that is
+    /// compiled.
     #[inline(always)]
-    pub(crate) fn step<Q: Query, N: NodeTest<G>>(
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the tree's arrays, the ray's state and the query's parts, all inlined"
+    )]
+    pub(crate) fn step<Q: Query, N: NodeTest<G>, B: RayFilter>(
         nodes: &[WideNode<G>],
         packets: &[Tri4],
         ids: &Pages<[u32; 4]>,
@@ -477,6 +487,7 @@ impl<const G: usize> WideBvh<G> {
         stack: &mut [Entry],
         walk: &mut Walk,
         test: N,
+        filter: B,
     ) -> bool {
         let Walk {
             current,
@@ -490,7 +501,7 @@ impl<const G: usize> WideBvh<G> {
             r.finish();
             let hits = intersect_tri4(&packets[p as usize], r, *t_best, !N::LARGE);
             if Q::ANY {
-                if hits.mask != 0 {
+                if hits.mask != 0 && (B::ALL || Self::any_accepted(ids, p, &hits, filter)) {
                     *best = Some((p, 0, TriHit::default()));
                     return true;
                 }
@@ -502,9 +513,14 @@ impl<const G: usize> WideBvh<G> {
                     // The packet's triangle ids, which the answer will read, on their way
                     // while the traversal goes on (a large tree's only; see `ids`).
                     test.prefetch_line(ids.as_ptr().wrapping_add(p as usize).cast());
-                    let (lane, h) = hits.closest();
-                    *t_best = h.t;
-                    *best = Some((p, lane, h));
+                    if B::ALL {
+                        let (lane, h) = hits.closest();
+                        *t_best = h.t;
+                        *best = Some((p, lane, h));
+                    } else if let Some((lane, h)) = Self::closest_accepted(ids, p, &hits, filter) {
+                        *t_best = h.t;
+                        *best = Some((p, lane, h));
+                    }
                 }
             }
             // A pair's second packet is popped next (without a branch: the slot above the
@@ -582,6 +598,57 @@ impl<const G: usize> WideBvh<G> {
         }
     }
 
+    /// The closest of packet `p`'s hit lanes that `filter` accepts, as (lane, hit): the
+    /// closest lane first, each rejected one dropped and the next closest asked.
+    #[inline(always)]
+    fn closest_accepted<B: RayFilter>(
+        ids: &Pages<[u32; 4]>,
+        p: u32,
+        hits: &Tri4Hits,
+        filter: B,
+    ) -> Option<(usize, TriHit)> {
+        let mut mask = hits.mask;
+        while mask != 0 {
+            let (lane, h) = hits.closest_in(mask);
+            if filter.accept(&Self::candidate(ids, p, lane, h)) {
+                return Some((lane, h));
+            }
+            mask &= !(1 << lane);
+        }
+        None
+    }
+
+    /// Whether `filter` accepts any of packet `p`'s hit lanes (asked in lane order, up to the
+    /// first accepted).
+    #[inline(always)]
+    fn any_accepted<B: RayFilter>(
+        ids: &Pages<[u32; 4]>,
+        p: u32,
+        hits: &Tri4Hits,
+        filter: B,
+    ) -> bool {
+        let mut mask = hits.mask;
+        while mask != 0 {
+            let lane = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            if filter.accept(&Self::candidate(ids, p, lane, hits.lane(lane))) {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// The [`Hit`] a filter is asked about: lane `lane` of packet `p`, hit as `h`.
+    #[inline(always)]
+    fn candidate(ids: &Pages<[u32; 4]>, p: u32, lane: usize, h: TriHit) -> Hit {
+        Hit {
+            t: h.t,
+            triangle: ids[p as usize][lane],
+            b1: h.b1,
+            b2: h.b2,
+        }
+    }
+
     /// How many walks one ray's traversal runs as, for query `Q` with node test `N`: two
     /// for any hit on a large tree ([`WideBvh::two_walks`]), one otherwise. Its stack holds
     /// [`WideBvh::stack_len`] entries a walk.
@@ -603,13 +670,14 @@ impl<const G: usize> WideBvh<G> {
     /// gained, but renders, whose coherent rays find their nodes in cache, lost to the second
     /// walk's detours (see docs/performance.md, streams and two walks).
     #[inline(always)]
-    pub(crate) fn two_walks<Q: Query, N: NodeTest<G>>(
+    pub(crate) fn two_walks<Q: Query, N: NodeTest<G>, B: RayFilter>(
         nodes: &[WideNode<G>],
         packets: &[Tri4],
         ids: &Pages<[u32; 4]>,
         r: &mut PreparedRay,
         stack: &mut [Entry],
         test: N,
+        filter: B,
     ) -> Option<(u32, usize, TriHit)> {
         debug_assert!(Q::ANY, "two walks trace any hit only");
         // The two walks' turns are written out: with the hand-over as a shared function the
@@ -619,7 +687,7 @@ impl<const G: usize> WideBvh<G> {
         let (mut a_on, mut b_on) = (true, false);
         loop {
             if a_on {
-                a_on = !Self::step::<Q, N>(nodes, packets, ids, r, sa, &mut a, test);
+                a_on = !Self::step::<Q, N, B>(nodes, packets, ids, r, sa, &mut a, test, filter);
                 if a.best.is_some() {
                     return a.best;
                 }
@@ -630,7 +698,7 @@ impl<const G: usize> WideBvh<G> {
                 (b.current, b.sp, b_on) = (sa[a.sp].0, 0, true);
             }
             if b_on {
-                b_on = !Self::step::<Q, N>(nodes, packets, ids, r, sb, &mut b, test);
+                b_on = !Self::step::<Q, N, B>(nodes, packets, ids, r, sb, &mut b, test, filter);
                 if b.best.is_some() {
                     return b.best;
                 }
