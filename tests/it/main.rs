@@ -2,6 +2,7 @@
 
 mod bad_input;
 mod cache;
+mod cutouts;
 mod extreme_scenes;
 mod extremes;
 mod fuzz;

@@ -223,7 +223,7 @@ pub(crate) fn camera_node() -> (Value, Value) {
 /// is its material JSON; texture 0 is `texture.png` with `sampler`) in a box of black walls
 /// emitting 1 from both faces (as Blender writes an emission shader: emissiveFactor with
 /// KHR_materials_emissive_strength).
-fn furnace_scene(
+pub(crate) fn furnace_scene(
     dir: &Path,
     name: &str,
     texture: &[u8],
@@ -262,13 +262,13 @@ fn furnace_scene(
     )
 }
 
-fn load(path: &Path) -> LoadedScene {
+pub(crate) fn load(path: &Path) -> LoadedScene {
     load_scene(path).unwrap_or_else(|e| panic!("{e}"))
 }
 
-const SIZE: u32 = 24;
+pub(crate) const SIZE: u32 = 24;
 
-fn settings(spp: u32) -> RenderSettings {
+pub(crate) fn settings(spp: u32) -> RenderSettings {
     RenderSettings {
         width: SIZE,
         height: SIZE,

@@ -53,7 +53,7 @@ impl Integrator for AmbientOcclusion {
     fn li(&self, scene: &Scene, ray: &Ray, dims: &mut Dimensions, rays: &mut RayCounter) -> Vec3 {
         // Find the surface the camera sees.
         rays.closest += 1;
-        let Some(hit) = scene.geometry().intersect(ray) else {
+        let Some(hit) = scene.intersect(ray) else {
             return Vec3::ZERO;
         };
         let surface = scene.geometry().surface(ray, &hit);
@@ -74,7 +74,7 @@ impl Integrator for AmbientOcclusion {
             let mut shadow = Ray::spawn(position, ng, wi);
             shadow.t_max = self.settings.max_distance;
             rays.shadow += 1;
-            if !scene.geometry().occluded(&shadow) {
+            if !scene.occluded(&shadow) {
                 visible += 1;
             }
         }

@@ -202,7 +202,7 @@ pub struct FirstHit {
 /// integrator's estimate unchanged.
 pub fn first_hit(scene: &Scene, ray: &Ray, rays: &mut RayCounter) -> Option<FirstHit> {
     rays.closest += 1;
-    let hit = scene.geometry().intersect(ray)?;
+    let hit = scene.intersect(ray)?;
     let surface = scene.geometry().surface(ray, &hit);
     Some(FirstHit::at(scene, &surface, -ray.direction, hit.t))
 }

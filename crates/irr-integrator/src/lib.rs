@@ -82,7 +82,7 @@ pub use integrator::{Batching, FirstHit, Integrator, PIXEL_BATCH, RayCounter, fi
 pub use light::{LightSample, LightSampler};
 pub use path::{PathSettings, PathTracer, Radiance};
 pub use punctual::{Incidence, PunctualLight};
-pub use scene::{Material, Scene, SceneError};
+pub use scene::{AlphaMode, Material, Scene, SceneError, coverage_sample};
 pub use texture::{
     Filter, Sampler, TexCoords, Texture, TextureError, TextureRef, TooManyAttributeTriangles,
     TooManyTexCoords, VertexAttribute, VertexColours, VertexTangents, Wrap,

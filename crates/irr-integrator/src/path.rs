@@ -188,7 +188,7 @@ pub fn sample_light(
 ) -> Option<LightArrival> {
     let (arrival, shadow) = light_sample(scene, x, dims)?;
     rays.shadow += 1;
-    (!scene.geometry().occluded(&shadow)).then_some(arrival)
+    (!scene.occluded(&shadow)).then_some(arrival)
 }
 
 /// [`sample_light`] up to its shadow ray, untraced and uncounted: the arrival, which counts
@@ -215,7 +215,8 @@ pub(crate) fn light_sample(
             let wi = to_light / dist2.sqrt();
             let cos_surface = wi.dot(x.ns);
             let cos_light = normal.dot(wi).abs();
-            let le = scene.emitted(triangle, b1, b2, normal, -wi);
+            let le = scene.emitted(triangle, b1, b2, normal, -wi)
+                * scene.emitter_coverage(triangle, b1, b2);
             // Only directions above both the shading and the geometric surface carry light.
             if !(cos_surface > 0.0
                 && wi.dot(x.ng) > 0.0
@@ -276,7 +277,7 @@ pub(crate) fn first_surface(
     rays: &mut RayCounter,
 ) -> Result<(SurfacePoint, Vec3, Vec3, f32), Radiance> {
     rays.closest += 1;
-    let Some(hit) = scene.geometry().intersect(ray) else {
+    let Some(hit) = scene.intersect(ray) else {
         return Err(Radiance {
             emitted: scene.background(),
             ..Radiance::default()
@@ -347,11 +348,10 @@ impl PathTracer {
         dims: &mut Dimensions,
         rays: &mut RayCounter,
     ) -> Radiance {
-        let geometry = scene.geometry();
         let mut path = Path::new(scene, surface, wo, *dims);
         while let Some(b) = self.begin(scene, &mut path, rays) {
-            let occluded = b.shadow.is_some_and(|r| geometry.occluded(&r));
-            let hit = b.ray.and_then(|r| geometry.intersect(&r));
+            let occluded = b.shadow.is_some_and(|r| scene.occluded(&r));
+            let hit = b.ray.and_then(|r| scene.intersect(&r));
             if !self.end(scene, &mut path, &b, occluded, hit) {
                 break;
             }
@@ -381,7 +381,6 @@ impl PathTracer {
             starts.len() == dims.len() && dims.len() == out.len(),
             "one dimension stream and one answer per start"
         );
-        let geometry = scene.geometry();
         let mut paths: Vec<Path> = starts
             .iter()
             .zip(dims.iter())
@@ -405,10 +404,10 @@ impl PathTracer {
             }
             occluded.clear();
             occluded.resize(shadows.len(), false);
-            geometry.occluded_stream(&shadows, &mut occluded);
+            scene.occluded_stream(&shadows, &mut occluded);
             hits.clear();
             hits.resize(bsdf.len(), None);
-            geometry.intersect_stream(&bsdf, &mut hits);
+            scene.intersect_stream(&bsdf, &mut hits);
             let (mut occluded, mut hits) = (occluded.iter(), hits.iter());
             live.clear();
             for (i, b) in &bounces {

@@ -6,10 +6,12 @@
 use crate::light::LightSampler;
 use crate::path::ShadingPoint;
 use crate::punctual::PunctualLight;
-use crate::texture::{TexCoords, Texture, TextureRef, VertexColours, VertexTangents};
+use crate::texture::{
+    TexCoords, Texture, TextureRef, VertexAttribute, VertexColours, VertexTangents,
+};
 use glam::{Vec2, Vec3};
 use irr_bsdf::MetallicRoughness;
-use irr_geometry::{Geometry, SurfacePoint};
+use irr_geometry::{Geometry, Hit, HitFilter, Ray, SurfacePoint};
 use thiserror::Error;
 
 /// A surface's reflection (glTF 2.0's metallic-roughness model, irr-bsdf's
@@ -56,6 +58,29 @@ pub struct Material {
     /// glTF `normalTexture.scale`: the factor on the normal texture's x and y (finite; 1 by
     /// default, 0 leaves the vertex normal).
     pub normal_scale: f32,
+    /// glTF `alphaMode` with `alphaCutoff`: whether and how the coverage α cuts the surface
+    /// out ([`Scene::blocks`]).
+    pub alpha_mode: AlphaMode,
+    /// glTF `baseColorFactor.a`, in [0, 1]: the coverage α, times `alpha_texture` there.
+    pub alpha: f32,
+    /// The alpha channel of glTF's `baseColorTexture` (in every channel), read only when
+    /// `alpha_mode` is not opaque; `None`: `alpha` everywhere.
+    pub alpha_texture: Option<TextureRef>,
+}
+
+/// How a material's coverage α (glTF `baseColorFactor.a` × the base colour texture's alpha)
+/// makes its surface transparent (glTF `alphaMode`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AlphaMode {
+    /// α is ignored: the surface is opaque everywhere (glTF `OPAQUE`, the default).
+    Opaque,
+    /// A cut-out: the surface is there where α ≥ the cutoff and absent elsewhere (glTF `MASK`
+    /// with `alphaCutoff`, 0.5 by default).
+    Mask(f32),
+    /// Stochastic transparency (glTF `BLEND`): each ray meets the surface with probability α
+    /// and passes through it otherwise, so that the image's expectation is the surface blended
+    /// over what lies behind it by α.
+    Blend,
 }
 
 impl Material {
@@ -73,6 +98,9 @@ impl Material {
             metallic_roughness_texture: None,
             normal_texture: None,
             normal_scale: 1.0,
+            alpha_mode: AlphaMode::Opaque,
+            alpha: 1.0,
+            alpha_texture: None,
         }
     }
 
@@ -121,9 +149,10 @@ impl Material {
 
     /// The texture coordinate sets this material reads, in the order a triangle's entries of
     /// [`TexCoords`] hold them: each distinct set once, in the order of first use by the albedo,
-    /// the emission, the metallic-roughness and the normal texture. Between 0 and 4 sets.
+    /// the emission, the metallic-roughness, the normal and the alpha texture. Between 0 and 5
+    /// sets (glTF's alpha texture is the base colour texture's, on its set).
     pub fn tex_coord_sets(&self) -> impl Iterator<Item = u32> {
-        let mut sets = [0u32; 4];
+        let mut sets = [0u32; 5];
         let mut n = 0;
         for t in self.textures().into_iter().flatten() {
             if !sets[..n].contains(&t.tex_coord) {
@@ -134,15 +163,27 @@ impl Material {
         sets.into_iter().take(n)
     }
 
-    /// The albedo, emission, metallic-roughness and normal textures, in that order.
+    /// The albedo, emission, metallic-roughness, normal and alpha textures, in that order.
     #[inline]
-    fn textures(&self) -> [Option<TextureRef>; 4] {
+    fn textures(&self) -> [Option<TextureRef>; 5] {
         [
             self.albedo_texture,
             self.emission_texture,
             self.metallic_roughness_texture,
             self.normal_texture,
+            self.alpha_texture,
         ]
+    }
+
+    /// Whether some ray can pass through the material's surface: a cut-out or a blend whose α
+    /// is textured or below the cutoff (below 1 for a blend). A scene none of whose materials
+    /// can is traced without asking about any hit.
+    pub fn can_cut_out(&self) -> bool {
+        match self.alpha_mode {
+            AlphaMode::Opaque => false,
+            AlphaMode::Mask(cutoff) => self.alpha_texture.is_some() || self.alpha < cutoff,
+            AlphaMode::Blend => self.alpha_texture.is_some() || self.alpha < 1.0,
+        }
     }
 
     /// The index among [`Material::tex_coord_sets`] of the set `texture` reads.
@@ -173,7 +214,8 @@ pub enum SceneError {
     InvalidTextureRef {
         /// The material's index.
         index: usize,
-        /// `albedo texture`, `emission texture`, `metallic-roughness texture` or `normal texture`.
+        /// `albedo texture`, `emission texture`, `metallic-roughness texture`, `normal texture`
+        /// or `alpha texture`.
         what: &'static str,
         /// What is wrong.
         problem: String,
@@ -258,6 +300,10 @@ pub struct Scene {
     tex_coords: TexCoords,
     colours: VertexColours,
     tangents: VertexTangents,
+    alphas: VertexAttribute<f32>,
+    /// Whether some material can cut its surface out ([`Material::can_cut_out`]): rays are
+    /// then traced with [`Scene::blocks`] as the hit filter.
+    cutouts: bool,
     lights: LightSampler,
     background: Vec3,
 }
@@ -315,6 +361,17 @@ impl Scene {
                     value: m.emission,
                 });
             }
+            let cutoff = match m.alpha_mode {
+                AlphaMode::Mask(c) => c,
+                _ => 0.0,
+            };
+            if !((0.0..=1.0).contains(&m.alpha) && cutoff.is_finite()) {
+                return Err(SceneError::InvalidMaterial {
+                    index,
+                    what: "alpha or alpha cutoff",
+                    value: Vec3::new(m.alpha, cutoff, 0.0),
+                });
+            }
             if !m.normal_scale.is_finite() {
                 return Err(SceneError::InvalidMaterial {
                     index,
@@ -335,6 +392,7 @@ impl Scene {
         }
         check_textures(&geometry, &materials, &textures, &tex_coords)?;
         let lights = LightSampler::new(&geometry, &light_weights(&materials, &textures));
+        let cutouts = materials.iter().any(Material::can_cut_out);
         Ok(Self {
             geometry,
             materials,
@@ -342,6 +400,8 @@ impl Scene {
             tex_coords,
             colours: VertexColours::default(),
             tangents: VertexTangents::default(),
+            alphas: VertexAttribute::default(),
+            cutouts,
             lights,
             background: Vec3::ZERO,
         })
@@ -471,6 +531,135 @@ impl Scene {
             },
             wo,
         )
+    }
+
+    /// The coverage α at barycentrics (b1, b2) of triangle `triangle`: the material's `alpha`
+    /// × its alpha texture there × the triangle's vertex alpha there (glTF 2.0 §3.9.4).
+    #[inline]
+    pub fn alpha(&self, triangle: u32, b1: f32, b2: f32) -> f32 {
+        let m = self.material_of(triangle);
+        let a = match &m.alpha_texture {
+            None => m.alpha,
+            Some(t) => m.alpha * self.lookup(triangle, t, b1, b2).x,
+        };
+        match self.alphas.at(triangle, b1, b2) {
+            None => a,
+            Some(v) => a * v,
+        }
+    }
+
+    /// The scene with per-vertex alphas (glTF `COLOR_0`'s fourth component), which multiply
+    /// the coverage α: `alphas` must cover every triangle by id (or be empty), each in [0, 1].
+    pub fn with_vertex_alphas(mut self, alphas: VertexAttribute<f32>) -> Result<Self, SceneError> {
+        if alphas.is_empty() {
+            return Ok(self);
+        }
+        if alphas.triangle_count() != self.geometry.triangle_count() {
+            return Err(SceneError::InvalidVertexColours {
+                problem: format!(
+                    "alphas given for {} triangles, but the geometry has {}",
+                    alphas.triangle_count(),
+                    self.geometry.triangle_count()
+                ),
+            });
+        }
+        if let Some(a) = alphas
+            .all()
+            .iter()
+            .flatten()
+            .find(|a| !(0.0..=1.0).contains(*a))
+        {
+            return Err(SceneError::InvalidVertexColours {
+                problem: format!("alpha {a} is not in [0, 1]"),
+            });
+        }
+        self.alphas = alphas;
+        // Vertex alphas below 1 can cut any non-opaque material.
+        self.cutouts |= self
+            .materials
+            .iter()
+            .any(|m| m.alpha_mode != AlphaMode::Opaque);
+        Ok(self)
+    }
+
+    /// Whether `hit` stops `ray`: always on an opaque material; on a cut-out where α reaches
+    /// the cutoff; on a blend with probability α, decided by a hash of the ray and the
+    /// triangle ([`coverage_sample`]), so that the same ray always gets the same answer, in
+    /// any thread.
+    #[inline]
+    pub fn blocks(&self, ray: &Ray, hit: &Hit) -> bool {
+        let m = self.material_of(hit.triangle);
+        match m.alpha_mode {
+            AlphaMode::Opaque => true,
+            AlphaMode::Mask(cutoff) => self.alpha(hit.triangle, hit.b1, hit.b2) >= cutoff,
+            AlphaMode::Blend => {
+                let a = self.alpha(hit.triangle, hit.b1, hit.b2);
+                a >= 1.0 || (a > 0.0 && coverage_sample(ray, hit.triangle) < a)
+            }
+        }
+    }
+
+    /// The share of an emitting point's light that next-event estimation takes: 1 on an
+    /// opaque material, 0 or 1 on a cut-out (nothing from where it is cut away), α on a blend
+    /// (a ray that meets it does so with probability α, and then takes its whole emission).
+    #[inline]
+    pub fn emitter_coverage(&self, triangle: u32, b1: f32, b2: f32) -> f32 {
+        if !self.cutouts {
+            return 1.0;
+        }
+        match self.material_of(triangle).alpha_mode {
+            AlphaMode::Opaque => 1.0,
+            AlphaMode::Mask(cutoff) => f32::from(u8::from(self.alpha(triangle, b1, b2) >= cutoff)),
+            AlphaMode::Blend => self.alpha(triangle, b1, b2),
+        }
+    }
+
+    /// The closest hit of `ray` that [`Scene::blocks`] it (every hit, in a scene without
+    /// cut-outs).
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if self.cutouts {
+            self.geometry.intersect_filtered(ray, self)
+        } else {
+            self.geometry.intersect(ray)
+        }
+    }
+
+    /// Whether anything [`Scene::blocks`] `ray` before its end.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        if self.cutouts {
+            self.geometry.occluded_filtered(ray, self)
+        } else {
+            self.geometry.occluded(ray)
+        }
+    }
+
+    /// [`Scene::intersect`] for a coherent batch (irr-geometry's `intersect_many`).
+    pub fn intersect_many(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        if self.cutouts {
+            self.geometry.intersect_many_filtered(rays, hits, self);
+        } else {
+            self.geometry.intersect_many(rays, hits);
+        }
+    }
+
+    /// [`Scene::intersect`] for incoherent rays (irr-geometry's `intersect_stream`).
+    pub fn intersect_stream(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        if self.cutouts {
+            self.geometry.intersect_stream_filtered(rays, hits, self);
+        } else {
+            self.geometry.intersect_stream(rays, hits);
+        }
+    }
+
+    /// [`Scene::occluded`] for incoherent rays (irr-geometry's `occluded_stream`).
+    pub fn occluded_stream(&self, rays: &[Ray], occluded: &mut [bool]) {
+        if self.cutouts {
+            self.geometry.occluded_stream_filtered(rays, occluded, self);
+        } else {
+            self.geometry.occluded_stream(rays, occluded);
+        }
     }
 
     /// The metallic factor and the roughness at barycentrics (b1, b2) of triangle `triangle`:
@@ -622,6 +811,32 @@ impl Scene {
     }
 }
 
+/// The scene's surfaces as irr-geometry sees them: a hit counts where it [`Scene::blocks`] the
+/// ray.
+impl HitFilter for Scene {
+    #[inline]
+    fn accept(&self, ray: &Ray, hit: &Hit) -> bool {
+        self.blocks(ray, hit)
+    }
+}
+
+/// A uniform number in [0, 1) that depends only on the ray's bits and the triangle: the
+/// choice of stochastic transparency ([`AlphaMode::Blend`]). Rays of different samples differ
+/// in their origin or direction, so their choices are independent; one ray asked twice gets
+/// one answer.
+#[inline]
+pub fn coverage_sample(ray: &Ray, triangle: u32) -> f32 {
+    let bits = |a: f32, b: f32| (u64::from(a.to_bits()) << 32) | u64::from(b.to_bits());
+    let (o, d) = (ray.origin, ray.direction);
+    let key = irr_sampling::rng::hash_keys(&[
+        bits(o.x, o.y),
+        bits(o.z, d.x),
+        bits(d.y, d.z),
+        u64::from(triangle),
+    ]);
+    irr_sampling::rng::bits_to_unit_f32((key >> 32) as u32)
+}
+
 /// The least cosine between a normal-textured shading normal and the winding normal
 /// ([`Scene::shading_normal`]): a shading normal at or below the surface would leave no
 /// direction that is above both, so no light at all; 0.01 (89.4°) keeps every texel's
@@ -657,6 +872,7 @@ fn check_textures(
             ("emission texture", m.emission_texture),
             ("metallic-roughness texture", m.metallic_roughness_texture),
             ("normal texture", m.normal_texture),
+            ("alpha texture", m.alpha_texture),
         ] {
             let Some(r) = r else { continue };
             textured = true;
@@ -670,7 +886,7 @@ fn check_textures(
                     Some("has a texture transform that is not finite".to_string())
                 }
                 Some(t) if what != "emission texture" && t.max_value() > 1.0 => Some(format!(
-                    "has a texel of {} (albedo, metallic, roughness and normal texels must lie in [0, 1])",
+                    "has a texel of {} (albedo, metallic, roughness, normal and alpha texels must lie in [0, 1])",
                     t.max_value()
                 )),
                 Some(_) => None,

@@ -641,6 +641,77 @@ mod tests {
         assert_eq!(shading(texel, 1.0, [None, Some([tangent; 3])]), Vec3::Z);
     }
 
+    /// The coverage α is the factor × the vertex alphas (interpolated); a cut-out blocks a ray
+    /// where α reaches its cutoff, a blend with probability α; an opaque material always; and
+    /// vertex alphas make a non-opaque material with factor 1 cut out.
+    #[test]
+    fn coverage_is_the_factor_times_vertex_alpha() {
+        use crate::scene::AlphaMode;
+        let material = |mode| crate::Material {
+            alpha_mode: mode,
+            alpha: 0.8,
+            ..crate::Material::diffuse(Vec3::splat(0.5))
+        };
+        let build = |mode| {
+            let mut alphas = VertexAttribute::<f32>::default();
+            for a in [[0.0, 1.0, 1.0], [1.0, 1.0, 1.0]] {
+                alphas.push(Some(a)).unwrap_or_else(|e| panic!("{e}"));
+            }
+            scene(
+                &[square(0)],
+                vec![material(mode)],
+                vec![],
+                TexCoords::default(),
+            )
+            .and_then(|s| s.with_vertex_alphas(alphas))
+            .unwrap_or_else(|e| panic!("{e}"))
+        };
+        let s = build(AlphaMode::Mask(0.5));
+        // Triangle 0's vertex 0 has alpha 0: at barycentrics (b1, b2), α = 0.8·(b1 + b2).
+        assert!((s.alpha(0, 0.25, 0.25) - 0.4).abs() < 1e-6);
+        assert_eq!(s.alpha(1, 0.25, 0.25), 0.8);
+        let ray = irr_geometry::Ray::new(Vec3::new(0.5, 0.5, 1.0), -Vec3::Z);
+        let hit = |b1: f32, b2: f32| irr_geometry::Hit {
+            t: 1.0,
+            triangle: 0,
+            b1,
+            b2,
+        };
+        assert!(!s.blocks(&ray, &hit(0.25, 0.25)));
+        assert!(s.blocks(&ray, &hit(0.5, 0.25)));
+        // A blend: of many rays through the point of α = 0.4, about 40 % are blocked (the
+        // count of 4096 independent draws is within 5 standard deviations, √(4096·0.24) = 31).
+        let s = build(AlphaMode::Blend);
+        let blocked = (0..4096)
+            .filter(|&i| {
+                let r = irr_geometry::Ray::new(Vec3::new(0.5, 0.5, 1.0 + i as f32), -Vec3::Z);
+                s.blocks(&r, &hit(0.25, 0.25))
+            })
+            .count();
+        assert!(
+            (blocked as f64 - 0.4 * 4096.0).abs() < 5.0 * 31.4,
+            "{blocked}"
+        );
+        assert!(build(AlphaMode::Opaque).blocks(&ray, &hit(0.0, 0.0)));
+        // Alphas outside [0, 1] are refused.
+        let mut bad = VertexAttribute::<f32>::default();
+        for _ in 0..2 {
+            bad.push(Some([0.5, 1.5, 1.0]))
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
+        let e = scene(
+            &[square(0)],
+            vec![material(AlphaMode::Blend)],
+            vec![],
+            TexCoords::default(),
+        )
+        .and_then(|s| s.with_vertex_alphas(bad))
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+        assert!(e.contains("alpha 1.5 is not in [0, 1]"), "{e}");
+    }
+
     #[test]
     fn scene_reads_albedo_and_emission_at_the_point() {
         let nearest = Sampler {

@@ -328,14 +328,14 @@ fn float_component(t: DataType, b: &[u8], k: usize) -> f32 {
     }
 }
 
-/// Reads a `COLOR_n` accessor: `VEC3` or `VEC4` (alpha dropped) of `FLOAT`, or of normalized
-/// `UNSIGNED_BYTE` or `UNSIGNED_SHORT` (glTF 2.0 §3.7.2.1), as linear RGB.
+/// Reads a `COLOR_n` accessor: `VEC3` or `VEC4` of `FLOAT`, or of normalized `UNSIGNED_BYTE`
+/// or `UNSIGNED_SHORT` (glTF 2.0 §3.7.2.1), as linear RGBA (alpha 1 for `VEC3`).
 pub(crate) fn read_colours(
     what: &str,
     accessor: &gltf::Accessor<'_>,
     buffers: &Buffers,
     budget: &mut Budget,
-) -> Result<Vec<[f32; 3]>, String> {
+) -> Result<Vec<[f32; 4]>, String> {
     let (t, d) = (accessor.data_type(), accessor.dimensions());
     let components = match d {
         Dimensions::Vec3 => 3,
@@ -356,8 +356,16 @@ pub(crate) fn read_colours(
         components * size,
         buffers,
         budget,
-        [0.0; 3],
-        |b| [0, 1, 2].map(|k| float_component(t, b, k)),
+        [0.0, 0.0, 0.0, 1.0],
+        |b| {
+            [0, 1, 2, 3].map(|k| {
+                if k < components {
+                    float_component(t, b, k)
+                } else {
+                    1.0
+                }
+            })
+        },
     )
 }
 

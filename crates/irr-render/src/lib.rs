@@ -216,6 +216,7 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
         textures,
         tex_coords,
         colours,
+        alphas,
         tangents,
         camera,
         cameras,
@@ -232,6 +233,8 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
         load::attribute_by_id(&meshes, &colours).map_err(|e| RenderError::scene(path, e))?;
     let tangents =
         load::attribute_by_id(&meshes, &tangents).map_err(|e| RenderError::scene(path, e))?;
+    let alphas =
+        load::attribute_by_id(&meshes, &alphas).map_err(|e| RenderError::scene(path, e))?;
     // The meshes are consumed: each part is freed as soon as the BVH's leaves hold it, so a
     // large scene is never in memory twice.
     let geometry =
@@ -257,6 +260,7 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
     let scene = Scene::with_textures(geometry, materials, textures, tex_coords)
         .and_then(|s| s.with_vertex_colours(colours))
         .and_then(|s| s.with_tangents(tangents))
+        .and_then(|s| s.with_vertex_alphas(alphas))
         .and_then(|s| s.with_lights(lights))
         .map_err(|e| RenderError::scene(path, e.to_string()))?;
     Ok(LoadedScene {

@@ -87,7 +87,7 @@ impl<V: IcValue> Core<V> {
         let mut trace = |batch: &[Ray], meta: &[(Vec3, SampleKey)], rays: &mut RayCounter| {
             rays.closest += batch.len() as u64;
             let mut hits = vec![None; batch.len()];
-            scene.geometry().intersect_many(batch, &mut hits);
+            scene.intersect_many(batch, &mut hits);
             let traced: Vec<Traced> = batch
                 .iter()
                 .zip(hits)

@@ -114,7 +114,7 @@ impl<V: IcValue> Core<V> {
             GuardTest::Fail => false,
             GuardTest::Ray(ray) => {
                 *rays += 1;
-                !scene.geometry().occluded(&ray)
+                !scene.occluded(&ray)
             }
         }
     }
@@ -148,7 +148,7 @@ mod tests {
                 let (z, phi) = (1.0 - 2.0 * u.x, std::f32::consts::TAU * u.y);
                 let r = (1.0 - z * z).max(0.0).sqrt();
                 let ray = Ray::new(Vec3::ZERO, Vec3::new(r * phi.cos(), r * phi.sin(), z));
-                let hit = scene.geometry().intersect(&ray)?;
+                let hit = scene.intersect(&ray)?;
                 let s = scene.geometry().surface(&ray, &hit);
                 Some(ShadingPoint::new(&s, -ray.direction))
             })

@@ -83,7 +83,7 @@ impl<V: IcValue> Core<V> {
         rays: &mut RayCounter,
     ) -> Option<(ShadingPoint, f32)> {
         rays.closest += 1;
-        let hit = scene.geometry().intersect(ray)?;
+        let hit = scene.intersect(ray)?;
         let surface = scene.geometry().surface(ray, &hit);
         let mut t = (surface.position - ray.origin).length();
         let mut x = scene.shading_point(&surface, -ray.direction.normalize());
@@ -95,7 +95,7 @@ impl<V: IcValue> Core<V> {
             }
             let r = Ray::spawn(x.position, x.ng, w);
             rays.closest += 1;
-            let hit = scene.geometry().intersect(&r)?;
+            let hit = scene.intersect(&r)?;
             let surface = scene.geometry().surface(&r, &hit);
             t = (surface.position - x.position).length();
             x = scene.shading_point(&surface, -w);

@@ -303,7 +303,7 @@ pub fn trace_light_path(
     let mut j = 0usize;
     loop {
         rays.closest += 1;
-        let Some(hit) = geometry.intersect(&ray) else {
+        let Some(hit) = scene.intersect(&ray) else {
             // The background's light arrives at vertex j − 1 along its drawn direction.
             if j > 0 {
                 add(&mut slots, j - 1, scene.background());

@@ -35,6 +35,14 @@
 //! residual (`residual`); with the other bounce modes it path-traces the hit's light with the
 //! whole BSDF.
 //!
+//! # Normal textures
+//! A record, its gather's hemisphere and its lookups use the shading normal the normal texture
+//! gives (`Scene::shading_point`), as Radiance and Mitsuba 0.6 do: the cache then stays
+//! consistent with the path tracer, at the price of records as close as the normal texture's
+//! variation asks where it tilts the normal quickly. (Records on the unperturbed normal, carried
+//! to the textured one by the rotation gradient, would be cheaper but keep a bias of second order
+//! in the tilt that no error parameter removes.)
+//!
 //! A record's gather at x traces one cosine-distributed ray per cell of an M×N
 //! [`HemisphereStrata`]; the radiance a ray brings back from the point x₁ it hits is what x₁
 //! *reflects* towards x (its emission excluded: that is x's `direct`): (ρ(x₁)/π) times the
@@ -420,7 +428,7 @@ impl IrradianceCacheIntegrator {
         };
         let ray = Ray::spawn(x.position, x.ng, draw.wi);
         rays.closest += 1;
-        let Some(hit) = scene.geometry().intersect(&ray) else {
+        let Some(hit) = scene.intersect(&ray) else {
             // The background's light belongs to `indirect`.
             return (Vec3::ZERO, residual * scene.background());
         };
@@ -484,7 +492,7 @@ impl IrradianceCacheIntegrator {
         let weight = bsdf.residual(draw.wi) * (draw.cos / draw.pdf);
         let ray = Ray::spawn(x.position, x.ng, draw.wi);
         rays.closest += 1;
-        let Some(hit) = scene.geometry().intersect(&ray) else {
+        let Some(hit) = scene.intersect(&ray) else {
             return value + weight * scene.background();
         };
         let surface = scene.geometry().surface(&ray, &hit);

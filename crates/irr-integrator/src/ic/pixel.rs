@@ -216,7 +216,7 @@ impl IrradianceCacheIntegrator {
             GuardTest::Fail => false,
             GuardTest::Ray(ray) => memo.get(id, triangle, || {
                 *guard_rays += 1;
-                !scene.geometry().occluded(&ray)
+                !scene.occluded(&ray)
             }),
         };
         let found = match nearby {

@@ -121,7 +121,7 @@ impl<V: IcValue> Core<V> {
         let count = batch.len() as u32;
         spent.closest += u64::from(count);
         let mut hits = vec![None; batch.len()];
-        scene.geometry().intersect_many(&batch, &mut hits);
+        scene.intersect_many(&batch, &mut hits);
         let (mut inv_sum, mut nearest) = (0.0f64, f32::INFINITY);
         for (r, hit) in batch.iter().zip(hits) {
             if let Some(hit) = hit {

@@ -1,10 +1,10 @@
 //! Materials and the document-wide features irr ignores.
 
-use super::textures::Textures;
+use super::textures::{Decode, Textures};
 use super::{Loader, SUPPORTED_EXTENSIONS, describe, plural};
 use crate::error::RenderError;
 use glam::Vec3;
-use irr_integrator::{Material, Texture};
+use irr_integrator::{AlphaMode, Material, Texture};
 use std::collections::BTreeMap;
 
 impl Loader<'_> {
@@ -59,11 +59,8 @@ impl Loader<'_> {
                 plural(n, "other scene", "other scenes")
             )
         });
-        let (mut alpha, mut occlusion, mut specular_colour) = (0, 0, 0);
-        for (m, json) in d.materials().zip(&d.as_json().materials) {
-            if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
-                alpha += 1;
-            }
+        let (mut occlusion, mut specular_colour) = (0, 0);
+        for json in &d.as_json().materials {
             // Read from the JSON: the typed accessors look the textures up with an unwrap.
             occlusion += usize::from(json.occlusion_texture.is_some());
             if let Some(s) = json.extensions.as_ref().and_then(|e| e.specular.as_ref()) {
@@ -83,12 +80,6 @@ impl Loader<'_> {
         self.warnings.add("specular-colour", specular_colour, |n| {
             format!(
                 "{} KHR_materials_specular colour or textures: ignored (irr reads its specularFactor only)",
-                plural(n, "material has", "materials have")
-            )
-        });
-        self.warnings.add("alpha", alpha, |n| {
-            format!(
-                "{} alphaMode BLEND or MASK: transparency ignored (irr's surfaces are opaque)",
                 plural(n, "material has", "materials have")
             )
         });
@@ -151,7 +142,7 @@ impl Loader<'_> {
                     info,
                     &format!("material {name} baseColorTexture"),
                     buffers,
-                    false,
+                    Decode::Colour,
                 )?),
                 None => None,
             };
@@ -161,7 +152,7 @@ impl Loader<'_> {
                     info,
                     &format!("material {name} emissiveTexture"),
                     buffers,
-                    false,
+                    Decode::Colour,
                 )?),
                 None => None,
             };
@@ -171,9 +162,41 @@ impl Loader<'_> {
                     info,
                     &format!("material {name} metallicRoughnessTexture"),
                     buffers,
-                    true,
+                    Decode::Data,
                 )?),
                 None => None,
+            };
+            let alpha = base[3];
+            if !alpha.is_finite() {
+                return Err(self.err(format!(
+                    "material {name}: baseColorFactor's alpha {alpha} is not finite"
+                )));
+            }
+            let clamped_alpha = alpha.clamp(0.0, 1.0);
+            clamped_factors += usize::from(clamped_alpha != alpha);
+            let alpha_mode = match m.alpha_mode() {
+                gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+                gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+                gltf::material::AlphaMode::Mask => {
+                    let cutoff = m.alpha_cutoff().unwrap_or(0.5);
+                    if !cutoff.is_finite() {
+                        return Err(self.err(format!(
+                            "material {name}: alphaCutoff {cutoff} is not finite"
+                        )));
+                    }
+                    AlphaMode::Mask(cutoff)
+                }
+            };
+            // The coverage is the base colour texture's alpha channel, on its coordinates.
+            let alpha_texture = match (&pbr.base_color_texture, alpha_mode) {
+                (Some(info), AlphaMode::Mask(_) | AlphaMode::Blend) => Some(self.texture_ref(
+                    &mut textures,
+                    info,
+                    &format!("material {name} baseColorTexture (alpha)"),
+                    buffers,
+                    Decode::Alpha,
+                )?),
+                _ => None,
             };
             let (normal_texture, normal_scale) = match &json.normal_texture {
                 Some(normal) => {
@@ -184,7 +207,7 @@ impl Loader<'_> {
                         );
                     }
                     let info = self.normal_texture_info(normal, &what)?;
-                    let r = self.texture_ref(&mut textures, &info, &what, buffers, true)?;
+                    let r = self.texture_ref(&mut textures, &info, &what, buffers, Decode::Data)?;
                     (Some(r), normal.scale)
                 }
                 None => (None, 1.0),
@@ -201,6 +224,9 @@ impl Loader<'_> {
                 metallic_roughness_texture,
                 normal_texture,
                 normal_scale,
+                alpha_mode,
+                alpha: clamped_alpha,
+                alpha_texture,
             });
         }
         textures.warn(self);
@@ -212,7 +238,7 @@ impl Loader<'_> {
         });
         self.warnings.add("factor-clamped", clamped_factors, |n| {
             format!(
-                "{} outside [0, 1] (metallicFactor, roughnessFactor or specularFactor): clamped",
+                "{} outside [0, 1] (metallicFactor, roughnessFactor, specularFactor or baseColorFactor's alpha): clamped",
                 plural(n, "factor", "factors")
             )
         });

@@ -7,6 +7,10 @@ use crate::error::RenderError;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use irr_geometry::TriangleMesh;
 
+/// The `COLOR_0` colours of a primitive's triangles, and their alphas (see
+/// [`Primitive::alphas`]).
+type ColoursAndAlphas = (Vec<[Vec3; 3]>, Vec<[f32; 3]>);
+
 /// A primitive instance in world space and the per-vertex data of its triangles.
 pub(super) struct Primitive {
     /// The triangles, in world space.
@@ -15,6 +19,8 @@ pub(super) struct Primitive {
     pub tex_coords: Vec<[Vec2; 3]>,
     /// The `COLOR_0` colours of each triangle (empty without them).
     pub colours: Vec<[Vec3; 3]>,
+    /// The `COLOR_0` alphas of each triangle (empty without them, or if all are 1).
+    pub alphas: Vec<[f32; 3]>,
     /// The world-space tangents of each triangle (empty unless the material has a normal
     /// texture).
     pub tangents: Vec<[Vec4; 3]>,
@@ -196,7 +202,7 @@ impl Loader<'_> {
             }
         };
         let tex_coords = self.tex_coords(&what, primitive, sets, n, &triangles, buffers)?;
-        let colours = self.colours(&what, primitive, n, &triangles, buffers)?;
+        let (colours, alphas) = self.colours(&what, primitive, n, &triangles, buffers)?;
         let count = triangles.len();
         let mesh = TriangleMesh {
             positions,
@@ -220,6 +226,7 @@ impl Loader<'_> {
             mesh,
             tex_coords,
             colours,
+            alphas,
             tangents,
         }))
     }
@@ -303,9 +310,9 @@ impl Loader<'_> {
     }
 
     /// The `COLOR_0` colours at the vertices of each of `triangles` (vertex indices below `n`,
-    /// the vertex count), or none without the attribute. Float colours outside [0, 1] are
-    /// clamped with a warning (the base colour they multiply must stay in [0, 1]); a non-finite
-    /// one is refused.
+    /// the vertex count), and their alphas where one is below 1; none without the attribute.
+    /// Float colours outside [0, 1] are clamped with a warning (the base colour they multiply
+    /// must stay in [0, 1]); a non-finite one is refused.
     fn colours(
         &mut self,
         what: &str,
@@ -313,9 +320,9 @@ impl Loader<'_> {
         n: usize,
         triangles: &[[u32; 3]],
         buffers: &[Vec<u8>],
-    ) -> Result<Vec<[Vec3; 3]>, RenderError> {
+    ) -> Result<ColoursAndAlphas, RenderError> {
         let Some(acc) = primitive.get(&gltf::Semantic::Colors(0)) else {
-            return Ok(Vec::new());
+            return Ok((Vec::new(), Vec::new()));
         };
         let label = format!("{what} COLOR_0 accessor {}", acc.index());
         let colours =
@@ -349,9 +356,25 @@ impl Loader<'_> {
             .map_err(|e| self.err(e))?;
         // The indices were checked against the vertex count, which `colours` matches.
         out.extend(triangles.iter().map(|t| {
-            t.map(|i| Vec3::from_array(colours[i as usize]).clamp(Vec3::ZERO, Vec3::ONE))
+            t.map(|i| {
+                let [r, g, b, _] = colours[i as usize];
+                Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE)
+            })
         }));
-        Ok(out)
+        // The alphas scale the coverage: kept only if some is below 1.
+        let mut alphas = Vec::new();
+        if colours.iter().any(|c| c[3] < 1.0) {
+            alphas = self
+                .budget
+                .vec::<[f32; 3]>(&format!("{what} vertex alphas"), triangles.len())
+                .map_err(|e| self.err(e))?;
+            alphas.extend(
+                triangles
+                    .iter()
+                    .map(|t| t.map(|i| colours[i as usize][3].clamp(0.0, 1.0))),
+            );
+        }
+        Ok((out, alphas))
     }
 
     /// The texture coordinates of each of `triangles` (vertex indices below `n`, the vertex

@@ -23,12 +23,15 @@
 //!   inside the asset root, converted from sRGB to linear once (the metallic-roughness and
 //!   normal textures are linear data, only scaled to [0, 1]) and multiplied by
 //!   `baseColorFactor` / the emission / the metallic (blue) and roughness (green) factors at
-//!   shading time (alpha is dropped); their `texCoord`; the sampler's `wrapS`/`wrapT`
+//!   shading time (the colour's alpha is read only as coverage, below); their `texCoord`; the sampler's `wrapS`/`wrapT`
 //!   (`REPEAT`, `CLAMP_TO_EDGE`, `MIRRORED_REPEAT`) and `magFilter` (`NEAREST`, or `LINEAR`:
 //!   bilinear, the default); and `KHR_texture_transform` (offset, rotation, scale, texCoord).
 //! - For a normal texture, its `scale` and the primitive's `TANGENT` (world space; the
 //!   handedness flips under a mirroring transform), or, without it, MikkTSpace tangents
 //!   computed from the normal texture's coordinates (module `mesh`).
+//! - `alphaMode` `MASK` (with `alphaCutoff`) and `BLEND`: the coverage α is `baseColorFactor.a`
+//!   × the base colour texture's alpha channel (decoded as data) × `COLOR_0`'s alpha; the
+//!   integrators trace cut-outs and stochastic transparency (irr-integrator's `Scene::blocks`).
 //! - Every perspective camera, in the order of a depth-first walk of the scene's nodes, with its
 //!   node's name (the first is the default; `--camera N` picks another).
 //! - `KHR_lights_punctual` (lights.rs): every point, spot and directional light that a node of
@@ -41,7 +44,7 @@
 //! Occlusion textures (baked occlusion would darken light that a global-illumination renderer
 //! already shadows: counted twice), `KHR_materials_specular`'s colour and textures, textures and
 //! images no base-colour, emissive, metallic-roughness or normal texture uses, `minFilter` (no mip maps: every lookup uses
-//! `magFilter`), transparency (`alphaMode` other than `OPAQUE`), vertex colours past
+//! `magFilter`), vertex colours past
 //! `COLOR_0`, morph targets, skins, animations, points and lines, orthographic cameras, other
 //! scenes, a light's `range` (a non-physical cut-off), lights no node of the scene places, and
 //! every extension except `KHR_materials_emissive_strength`, `KHR_materials_specular`,
@@ -138,6 +141,9 @@ pub struct SceneData {
     /// Per mesh, the `COLOR_0` colours at its triangles' vertices, one triple per triangle;
     /// empty for a mesh without them.
     pub colours: Vec<Vec<[Vec3; 3]>>,
+    /// Per mesh, the `COLOR_0` alphas at its triangles' vertices, one triple per triangle,
+    /// which scale the coverage α; empty for a mesh without them or whose alphas are all 1.
+    pub alphas: Vec<Vec<[f32; 3]>>,
     /// Per mesh, the world-space tangents at its triangles' vertices (xyz a unit tangent, w
     /// = ±1 the bitangent's sign), one triple per triangle, for a mesh whose material has a
     /// normal texture (the file's `TANGENT`, else MikkTSpace's); empty for the others.
@@ -345,6 +351,7 @@ impl<'a> Loader<'a> {
         let mut tex_coords = Vec::new();
         let mut colours = Vec::new();
         let mut tangents = Vec::new();
+        let mut alphas = Vec::new();
         let mut used_default_material = 0;
         let mut lights = Vec::new();
         let mut placed = vec![false; self.light_count()];
@@ -395,6 +402,7 @@ impl<'a> Loader<'a> {
                         meshes.push(p.mesh);
                         tex_coords.push(p.tex_coords);
                         colours.push(p.colours);
+                        alphas.push(p.alphas);
                         tangents.push(p.tangents);
                     }
                 }
@@ -454,6 +462,7 @@ impl<'a> Loader<'a> {
             textures,
             tex_coords,
             colours,
+            alphas,
             tangents,
             camera: cameras.first().map(|c| c.camera),
             cameras,

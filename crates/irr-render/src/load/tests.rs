@@ -265,7 +265,6 @@ fn ignored_features_are_counted_in_warnings() {
         ("specular-colour", 1),
         ("factor-clamped", 1),
         ("scenes", 1),
-        ("alpha", 1),
         ("non-triangle", 1),
         ("default-material", 1),
     ] {

@@ -1,15 +1,16 @@
-//! Textures (glTF 2.0 §3.8): a material's `baseColorTexture`, `emissiveTexture` and
-//! `metallicRoughnessTexture`, their
-//! samplers, their `KHR_texture_transform`, and the images behind them (PNG and JPEG, from a
-//! `bufferView`, a `data:` URI or a file inside the asset root).
+//! Textures (glTF 2.0 §3.8): a material's `baseColorTexture`, `emissiveTexture`,
+//! `metallicRoughnessTexture` and `normalTexture`, their samplers, their
+//! `KHR_texture_transform`, and the images behind them (PNG and JPEG, from a `bufferView`, a
+//! `data:` URI or a file inside the asset root).
 //!
 //! Images are untrusted like every other part of a scene: each side is at most
 //! [`MAX_IMAGE_SIDE`] texels, and the memory decoding takes (the decoder's output, a JPEG's
 //! coefficients, the linear texels) is charged to the loader's `Budget` from the header's
 //! dimensions before any pixel is decoded. Colour textures' texels are converted from sRGB to
-//! linear with the exact sRGB EOTF (IEC 61966-2-1) once, here; a metallic-roughness texture's
-//! are linear already (glTF 2.0 §3.9.2) and are only scaled to [0, 1]; the alpha channel is dropped (irr's surfaces are
-//! opaque, and `alphaMode` other than `OPAQUE` is already warned about).
+//! linear with the exact sRGB EOTF (IEC 61966-2-1) once, here; metallic-roughness and normal
+//! textures' are linear already (glTF 2.0 §3.9.2) and are only scaled to [0, 1]. The alpha
+//! channel is decoded, as a texture of its own, only for a material whose `alphaMode` reads
+//! it ([`Decode::Alpha`]; it takes three channels, like every irr texture).
 
 use super::{Loader, describe, plural};
 use crate::error::RenderError;
@@ -26,14 +27,27 @@ use std::collections::BTreeMap;
 /// beyond what a texture needs to be sharp in an image of [`crate::MAX_DIMENSION`] pixels.
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 
+/// How an image's codes become texels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub(super) enum Decode {
+    /// Colours: RGB through the sRGB EOTF (base colour, emission).
+    Colour,
+    /// Data: RGB codes scaled to [0, 1] (metallic-roughness, normals).
+    Data,
+    /// Coverage: the alpha channel scaled to [0, 1], in all three channels (1 for an image
+    /// without alpha).
+    Alpha,
+}
+
 /// The textures the materials read, each loaded once, and the images behind them, each
 /// decoded once.
 #[derive(Default)]
 pub(super) struct Textures {
-    /// (glTF texture index, whether read as linear data) → index in `list`.
-    by_gltf: BTreeMap<(usize, bool), u32>,
-    /// (glTF image index, whether linear) → its texels (shared by every texture made from it).
-    images: BTreeMap<(usize, bool), Texture>,
+    /// (glTF texture index, how it is decoded) → index in `list`.
+    by_gltf: BTreeMap<(usize, Decode), u32>,
+    /// (glTF image index, how it is decoded) → its texels (shared by every texture made from
+    /// it).
+    images: BTreeMap<(usize, Decode), Texture>,
     /// The textures, as `TextureRef::texture` indexes them.
     pub(super) list: Vec<Texture>,
     /// Loaded textures whose `minFilter` irr does not follow.
@@ -82,25 +96,25 @@ impl Textures {
 
 impl Loader<'_> {
     /// The [`TextureRef`] of a material's `textureInfo` (`what` names it in messages), loading
-    /// the texture and its image the first time one is met; `linear`: its texels are data, not
-    /// sRGB colours (a metallic-roughness texture).
+    /// the texture and its image the first time one is met, decoded as `decode` says (colours,
+    /// data or coverage).
     pub(super) fn texture_ref(
         &mut self,
         textures: &mut Textures,
         info: &gltf::json::texture::Info,
         what: &str,
         buffers: &[Vec<u8>],
-        linear: bool,
+        decode: Decode,
     ) -> Result<TextureRef, RenderError> {
         let index = info.index.value();
-        let texture = match textures.by_gltf.get(&(index, linear)) {
+        let texture = match textures.by_gltf.get(&(index, decode)) {
             Some(&t) => t,
             None => {
-                let t = self.texture(textures, index, what, buffers, linear)?;
+                let t = self.texture(textures, index, what, buffers, decode)?;
                 let id = u32::try_from(textures.list.len())
                     .map_err(|_| self.err(format!("{what}: too many textures")))?;
                 textures.list.push(t);
-                textures.by_gltf.insert((index, linear), id);
+                textures.by_gltf.insert((index, decode), id);
                 id
             }
         };
@@ -134,7 +148,7 @@ impl Loader<'_> {
         index: usize,
         what: &str,
         buffers: &[Vec<u8>],
-        linear: bool,
+        decode: Decode,
     ) -> Result<Texture, RenderError> {
         let root = self.document.as_json();
         // The schema check (`json::validate`) proved these indices; a lookup costs nothing and
@@ -155,29 +169,28 @@ impl Loader<'_> {
                 sampler(s)
             }
         };
-        // Once per glTF texture, though it may load twice (as colour and as data).
+        // Once per glTF texture, though it may load more than once (as colour, data, alpha).
         let first = !textures.by_gltf.keys().any(|k| k.0 == index);
         textures.min_filters_ignored += usize::from(min_filter_ignored && first);
         let image = json.source.value();
-        let texels = match textures.images.get(&(image, linear)) {
+        let texels = match textures.images.get(&(image, decode)) {
             Some(t) => t.clone(),
             None => {
-                let t = self.image(image, &name, buffers, linear)?;
-                textures.images.insert((image, linear), t.clone());
+                let t = self.image(image, &name, buffers, decode)?;
+                textures.images.insert((image, decode), t.clone());
                 t
             }
         };
         Ok(texels.with_sampler(sampler))
     }
 
-    /// Decodes glTF image `index` (read by `texture`, for messages), as sRGB colours or, with
-    /// `linear`, as linear data.
+    /// Decodes glTF image `index` (read by `texture`, for messages) as `decode` says.
     fn image(
         &mut self,
         index: usize,
         texture: &str,
         buffers: &[Vec<u8>],
-        linear: bool,
+        decode: Decode,
     ) -> Result<Texture, RenderError> {
         let root = self.document.as_json();
         let Some(json) = root.images.get(index) else {
@@ -208,7 +221,7 @@ impl Loader<'_> {
             }
         };
         self.budget.allow_images();
-        decode_image(bytes, &mut self.budget, linear).map_err(|e| self.err(format!("{name}: {e}")))
+        decode_image(bytes, &mut self.budget, decode).map_err(|e| self.err(format!("{name}: {e}")))
     }
 
     /// The bytes of buffer view `index`, checked against its buffer.
@@ -340,12 +353,12 @@ fn check_size(width: u64, height: u64) -> Result<(), String> {
 }
 
 /// Decodes a PNG or JPEG into linear texels (with the default sampler), charging `budget` for
-/// every allocation its header implies before decoding: sRGB codes through the sRGB EOTF, or,
-/// with `linear`, codes scaled to [0, 1].
-fn decode_image(bytes: &[u8], budget: &mut Budget, linear: bool) -> Result<Texture, String> {
+/// every allocation its header implies before decoding, as `decode` says: colour codes through
+/// the sRGB EOTF, data codes scaled to [0, 1], or the alpha channel scaled to [0, 1].
+fn decode_image(bytes: &[u8], budget: &mut Budget, decode: Decode) -> Result<Texture, String> {
     let (width, height, texels) = match format_of(bytes) {
-        Some(Format::Png) => decode_png(bytes, budget, linear)?,
-        Some(Format::Jpeg) => decode_jpeg(bytes, budget, linear)?,
+        Some(Format::Png) => decode_png(bytes, budget, decode)?,
+        Some(Format::Jpeg) => decode_jpeg(bytes, budget, decode)?,
         None => {
             return Err(
                 "is neither PNG nor JPEG (irr reads those two; KHR_texture_basisu and EXT_texture_webp images are not supported)"
@@ -361,9 +374,9 @@ fn srgb8_table() -> [f32; 256] {
     std::array::from_fn(|c| srgb_to_linear(c as f64 / 255.0) as f32)
 }
 
-/// The values of 8-bit codes: sRGB colours ([`srgb8_table`]) or, with `linear`, data c/255.
-fn code8_table(linear: bool) -> [f32; 256] {
-    if linear {
+/// The values of 8-bit codes: sRGB colours ([`srgb8_table`]) or, for data and alpha, c/255.
+fn code8_table(decode: Decode) -> [f32; 256] {
+    if decode != Decode::Colour {
         std::array::from_fn(|c| (c as f64 / 255.0) as f32)
     } else {
         srgb8_table()
@@ -379,7 +392,7 @@ fn texel_vec(budget: &mut Budget, width: u32, height: u32) -> Result<Vec<Vec3>, 
 fn decode_png(
     bytes: &[u8],
     budget: &mut Budget,
-    linear: bool,
+    decode: Decode,
 ) -> Result<(u32, u32, Vec<Vec3>), String> {
     // The header first, read here: IHDR is the first chunk (PNG §5.6), width and height its
     // first two big-endian u32s. An absurd size is refused before the decoder sees it.
@@ -407,29 +420,43 @@ fn decode_png(
         _ => 1,
     };
     let mut texels = texel_vec(budget, width, height)?;
-    // Grey (and grey + alpha) repeats its one channel; alpha is dropped.
-    let (g, b) = if channels >= 3 { (1, 2) } else { (0, 0) };
+    // Grey (and grey + alpha) repeats its one channel; alpha, the last channel of grey +
+    // alpha and RGBA, is read only as coverage.
+    let has_alpha = channels == 2 || channels == 4;
+    let channel_of = |k: usize| match decode {
+        Decode::Alpha => has_alpha.then_some(channels - 1),
+        _ if channels >= 3 => Some(k),
+        _ => Some(0),
+    };
+    let [r, g, b] = [0, 1, 2].map(channel_of);
     let rows = decoded.chunks_exact(frame.line_size).take(height as usize);
     if sample_bytes == 1 {
-        let table = code8_table(linear);
+        let table = code8_table(decode);
         for row in rows {
             for px in row.chunks_exact(channels).take(width as usize) {
-                let t = |k: usize| table[usize::from(px[k])];
-                texels.push(Vec3::new(t(0), t(g), t(b)));
+                let t = |k: Option<usize>| k.map_or(1.0, |k| table[usize::from(px[k])]);
+                texels.push(Vec3::new(t(r), t(g), t(b)));
             }
         }
     } else {
         let table: Vec<f32> = (0..=u16::MAX)
             .map(|c| {
                 let v = f64::from(c) / 65535.0;
-                (if linear { v } else { srgb_to_linear(v) }) as f32
+                (if decode == Decode::Colour {
+                    srgb_to_linear(v)
+                } else {
+                    v
+                }) as f32
             })
             .collect();
         for row in rows {
             for px in row.chunks_exact(2 * channels).take(width as usize) {
-                let t =
-                    |k: usize| table[usize::from(u16::from_be_bytes([px[2 * k], px[2 * k + 1]]))];
-                texels.push(Vec3::new(t(0), t(g), t(b)));
+                let t = |k: Option<usize>| {
+                    k.map_or(1.0, |k| {
+                        table[usize::from(u16::from_be_bytes([px[2 * k], px[2 * k + 1]]))]
+                    })
+                };
+                texels.push(Vec3::new(t(r), t(g), t(b)));
             }
         }
     }
@@ -443,7 +470,7 @@ const JPEG_COEFFICIENT_BYTES: usize = 8;
 fn decode_jpeg(
     bytes: &[u8],
     budget: &mut Budget,
-    linear: bool,
+    decode: Decode,
 ) -> Result<(u32, u32, Vec<Vec3>), String> {
     use zune_jpeg::zune_core::bytestream::ZCursor;
     use zune_jpeg::zune_core::colorspace::ColorSpace;
@@ -473,7 +500,12 @@ fn decode_jpeg(
     decoded.resize(size, 0);
     decoder.decode_into(&mut decoded).map_err(jpeg_error)?;
     let mut texels = texel_vec(budget, width, height)?;
-    let table = code8_table(linear);
+    if decode == Decode::Alpha {
+        // JPEG has no alpha: every texel is fully covered.
+        texels.resize(w * h, Vec3::ONE);
+        return Ok((width, height, texels));
+    }
+    let table = code8_table(decode);
     for px in decoded.chunks_exact(3) {
         texels.push(Vec3::new(
             table[usize::from(px[0])],
@@ -624,7 +656,7 @@ mod tests {
     fn decode(bytes: &[u8]) -> Result<Texture, String> {
         let mut budget = Budget::for_input(bytes.len() as u64);
         budget.allow_images();
-        decode_image(bytes, &mut budget, false)
+        decode_image(bytes, &mut budget, Decode::Colour)
     }
 
     fn texels(t: &Texture) -> Vec<Vec3> {
@@ -772,6 +804,44 @@ mod tests {
     const JPEG_BASELINE: &str = "/9j/4AAQSkZJRgABAQAAAQABAAD/2wBDAAEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQH/2wBDAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQH/wAARCAAQABADAREAAhEBAxEB/8QAHwAAAQUBAQEBAQEAAAAAAAAAAAECAwQFBgcICQoL/8QAtRAAAgEDAwIEAwUFBAQAAAF9AQIDAAQRBRIhMUEGE1FhByJxFDKBkaEII0KxwRVS0fAkM2JyggkKFhcYGRolJicoKSo0NTY3ODk6Q0RFRkdISUpTVFVWV1hZWmNkZWZnaGlqc3R1dnd4eXqDhIWGh4iJipKTlJWWl5iZmqKjpKWmp6ipqrKztLW2t7i5usLDxMXGx8jJytLT1NXW19jZ2uHi4+Tl5ufo6erx8vP09fb3+Pn6/8QAHwEAAwEBAQEBAQEBAQAAAAAAAAECAwQFBgcICQoL/8QAtREAAgECBAQDBAcFBAQAAQJ3AAECAxEEBSExBhJBUQdhcRMiMoEIFEKRobHBCSMzUvAVYnLRChYkNOEl8RcYGRomJygpKjU2Nzg5OkNERUZHSElKU1RVVldYWVpjZGVmZ2hpanN0dXZ3eHl6goOEhYaHiImKkpOUlZaXmJmaoqOkpaanqKmqsrO0tba3uLm6wsPExcbHyMnK0tPU1dbX2Nna4uPk5ebn6Onq8vP09fb3+Pn6/9oADAMBAAIRAxEAPwDn6/yvP9sD8R6/9Fg/5Nz9uK/86c/6yD8R6/8ARYP+Tc//2Q==";
     const JPEG_PROGRESSIVE: &str = "/9j/4AAQSkZJRgABAQAAAQABAAD/2wBDAAEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQH/2wBDAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQH/wgARCAAQABADAREAAhEBAxEB/8QAFQABAQAAAAAAAAAAAAAAAAAACAX/xAAWAQEBAQAAAAAAAAAAAAAAAAAJCgj/2gAMAwEAAhADEAAAAZ+V9sCOiwm25OmsgjosJv8A/8QAFBABAAAAAAAAAAAAAAAAAAAAIP/aAAgBAQABBQIf/8QAFBEBAAAAAAAAAAAAAAAAAAAAIP/aAAgBAwEBPwEf/8QAFBEBAAAAAAAAAAAAAAAAAAAAIP/aAAgBAgEBPwEf/8QAFBABAAAAAAAAAAAAAAAAAAAAIP/aAAgBAQAGPwIf/8QAFBABAAAAAAAAAAAAAAAAAAAAIP/aAAgBAQABPyEf/9oADAMBAAIAAwAAABAAD//EABQRAQAAAAAAAAAAAAAAAAAAACD/2gAIAQMBAT8QH//EABQRAQAAAAAAAAAAAAAAAAAAACD/2gAIAQIBAT8QH//EABQQAQAAAAAAAAAAAAAAAAAAACD/2gAIAQEAAT8QH//Z";
 
+    /// Decoded as coverage, an image gives its alpha channel scaled to [0, 1] in all three
+    /// channels (8 and 16 bits, RGBA and grey + alpha), and 1 where it has none (RGB, JPEG).
+    #[test]
+    fn alpha_decodes_as_coverage() {
+        use png::{BitDepth, ColorType};
+        let alpha = |bytes: &[u8]| {
+            let t = decode_image(
+                bytes,
+                &mut Budget::for_input(bytes.len() as u64),
+                Decode::Alpha,
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
+            texels(&t)
+        };
+        let rgba = png_bytes(
+            2,
+            1,
+            ColorType::Rgba,
+            BitDepth::Eight,
+            None,
+            &[9, 9, 9, 0, 9, 9, 9, 51],
+        );
+        assert_eq!(alpha(&rgba), [Vec3::ZERO, Vec3::splat(0.2)]);
+        let grey_alpha = png_bytes(
+            1,
+            1,
+            ColorType::GrayscaleAlpha,
+            BitDepth::Sixteen,
+            None,
+            &[0, 0, 255, 255],
+        );
+        assert_eq!(alpha(&grey_alpha), [Vec3::ONE]);
+        let rgb = png_bytes(1, 1, ColorType::Rgb, BitDepth::Eight, None, &[1, 2, 3]);
+        assert_eq!(alpha(&rgb), [Vec3::ONE]);
+        let jpeg = decode_base64(JPEG_BASELINE).unwrap_or_else(|e| panic!("{e}"));
+        assert!(alpha(&jpeg).iter().all(|&t| t == Vec3::ONE));
+    }
+
     #[test]
     fn jpegs_decode_to_linear_rgb() {
         for (name, text) in [
@@ -826,7 +896,7 @@ mod tests {
             None,
             &vec![0; 1200 * 1200 * 3],
         );
-        let e = decode_image(&big, &mut Budget::for_input(0), false)
+        let e = decode_image(&big, &mut Budget::for_input(0), Decode::Colour)
             .err()
             .unwrap_or_default();
         assert!(
