@@ -215,8 +215,7 @@ pub(crate) fn light_sample(
             let wi = to_light / dist2.sqrt();
             let cos_surface = wi.dot(x.ns);
             let cos_light = normal.dot(wi).abs();
-            let le = scene.emitted(triangle, b1, b2, normal, -wi)
-                * scene.emitter_coverage(triangle, b1, b2);
+            let le = scene.emitted_to_light_sample(triangle, (b1, b2), normal, -wi);
             // Only directions above both the shading and the geometric surface carry light.
             if !(cos_surface > 0.0
                 && wi.dot(x.ng) > 0.0
