@@ -147,3 +147,63 @@ fn shadow_rays_pass_through_cut_outs() {
         assert!(scene.geometry().occluded(&ray));
     }
 }
+
+/// Next-event estimation sees an emitter through its coverage: with the walls a blend of
+/// α = ½, a ray from the quad meets a wall with probability ½ and otherwise leaves the box
+/// into the black background, so the quad's irradiance is π·Le/2 and its pixels show ρ·Le/2,
+/// in the path tracer (light samples weighted against BSDF samples that pass through the
+/// walls or stop there) and in the cache (whose gathers and light samples do the same).
+/// Without the coverage, light samples would count the walls whole: ρ·Le·(½ + ½·MIS share).
+#[test]
+fn light_samples_take_an_emitters_coverage() {
+    let dir = crate::support::temp();
+    let path = furnace_scene(
+        dir.path(),
+        "blend-walls",
+        &rgba([255, 255, 255, 255]),
+        json!({}),
+        json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0},
+                                        "baseColorFactor": [RHO, RHO, RHO, 1.0],
+                                        "metallicFactor": 0.0},
+               "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}}),
+    );
+    let mut doc: Value =
+        serde_json::from_slice(&std::fs::read(&path).unwrap_or_else(|e| panic!("{e}")))
+            .unwrap_or_else(|e| panic!("{e}"));
+    doc["materials"][1]["alphaMode"] = json!("BLEND");
+    doc["materials"][1]["pbrMetallicRoughness"]["baseColorFactor"] = json!([0.0, 0.0, 0.0, 0.5]);
+    std::fs::write(&path, doc.to_string()).unwrap_or_else(|e| panic!("{e}"));
+    let loaded = load(&path);
+    let s = settings(16);
+    let camera = loaded.camera_for(s.width, s.height);
+    let pt = PathTracer::new(PathSettings::default());
+    let ic = crate::support::built(&loaded.scene, &camera, IcSettings::default(), &s);
+    // Every pixel has the same expectation: their samples pooled (24²·16 = 9216) make the
+    // test sharp (a wall counted whole by the light samples raises the mean by 20–80 %).
+    for (what, integrator) in [("path", &pt as &dyn Integrator), ("cache", &ic)] {
+        let mut samples = Vec::new();
+        for y in 0..SIZE {
+            for x in 0..SIZE {
+                samples.extend(
+                    pixel_samples(&loaded.scene, &camera, integrator, &s, x, y)
+                        .unwrap_or_else(|e| panic!("{e}"))
+                        .iter()
+                        .map(|l| f64::from(l.x)),
+                );
+            }
+        }
+        let n = samples.len() as f64;
+        let mean = samples.iter().sum::<f64>() / n;
+        let var = samples.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        let e = f64::from(0.5 * RHO);
+        // 5 standard errors; the cache's records add their gathers' frozen noise, each record
+        // an estimate of E from 1024 rays that meet a wall with probability ½ (3 % relative),
+        // averaged over the image's tens of records: about 1 % of e, within the 5 standard
+        // errors (4 % of e here).
+        let tolerance = 5.0 * (var / n).sqrt();
+        assert!(
+            (mean - e).abs() <= tolerance,
+            "{what}: image mean {mean} differs from {e} by more than {tolerance:e}"
+        );
+    }
+}

@@ -39,6 +39,8 @@ enum Shading {
     MapGenerated,
     /// No normal texture: `normal` as the vertex normal at every corner.
     Tilted(Vec3),
+    /// The normal texture with TANGENT along u, on vertex normals −z, against the winding.
+    MapAgainstWinding,
 }
 
 /// Writes the scene; `mirror` puts every node under a parent that scales x by −1.
@@ -47,10 +49,16 @@ fn scene(dir: &Path, name: &str, shading: Shading, mirror: bool) -> PathBuf {
     let mut b = Builder::default();
     let quad: Quad = match shading {
         Shading::Tilted(n) => (QUAD.0, n.to_array(), QUAD.2),
+        Shading::MapAgainstWinding => (QUAD.0, [0.0, 0.0, -1.0], QUAD.2),
         _ => QUAD,
     };
     let mut plane = b.quads(&[quad], 0);
-    if let Shading::MapWithTangents(tangent) = shading {
+    let tangent = match shading {
+        Shading::MapWithTangents(t) => Some(t),
+        Shading::MapAgainstWinding => Some(ALONG_U),
+        _ => None,
+    };
+    if let Some(tangent) = tangent {
         let t = b.floats(&[tangent; 4], "VEC4", false);
         plane["attributes"]["TANGENT"] = json!(t);
     }
@@ -119,11 +127,24 @@ fn shading_normal(loaded: &LoadedScene, x: f32, y: f32) -> Vec3 {
 }
 
 /// The texel's normal in world space: (x, y, z) along (+x, +y, +z), with x mirrored by the
-/// mirroring node (the mirror image of a bump is the bump of the mirrored texture).
+/// mirroring node (the mirror image of a bump is the bump of the mirrored texture). On vertex
+/// normals that face against the winding (−z), the file's frame (t, w·(n × t), n) = (+x, −y,
+/// −z) gives (x, −y, −z), which irr turns to the winding's side whole: (−x, y, z).
 #[test]
 fn normal_texels_turn_the_normal_by_gltfs_axes() {
     let dir = crate::support::temp();
     let n = texel_normal();
+    let against = load(&scene(
+        dir.path(),
+        "against",
+        Shading::MapAgainstWinding,
+        false,
+    ));
+    let got = shading_normal(&against, 0.2, -0.1);
+    assert!(
+        (got - Vec3::new(-n.x, n.y, n.z)).length() < 2e-6,
+        "against the winding: {got}"
+    );
     for (mirror, expected) in [(false, n), (true, Vec3::new(-n.x, n.y, n.z))] {
         for shading in [Shading::MapWithTangents(ALONG_U), Shading::MapGenerated] {
             let loaded = load(&scene(dir.path(), "map", shading, mirror));
@@ -263,4 +284,64 @@ fn bad_normal_textures_and_tangents_are_refused_or_replaced() {
         .normal_texture
         .unwrap_or_else(|| panic!("no normal texture"));
     assert_eq!(t.transform.translation, glam::Vec2::new(0.5, 0.25));
+}
+
+/// A fan of more triangles around one vertex than MikkTSpace is given (its grouping recurses
+/// once per triangle of a fan: a hostile file could overflow the stack) loads with a warning,
+/// each triangle taking its own tangent, which on a flat fan is MikkTSpace's: the texel's
+/// normal on glTF's axes.
+#[test]
+fn a_huge_fan_gets_per_triangle_tangents() {
+    let dir = crate::support::temp();
+    let d = dir.path();
+    std::fs::write(d.join("normal.png"), png(1, 1, &[TEXEL])).unwrap_or_else(|e| panic!("{e}"));
+    let rim = 5000;
+    let mut p = vec![[0.0f32; 3]];
+    for k in 0..=rim {
+        let a = std::f32::consts::TAU * k as f32 / rim as f32;
+        p.push([0.5 * a.cos(), 0.5 * a.sin(), 0.0]);
+    }
+    // u along +x, v down the image along −y.
+    let uv: Vec<[f32; 2]> = p.iter().map(|q| [q[0] + 0.5, 0.5 - q[1]]).collect();
+    let idx: Vec<u16> = (0..p.len() as u16).collect();
+    let mut b = Builder::default();
+    let (pa, na, ta, ia) = (
+        b.floats(&p, "VEC3", true),
+        b.floats(&vec![[0.0f32, 0.0, 1.0]; p.len()], "VEC3", false),
+        b.floats(&uv, "VEC2", false),
+        b.indices(&idx),
+    );
+    let path = b.finish(
+        d,
+        "fan",
+        json!({
+            "asset": {"version": "2.0"},
+            "scene": 0,
+            "scenes": [{"nodes": [0]}],
+            "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": pa, "NORMAL": na,
+                                                       "TEXCOORD_0": ta},
+                                        "indices": ia, "mode": 6, "material": 0}]}],
+            "materials": [{"normalTexture": {"index": 0},
+                           "pbrMetallicRoughness": {"metallicFactor": 0.0}}],
+            "textures": [{"source": 0}],
+            "images": [{"uri": "normal.png"}],
+        }),
+    );
+    let loaded = load(&path);
+    assert!(
+        loaded.warnings.iter().any(|w| w.feature == "tangent-fan"),
+        "{:?}",
+        loaded.warnings
+    );
+    for (x, y) in [(0.1, 0.2), (-0.3, 0.1), (0.05, -0.35)] {
+        let got = shading_normal(&loaded, x, y);
+        // A triangle's tangent comes from differences of its corners' coordinates (of order
+        // ½, rounded to 6·10⁻⁸) over its rim edge of 6·10⁻⁴ (π/5000): each difference is
+        // within 10⁻⁴ relative, and the tangent, a ratio of a few of them, within 10⁻³.
+        assert!(
+            (got - texel_normal()).length() < 1e-3,
+            "at ({x}, {y}): {got}"
+        );
+    }
 }

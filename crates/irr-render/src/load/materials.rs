@@ -187,7 +187,8 @@ impl Loader<'_> {
                     AlphaMode::Mask(cutoff)
                 }
             };
-            // The coverage is the base colour texture's alpha channel, on its coordinates.
+            // The coverage is the base colour texture's alpha channel, on its coordinates; an
+            // image whose alpha is 1 everywhere (or that has none) is no alpha texture.
             let alpha_texture = match (&pbr.base_color_texture, alpha_mode) {
                 (Some(info), AlphaMode::Mask(_) | AlphaMode::Blend) => Some(self.texture_ref(
                     &mut textures,
@@ -197,7 +198,13 @@ impl Loader<'_> {
                     Decode::Alpha,
                 )?),
                 _ => None,
-            };
+            }
+            .filter(|r| {
+                textures
+                    .list
+                    .get(r.texture as usize)
+                    .is_some_and(|t| t.mean() != Vec3::ONE)
+            });
             let (normal_texture, normal_scale) = match &json.normal_texture {
                 Some(normal) => {
                     let what = format!("material {name} normalTexture");

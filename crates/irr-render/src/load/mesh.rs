@@ -234,11 +234,13 @@ impl Loader<'_> {
     /// The world-space tangents at the vertices of each triangle of `mesh` (already in world
     /// space, windings as the geometry will have them), whose texture coordinates for the
     /// normal texture are `uv(t)`: the file's `TANGENT` turned by `linear` (the node's linear
-    /// part; its handedness flips with a mirroring transform), or, without it, MikkTSpace's
-    /// (glTF 2.0 §3.7.2.1: "client implementations SHOULD calculate tangents using default
-    /// MikkTSpace algorithms"), computed in world space. Triangles MikkTSpace gives no tangent
-    /// (degenerate texture coordinates with no neighbour to borrow from) get any tangent
-    /// perpendicular to their normal.
+    /// part; its handedness flips with a mirroring transform), or, without it (or without
+    /// `NORMAL`, as glTF requires), MikkTSpace's (glTF 2.0 §3.7.2.1: "client implementations
+    /// SHOULD calculate tangents using default MikkTSpace algorithms"), computed in world space.
+    /// A corner MikkTSpace gives no tangent (degenerate texture coordinates with no neighbour
+    /// to borrow from), and every corner of a primitive with a vertex shared by more than
+    /// [`MAX_MIKKTSPACE_FAN`] triangles, gets its triangle's own tangent. Triangles whose
+    /// vertex normals face against their winding get their frame turned with the normal.
     fn tangents(
         &mut self,
         what: &str,
@@ -253,7 +255,19 @@ impl Loader<'_> {
             .budget
             .vec::<[Vec4; 3]>(&format!("{what} tangents"), count)
             .map_err(|e| self.err(e))?;
-        if let Some(acc) = primitive.get(&gltf::Semantic::Tangents) {
+        // glTF 2.0 §3.7.2.1: without NORMAL, a primitive's TANGENT must be ignored.
+        let file_tangents = primitive
+            .get(&gltf::Semantic::Tangents)
+            .filter(|_| mesh.normals.is_some());
+        if mesh.normals.is_none() && primitive.get(&gltf::Semantic::Tangents).is_some() {
+            self.warnings.add("tangents-without-normals", 1, |n| {
+                format!(
+                    "{} TANGENT without NORMAL: ignored, as glTF requires (MikkTSpace's are used)",
+                    plural(n, "primitive has", "primitives have")
+                )
+            });
+        }
+        if let Some(acc) = file_tangents {
             let label = format!("{what} TANGENT accessor {}", acc.index());
             let local =
                 read_vec4(&label, &acc, buffers, &mut self.budget).map_err(|e| self.err(e))?;
@@ -264,6 +278,9 @@ impl Loader<'_> {
                     local.len()
                 )));
             }
+            self.budget
+                .charge::<Vec4>(&format!("{what} TANGENT in world space"), n)
+                .map_err(|e| self.err(e))?;
             let mirror = if linear.determinant() < 0.0 {
                 -1.0
             } else {
@@ -281,7 +298,7 @@ impl Loader<'_> {
             if let Some(world) = world {
                 // The indices were checked against the vertex count, which `world` matches.
                 out.extend(mesh.indices.iter().map(|t| t.map(|i| world[i as usize])));
-                return Ok(out);
+                return Ok(self.against_flipped_normals(mesh, out));
             }
             self.warnings.add("bad-tangents", 1, |n| {
                 format!(
@@ -290,23 +307,69 @@ impl Loader<'_> {
                 )
             });
         }
-        let mut faces = MikkFaces {
+        let faces = MikkFaces {
             mesh,
             uv: &uv,
+            out: Vec::new(),
+        };
+        self.budget
+            .charge::<[u32; 3]>(&format!("{what} shared corners"), count.saturating_mul(3))
+            .map_err(|e| self.err(e))?;
+        let widest = faces.widest_fan();
+        if widest > MAX_MIKKTSPACE_FAN {
+            // MikkTSpace groups a vertex's triangles by recursion, as deep as the fan: a file
+            // could make it overflow the stack. Each triangle's own tangent instead.
+            self.warnings.add("tangent-fan", 1, |n| {
+                format!(
+                    "{} a vertex shared by more than {MAX_MIKKTSPACE_FAN} triangles: per-triangle tangents instead of MikkTSpace's",
+                    plural(n, "primitive has", "primitives have")
+                )
+            });
+            out.extend((0..count).map(|t| faces.triangle_tangents(t)));
+            return Ok(self.against_flipped_normals(mesh, out));
+        }
+        // MikkTSpace's own arrays, a few hundred bytes per corner, and its answers.
+        self.budget
+            .charge::<u8>(
+                &format!("{what} MikkTSpace"),
+                count.saturating_mul(3 * MIKKTSPACE_BYTES_PER_CORNER),
+            )
+            .map_err(|e| self.err(e))?;
+        let mut faces = MikkFaces {
             out: vec![[None; 3]; count],
+            ..faces
         };
         // The error type has no values: generation cannot fail.
         let _ = bevy_mikktspace::generate_tangents(&mut faces);
         for (t, corners) in faces.out.iter().enumerate() {
-            let normal = faces.corner_normals(t);
-            out.push(std::array::from_fn(|k| {
-                corners[k].unwrap_or_else(|| {
-                    let n = normal[k].try_normalize().unwrap_or(Vec3::Z);
-                    n.any_orthonormal_vector().extend(1.0)
-                })
-            }));
+            let fallback = faces.triangle_tangents(t);
+            out.push(std::array::from_fn(|k| corners[k].unwrap_or(fallback[k])));
         }
-        Ok(out)
+        Ok(self.against_flipped_normals(mesh, out))
+    }
+
+    /// `tangents` with those of triangles whose vertex normals face against their winding
+    /// negated (xyz and w): irr-geometry turns such a normal to the winding's side, and the
+    /// frame (t, w·(n × t), n) must turn with it as a whole, which negating t and w does.
+    fn against_flipped_normals(
+        &self,
+        mesh: &TriangleMesh,
+        mut tangents: Vec<[Vec4; 3]>,
+    ) -> Vec<[Vec4; 3]> {
+        let Some(normals) = &mesh.normals else {
+            return tangents;
+        };
+        for (t, corners) in mesh.indices.iter().zip(tangents.iter_mut()) {
+            let p = t.map(|i| mesh.positions.get(i as usize).copied().unwrap_or_default());
+            let n = t.map(|i| normals.get(i as usize).copied().unwrap_or_default());
+            let winding = (p[1] - p[0]).cross(p[2] - p[0]);
+            if (n[0] + n[1] + n[2]).dot(winding) < 0.0 {
+                for c in corners.iter_mut() {
+                    *c = -*c;
+                }
+            }
+        }
+        tangents
     }
 
     /// The `COLOR_0` colours at the vertices of each of `triangles` (vertex indices below `n`,
@@ -447,7 +510,55 @@ struct MikkFaces<'a, F: Fn(usize) -> [Vec2; 3]> {
     out: Vec<[Option<Vec4>; 3]>,
 }
 
+/// The most triangles around one vertex that MikkTSpace is given (its grouping recurses once
+/// per triangle of a fan; 4096 levels take well under a thread's 2 MiB stack).
+const MAX_MIKKTSPACE_FAN: usize = 4096;
+
+/// What MikkTSpace allocates per triangle corner, rounded up (its welded vertex list, face
+/// infos, groups and tangent spaces: about 200 bytes in bevy_mikktspace 1.0).
+const MIKKTSPACE_BYTES_PER_CORNER: usize = 256;
+
 impl<F: Fn(usize) -> [Vec2; 3]> MikkFaces<'_, F> {
+    /// The most corners that share one position (an upper bound on the triangles around any
+    /// vertex MikkTSpace welds).
+    fn widest_fan(&self) -> usize {
+        let mut keys: Vec<[u32; 3]> = (0..self.mesh.indices.len())
+            .flat_map(|t| self.corners(t))
+            .map(|p| p.to_array().map(f32::to_bits))
+            .collect();
+        keys.sort_unstable();
+        keys.chunk_by(|a, b| a == b)
+            .map(<[_]>::len)
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// Triangle `t`'s own tangent at each corner: ∂p/∂u with the handedness of ∂p/∂v′ (v′ =
+    /// 1 − v, as MikkTSpace is given), made orthogonal to each corner's normal; any tangent
+    /// perpendicular to the normal where the texture coordinates are degenerate.
+    fn triangle_tangents(&self, t: usize) -> [Vec4; 3] {
+        let [p0, p1, p2] = self.corners(t);
+        let [a, b, c] = (self.uv)(t).map(|uv| Vec2::new(uv.x, 1.0 - uv.y));
+        let (e1, e2, d1, d2) = (p1 - p0, p2 - p0, b - a, c - a);
+        let r = d1.x * d2.y - d2.x * d1.y;
+        let dpdu = (e1 * d2.y - e2 * d1.y) / r;
+        let dpdv = (e2 * d1.x - e1 * d2.x) / r;
+        self.corner_normals(t).map(|n| {
+            let n = n.try_normalize().unwrap_or(Vec3::Z);
+            match (dpdu - n * n.dot(dpdu)).try_normalize() {
+                Some(tangent) => {
+                    let w = if n.cross(tangent).dot(dpdv) < 0.0 {
+                        -1.0
+                    } else {
+                        1.0
+                    };
+                    tangent.extend(w)
+                }
+                None => n.any_orthonormal_vector().extend(1.0),
+            }
+        })
+    }
+
     /// The corners of triangle `t`.
     fn corners(&self, t: usize) -> [Vec3; 3] {
         // The loader checked every index against the positions.

@@ -391,7 +391,7 @@ fn bad_content_is_refused_with_the_reason() {
 }
 
 /// `COLOR_0` multiplies the base colour (glTF 2.0 §3.7.2.1): normalized unsigned bytes in RGBA
-/// (alpha dropped) are read per vertex, follow the triangles' vertices (a mirroring transform's
+/// (the alpha scaling the coverage) are read per vertex, follow the triangles' vertices (a mirroring transform's
 /// swap included), and interpolate barycentrically; float colours outside [0, 1] are clamped
 /// with a warning; `COLOR_1` is ignored with a warning.
 #[test]
@@ -439,4 +439,8 @@ fn vertex_colours_multiply_the_base_colour() {
     assert_eq!(s.albedo(1, 0.0, 0.0), Vec3::new(0.5, 0.25, 0.25));
     assert_eq!(s.albedo(1, 1.0, 0.0), Vec3::splat(0.25));
     assert_eq!(s.albedo(1, 0.0, 1.0), Vec3::new(0.25, 0.0, 0.25));
+    // The alphas: vertex 2's 128/255 on triangle 0; triangle 1's VEC3 colours have alpha 1.
+    assert_eq!(s.alpha(0, 0.0, 1.0), 128.0 / 255.0);
+    assert_eq!(s.alpha(0, 1.0, 0.0), 1.0);
+    assert_eq!(s.alpha(1, 0.3, 0.3), 1.0);
 }

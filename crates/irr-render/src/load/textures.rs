@@ -220,6 +220,11 @@ impl Loader<'_> {
                 return Err(self.err(format!("{name} has neither a uri nor a bufferView")));
             }
         };
+        if decode == Decode::Alpha && !has_alpha(bytes) {
+            // Coverage 1 everywhere, without decoding (or charging) the image again.
+            return Texture::new(1, 1, vec![Vec3::ONE], Sampler::default())
+                .map_err(|e| self.err(format!("{name}: {e}")));
+        }
         self.budget.allow_images();
         decode_image(bytes, &mut self.budget, decode).map_err(|e| self.err(format!("{name}: {e}")))
     }
@@ -350,6 +355,29 @@ fn check_size(width: u64, height: u64) -> Result<(), String> {
         ));
     }
     Ok(())
+}
+
+/// Whether an image can carry alpha: a PNG of colour type grey + alpha or RGBA, or with a
+/// `tRNS` chunk before its image data (PNG §11.3.2); JPEG never does.
+fn has_alpha(bytes: &[u8]) -> bool {
+    if format_of(bytes) != Some(Format::Png) {
+        return false;
+    }
+    // IHDR's colour type: after the signature (8), IHDR's length and type (8), width and
+    // height (8) and the bit depth (1).
+    if matches!(bytes.get(25), Some(4 | 6)) {
+        return true;
+    }
+    let mut at = 8usize;
+    while let Some(header) = bytes.get(at..at + 8) {
+        let length = u32::from_be_bytes([header[0], header[1], header[2], header[3]]) as usize;
+        match &header[4..8] {
+            b"tRNS" => return true,
+            b"IDAT" | b"IEND" => return false,
+            _ => at = at.saturating_add(12).saturating_add(length),
+        }
+    }
+    false
 }
 
 /// Decodes a PNG or JPEG into linear texels (with the default sampler), charging `budget` for
