@@ -430,21 +430,9 @@ impl Scene {
         if colours.is_empty() {
             return Ok(self);
         }
-        if colours.triangle_count() != self.geometry.triangle_count() {
-            return Err(SceneError::InvalidVertexColours {
-                problem: format!(
-                    "given for {} triangles, but the geometry has {}",
-                    colours.triangle_count(),
-                    self.geometry.triangle_count()
-                ),
-            });
-        }
         let valid = |c: &Vec3| c.is_finite() && c.min_element() >= 0.0 && c.max_element() <= 1.0;
-        if let Some(c) = colours.all().iter().flatten().find(|c| !valid(c)) {
-            return Err(SceneError::InvalidVertexColours {
-                problem: format!("{c} is not a colour in [0, 1]"),
-            });
-        }
+        self.check_per_vertex(&colours, valid, "is not a colour in [0, 1]")
+            .map_err(|problem| SceneError::InvalidVertexColours { problem })?;
         self.colours = colours;
         Ok(self)
     }
@@ -457,23 +445,35 @@ impl Scene {
         if tangents.is_empty() {
             return Ok(self);
         }
-        if tangents.triangle_count() != self.geometry.triangle_count() {
-            return Err(SceneError::InvalidVertexTangents {
-                problem: format!(
-                    "given for {} triangles, but the geometry has {}",
-                    tangents.triangle_count(),
-                    self.geometry.triangle_count()
-                ),
-            });
-        }
         let valid = |t: &glam::Vec4| t.is_finite() && t.truncate() != Vec3::ZERO;
-        if let Some(t) = tangents.all().iter().flatten().find(|t| !valid(t)) {
-            return Err(SceneError::InvalidVertexTangents {
-                problem: format!("{t} is not finite or has no direction"),
-            });
-        }
+        self.check_per_vertex(&tangents, valid, "is not finite or has no direction")
+            .map_err(|problem| SceneError::InvalidVertexTangents { problem })?;
         self.tangents = tangents;
         Ok(self)
+    }
+
+    /// Whether `values` covers the geometry's triangles one for one and every value is
+    /// `valid`; else what is wrong (`invalid` says what an invalid value is).
+    fn check_per_vertex<T>(
+        &self,
+        values: &VertexAttribute<T>,
+        valid: impl Fn(&T) -> bool,
+        invalid: &str,
+    ) -> Result<(), String>
+    where
+        T: Copy + std::fmt::Display + std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>,
+    {
+        if values.triangle_count() != self.geometry.triangle_count() {
+            return Err(format!(
+                "given for {} triangles, but the geometry has {}",
+                values.triangle_count(),
+                self.geometry.triangle_count()
+            ));
+        }
+        match values.all().iter().flatten().find(|v| !valid(v)) {
+            Some(v) => Err(format!("{v} {invalid}")),
+            None => Ok(()),
+        }
     }
 
     /// The shading normal at `surface`: the interpolated vertex normal
@@ -562,25 +562,14 @@ impl Scene {
         if alphas.is_empty() {
             return Ok(self);
         }
-        if alphas.triangle_count() != self.geometry.triangle_count() {
-            return Err(SceneError::InvalidVertexColours {
-                problem: format!(
-                    "alphas given for {} triangles, but the geometry has {}",
-                    alphas.triangle_count(),
-                    self.geometry.triangle_count()
-                ),
-            });
-        }
-        if let Some(a) = alphas
-            .all()
-            .iter()
-            .flatten()
-            .find(|a| !(0.0..=1.0).contains(*a))
-        {
-            return Err(SceneError::InvalidVertexColours {
-                problem: format!("alpha {a} is not in [0, 1]"),
-            });
-        }
+        self.check_per_vertex(
+            &alphas,
+            |a| (0.0..=1.0).contains(a),
+            "is not an alpha in [0, 1]",
+        )
+        .map_err(|problem| SceneError::InvalidVertexColours {
+            problem: format!("alphas: {problem}"),
+        })?;
         self.alphas = alphas;
         // Vertex alphas below 1 can cut any non-opaque material.
         self.cutouts |= self

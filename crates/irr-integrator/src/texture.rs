@@ -709,7 +709,7 @@ mod tests {
         .err()
         .map(|e| e.to_string())
         .unwrap_or_default();
-        assert!(e.contains("alpha 1.5 is not in [0, 1]"), "{e}");
+        assert!(e.contains("alphas: 1.5 is not an alpha in [0, 1]"), "{e}");
     }
 
     #[test]

@@ -524,7 +524,8 @@ impl<F: Fn(usize) -> [Vec2; 3]> MikkFaces<'_, F> {
     fn widest_fan(&self) -> usize {
         let mut keys: Vec<[u32; 3]> = (0..self.mesh.indices.len())
             .flat_map(|t| self.corners(t))
-            .map(|p| p.to_array().map(f32::to_bits))
+            // + 0.0 makes −0.0 +0.0, which MikkTSpace's welding takes for the same value.
+            .map(|p| p.to_array().map(|c| (c + 0.0).to_bits()))
             .collect();
         keys.sort_unstable();
         keys.chunk_by(|a, b| a == b)
