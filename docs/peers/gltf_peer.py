@@ -30,6 +30,21 @@ def quat_to_matrix(q):
     ])
 
 
+def timed_render(scene, spp):
+    """The image of `scene` at `spp` (seed 1) and the seconds it took, after one warm-up
+    render that compiles the kernels (Mitsuba's JIT), as a user's second render would."""
+    import time
+
+    import drjit as dr
+
+    mi.render(scene, spp=1)
+    start = time.time()
+    image = mi.render(scene, spp=spp, seed=1)
+    dr.eval(image)
+    img = np.array(image)
+    return img, time.time() - start
+
+
 def rel_mse(img, reference):
     return float(np.mean((img - reference) ** 2 / (reference ** 2 + 0.01)))
 

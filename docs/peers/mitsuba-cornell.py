@@ -23,12 +23,11 @@ import json
 import os
 import sys
 import tempfile
-import time
 
 import mitsuba as mi
 import numpy as np
 
-from gltf_peer import accessor, emitter, read_rgb, rel_mse, sensor
+from gltf_peer import accessor, emitter, read_rgb, rel_mse, sensor, timed_render
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ASSETS = os.path.join(HERE, "..", "..", "assets")
@@ -78,13 +77,7 @@ def main():
         if "camera" in node:
             scene["sensor"] = sensor(doc, node, width, height, spp)
     s = mi.load_dict(scene)
-    # One warm-up render compiles the kernels (Mitsuba's JIT), as a user's second render would.
-    mi.render(s, spp=1)
-    start = time.time()
-    image = mi.render(s, spp=spp, seed=1)
-    dr.eval(image)
-    img = np.array(image)
-    seconds = time.time() - start
+    img, seconds = timed_render(s, spp)
     rel = rel_mse(img, reference)
     print(f"mitsuba {variant} {width}x{height} {spp} spp on {threads} threads: "
           f"{seconds:.2f} s, relMSE {rel:.3e}, mean {img.mean(axis=(0, 1))}, "

@@ -97,7 +97,7 @@ import time
 import mitsuba as mi
 import numpy as np
 
-from gltf_peer import accessor, emitter, read_rgb, rel_mse, sensor
+from gltf_peer import accessor, emitter, read_rgb, rel_mse, sensor, timed_render
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ASSETS = os.path.join(HERE, "..", "..", "assets")
@@ -241,13 +241,7 @@ def main():
     reference = read_rgb(reference_path)
     height, width = reference.shape[:2]
     s = load_scene(width, height, spp)
-    # One warm-up render compiles the kernels (Mitsuba's JIT), as a user's second render would.
-    mi.render(s, spp=1)
-    start = time.time()
-    image = mi.render(s, spp=spp, seed=1)
-    dr.eval(image)
-    img = np.array(image)
-    seconds = time.time() - start
+    img, seconds = timed_render(s, spp)
     rel = rel_mse(img, reference)
     if save:
         mi.Bitmap(img, mi.Bitmap.PixelFormat.RGB).write(save)

@@ -136,36 +136,28 @@ impl Loader<'_> {
                     "material {name}: emission {emission} (emissiveFactor × emissiveStrength) must be finite and non-negative"
                 )));
             }
-            let albedo_texture = match &json.pbr_metallic_roughness.base_color_texture {
-                Some(info) => Some(self.texture_ref(
-                    &mut textures,
-                    info,
-                    &format!("material {name} baseColorTexture"),
-                    buffers,
-                    Decode::Colour,
-                )?),
-                None => None,
+            let mut optional = |info: Option<&gltf::json::texture::Info>, what, decode| {
+                info.map(|info| {
+                    let what = format!("material {name} {what}");
+                    self.texture_ref(&mut textures, info, &what, buffers, decode)
+                })
+                .transpose()
             };
-            let emission_texture = match &json.emissive_texture {
-                Some(info) => Some(self.texture_ref(
-                    &mut textures,
-                    info,
-                    &format!("material {name} emissiveTexture"),
-                    buffers,
-                    Decode::Colour,
-                )?),
-                None => None,
-            };
-            let metallic_roughness_texture = match &pbr.metallic_roughness_texture {
-                Some(info) => Some(self.texture_ref(
-                    &mut textures,
-                    info,
-                    &format!("material {name} metallicRoughnessTexture"),
-                    buffers,
-                    Decode::Data,
-                )?),
-                None => None,
-            };
+            let albedo_texture = optional(
+                pbr.base_color_texture.as_ref(),
+                "baseColorTexture",
+                Decode::Colour,
+            )?;
+            let emission_texture = optional(
+                json.emissive_texture.as_ref(),
+                "emissiveTexture",
+                Decode::Colour,
+            )?;
+            let metallic_roughness_texture = optional(
+                pbr.metallic_roughness_texture.as_ref(),
+                "metallicRoughnessTexture",
+                Decode::Data,
+            )?;
             let alpha = base[3];
             if !alpha.is_finite() {
                 return Err(self.err(format!(
@@ -189,16 +181,13 @@ impl Loader<'_> {
             };
             // The coverage is the base colour texture's alpha channel, on its coordinates; an
             // image whose alpha is 1 everywhere (or that has none) is no alpha texture.
-            let alpha_texture = match (&pbr.base_color_texture, alpha_mode) {
-                (Some(info), AlphaMode::Mask(_) | AlphaMode::Blend) => Some(self.texture_ref(
-                    &mut textures,
-                    info,
-                    &format!("material {name} baseColorTexture (alpha)"),
-                    buffers,
-                    Decode::Alpha,
-                )?),
-                _ => None,
-            }
+            let alpha_texture = optional(
+                pbr.base_color_texture
+                    .as_ref()
+                    .filter(|_| alpha_mode != AlphaMode::Opaque),
+                "baseColorTexture (alpha)",
+                Decode::Alpha,
+            )?
             .filter(|r| {
                 textures
                     .list
