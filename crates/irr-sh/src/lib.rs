@@ -1,0 +1,125 @@
+//! Real spherical harmonics (SH) and hemispherical harmonics (HSH): evaluation, projection of a
+//! gather, reconstruction, and rotation, exact and fast, the basis of radiance caching
+//! (Křivánek, Gautron, Pattanaik & Bouatouch 2005, "Radiance Caching for Efficient Global
+//! Illumination Computation", TVCG 11(5); Křivánek et al. 2006, "Making Radiance and Irradiance
+//! Caching Practical: Adaptive Caching and Neighbor Clamping", EGSR).
+//!
+//! # What it owns
+//! - [`Basis`]: SH over the sphere or HSH over the upper hemisphere ([`Domain`]), of order n
+//!   (bands 0..n, n² functions, coefficient (l, m) at [`index`]`(l, m)` = l² + l + m),
+//!   orthonormal, evaluated for a direction ([`Basis::eval`], [`Basis::eval_f64`],
+//!   [`Basis::eval_vec`]) and summed against coefficients ([`Basis::reconstruct`]). The
+//!   conventions and formulas are in the `basis` module.
+//! - [`Projection`] and [`project`]: coefficients cᵢ = Σₛ wₛ Lₛ Bᵢ(ωₛ) of weighted samples, for
+//!   any [`Coefficient`] (f32, f64, `Vec3` RGB, `DVec3`).
+//! - [`ShRotation`]: the exact rotation of SH coefficients by Ivanic & Ruedenberg's recurrence.
+//! - [`FastRotation`]: Křivánek et al. 2006's approximation (Euler z-y-z, the y rotation by a
+//!   first- or second-order Taylor polynomial), with its exact error norm and a measured table
+//!   (module `fast`).
+//! - [`HemisphereConversion`]: HSH ↔ SH matrices, to rotate HSH through SH as Gautron et al.
+//!   2004 do, with their measured error (module `hemisphere`).
+//!
+//! # What it must not know
+//! Rays, scenes, records, materials, BRDFs, and irr's other crates: it takes directions in
+//! some local frame and plain values. Which frame, and what the values mean, is the caller's.
+//!
+//! # Conventions and precision
+//! - Directions are `glam` vectors (`Vec3` or `DVec3`), z up: θ is measured from +z, φ from +x
+//!   towards +y. They need not be unit (each is normalised in f64); a zero or non-finite one
+//!   is an [`ShError::InvalidDirection`]. An HSH basis evaluates z < 0 as the horizon.
+//! - Real SH **without** the Condon–Shortley phase: Y_1^{−1}, Y_1^0, Y_1^1 are √(3/(4π)) times
+//!   y, z, x.
+//! - Everything is computed in f64. Basis values come out in f32 or f64; coefficients keep
+//!   their own type (f32 or `Vec3` for what a record stores).
+//! - Orders run from 1 to [`MAX_ORDER`] = 32. The recurrences are stable far beyond; the cap
+//!   bounds the work and memory (an exact rotation of order 32 holds 44 000 f64 entries) and is
+//!   what the tests cover. Other orders are an [`ShError`], never a panic.
+//! - A rotation R maps the coefficients of f to those of f∘Rᵀ (a lobe along d moves to R d).
+//!   To carry a record's coefficients, expressed in its local frame F_r (a matrix whose
+//!   columns are the frame's axes in world space), into a query's frame F_q, rotate by
+//!   R = F_qᵀ F_r: a direction with local coordinates ω in F_r has F_qᵀ F_r ω in F_q.
+//!
+//! # Projecting a cosine-stratified hemisphere gather
+//! irr's gather (irr-sampling's `HemisphereStrata`) draws one cosine-distributed direction in
+//! each of M×N cells; every cell has the same projected solid angle π/(MN). Within a cell the
+//! direction's density over solid angle is cos θ · MN/π, so a sample at polar angle θ stands
+//! for the solid angle **wₛ = π/(MN cos θₛ)**, and
+//!
+//! cᵢ ≈ Σₛ π/(MN cos θₛ) · Lₛ · Bᵢ(ωₛ)
+//!
+//! is an unbiased estimate of the radiance's coefficients ∫ L Bᵢ dω. **Grazing caveat:** the
+//! weight grows without bound towards the horizon. In the last ring of cells cos²θ is uniform
+//! on (0, 1/M], so E[1/cos²θ] diverges there: the estimate has *infinite variance* (it
+//! converges, slowly and with outliers).
+//!
+//! The alternative is to project the **cosine-weighted radiance** L·cos θ with the uniform
+//! weight **wₛ = π/(MN)**:
+//!
+//! cᵢ' ≈ Σₛ π/(MN) · Lₛ · Bᵢ(ωₛ), an unbiased estimate of ∫ L cos θ Bᵢ dω,
+//!
+//! with bounded weights and the variance of irr's irradiance estimate. The irradiance is then
+//! E = ∫ L cos θ dω = c₀' √(2π) with HSH (H_0^0 = 1/√(2π)), or c₀' √(4π) with SH. This crate's
+//! recommendation is the cosine-weighted form: it is as cheap, bounded, and L·cos θ vanishes at
+//! the horizon, where HSH with m ≠ 0 vanish too. Its consumer must know the cosine is built in:
+//! the outgoing radiance ∫ L cos θ f_r dω is Σᵢ cᵢ' ρᵢ with ρᵢ the coefficients of the BRDF
+//! f_r alone (not the cosine-weighted BRDF that Křivánek et al. 2005 project), and after a
+//! rotation the cosine is the record's, not the query's (a first-order difference in the angle
+//! between their normals). The tests measure both estimators on a synthetic gather.
+//!
+//! # Example
+//! ```
+//! use glam::{Mat3, Vec3};
+//! use irr_sh::{Basis, Projection, ShRotation};
+//!
+//! // Project a radiance field onto HSH of order 3 from a 16×16 midpoint gather in (cos θ, φ):
+//! // each sample stands for the solid angle (1/16)·(2π/16).
+//! let basis = Basis::hsh(3)?;
+//! let mut projection = Projection::<Vec3>::new(basis);
+//! let (rows, columns) = (16, 16);
+//! for j in 0..rows {
+//!     for k in 0..columns {
+//!         let z = (j as f32 + 0.5) / rows as f32;
+//!         let phi = std::f32::consts::TAU * (k as f32 + 0.5) / columns as f32;
+//!         let s = (1.0 - z * z).sqrt();
+//!         let direction = Vec3::new(s * phi.cos(), s * phi.sin(), z);
+//!         let radiance = Vec3::new(1.0, 0.5, 0.25) * z; // brighter overhead
+//!         let weight = std::f64::consts::TAU / f64::from(rows * columns);
+//!         projection.add(direction, weight, radiance)?;
+//!     }
+//! }
+//! let coefficients = projection.coefficients();
+//! let overhead = basis.reconstruct(coefficients, Vec3::Z)?;
+//! assert!((overhead - Vec3::new(1.0, 0.5, 0.25)).abs().max_element() < 1e-2);
+//!
+//! // Rotate SH coefficients: a lobe along +z turned a quarter turn about x points along −y.
+//! let sh = Basis::sh(4)?;
+//! let lobe: Vec<f32> = sh.eval_vec(Vec3::Z)?;
+//! let rotation = ShRotation::new(4, Mat3::from_rotation_x(std::f32::consts::FRAC_PI_2))?;
+//! let turned = rotation.rotate(&lobe)?;
+//! let along_minus_y: Vec<f32> = sh.eval_vec(-Vec3::Y)?;
+//! assert!(turned.iter().zip(&along_minus_y).all(|(a, b)| (a - b).abs() < 1e-5));
+//! # Ok::<(), irr_sh::ShError>(())
+//! ```
+
+mod basis;
+mod error;
+pub mod fast;
+pub mod hemisphere;
+mod legendre;
+mod project;
+mod rotation;
+mod value;
+
+pub use basis::{Basis, Domain, index};
+pub use error::ShError;
+pub use fast::{FastRotation, Taylor, ZyzAngles};
+pub use hemisphere::{Extension, HemisphereConversion};
+pub use project::{Projection, project};
+pub use rotation::{ROTATION_TOLERANCE, ShRotation};
+pub use value::Coefficient;
+
+/// The largest supported order n (bands 0..n): 32, 1024 coefficients.
+pub const MAX_ORDER: usize = 32;
+
+#[cfg(test)]
+mod testutil;
