@@ -397,7 +397,7 @@ mod tests {
     #[test]
     fn f32_rotations_are_accepted_and_rotate_rgb() {
         let q = Quat::from_axis_angle(Vec3::new(0.0, 0.6, 0.8), 1.1);
-        let rotation = ShRotation::new(5, glam::Mat3::from_quat(q)).unwrap();
+        let rotation = ShRotation::new(5, Mat3::from_quat(q)).unwrap();
         let c: Vec<Vec3> = (0..25)
             .map(|i| Vec3::new(i as f32, 1.0, -0.5 * i as f32))
             .collect();
