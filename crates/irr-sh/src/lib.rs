@@ -49,22 +49,30 @@
 //!
 //! is an unbiased estimate of the radiance's coefficients ∫ L Bᵢ dω. **Grazing caveat:** the
 //! weight grows without bound towards the horizon. In the last ring of cells cos²θ is uniform
-//! on (0, 1/M], so E[1/cos²θ] diverges there: the estimate has *infinite variance* (it
-//! converges, slowly and with outliers).
+//! on (0, 1/M], so E[1/cos²θ] diverges there: every coefficient whose basis function does not
+//! vanish on the horizon (all SH; HSH with m = 0, c₀₀ among them) is estimated with *infinite
+//! variance*. It still converges, slowly and with outliers.
 //!
 //! The alternative is to project the **cosine-weighted radiance** L·cos θ with the uniform
 //! weight **wₛ = π/(MN)**:
 //!
 //! cᵢ' ≈ Σₛ π/(MN) · Lₛ · Bᵢ(ωₛ), an unbiased estimate of ∫ L cos θ Bᵢ dω,
 //!
-//! with bounded weights and the variance of irr's irradiance estimate. The irradiance is then
-//! E = ∫ L cos θ dω = c₀' √(2π) with HSH (H_0^0 = 1/√(2π)), or c₀' √(4π) with SH. This crate's
-//! recommendation is the cosine-weighted form: it is as cheap, bounded, and L·cos θ vanishes at
-//! the horizon, where HSH with m ≠ 0 vanish too. Its consumer must know the cosine is built in:
-//! the outgoing radiance ∫ L cos θ f_r dω is Σᵢ cᵢ' ρᵢ with ρᵢ the coefficients of the BRDF
-//! f_r alone (not the cosine-weighted BRDF that Křivánek et al. 2005 project), and after a
-//! rotation the cosine is the record's, not the query's (a first-order difference in the angle
-//! between their normals). The tests measure both estimators on a synthetic gather.
+//! with bounded weights and the variance of irr's own irradiance estimate. The irradiance is
+//! then E = ∫ L cos θ dω = c₀' √(2π) with HSH (H_0^0 = 1/√(2π)), or c₀' √(4π) with SH. On a
+//! synthetic smooth radiance field in HSH of order 3, 2000 jittered 8×25 gathers gave a
+//! relative RMS error of 0.25 with the 1/cos θ weights and 0.028 cosine-weighted (the
+//! `project` tests; both means within 5 standard errors of the truth).
+//!
+//! **This crate's recommendation is the cosine-weighted form.** It is as cheap, its weights
+//! are bounded, and L·cos θ vanishes on the horizon, so extended by zero below it (the
+//! [`Extension::Zero`] HSH → SH conversion) it stays continuous and rotates with the smaller
+//! error (module `hemisphere`). Its consumer must know the cosine is built in: the outgoing
+//! radiance ∫ L cos θ f_r dω is Σᵢ cᵢ' ρᵢ with ρᵢ the coefficients of the BRDF f_r alone (not
+//! of the cosine-weighted BRDF that Křivánek et al. 2005 project), and after a rotation the
+//! cosine is the record's, not the query's (a difference of first order in the angle between
+//! their normals). Where radiance itself must be stored, use the 1/cos θ weights with
+//! [`Extension::Mirror`], and expect the noise above.
 //!
 //! # Example
 //! ```
