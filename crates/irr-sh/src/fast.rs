@@ -369,14 +369,20 @@ mod tests {
     fn generator_matches_finite_differences_of_the_exact_rotation() {
         let n = 11;
         let h = 1e-4;
-        let plus = ShRotation::from_dmat3(n, DMat3::from_rotation_y(h)).unwrap();
-        let minus = ShRotation::from_dmat3(n, DMat3::from_rotation_y(-h)).unwrap();
+        let plus =
+            ShRotation::from_dmat3(n, DMat3::from_rotation_y(h)).unwrap_or_else(|e| panic!("{e}"));
+        let minus =
+            ShRotation::from_dmat3(n, DMat3::from_rotation_y(-h)).unwrap_or_else(|e| panic!("{e}"));
         for l in 1..n {
             let difference: Vec<f64> = plus
                 .block(l)
-                .unwrap()
+                .unwrap_or_else(|| panic!("a band below the order"))
                 .iter()
-                .zip(minus.block(l).unwrap())
+                .zip(
+                    minus
+                        .block(l)
+                        .unwrap_or_else(|| panic!("a band below the order")),
+                )
                 .map(|(a, b)| (a - b) / (2.0 * h))
                 .collect();
             // The central difference of exp(βG) is off by ‖G³‖ h²/6 ≤ l³ h²/6; each exact
@@ -397,7 +403,7 @@ mod tests {
     proptest! {
         #[test]
         fn euler_angles_rebuild_the_rotation(r in any_rotation()) {
-            let angles = ZyzAngles::from_dmat3(r).unwrap();
+            let angles = ZyzAngles::from_dmat3(r).unwrap_or_else(|e| panic!("{e}"));
             prop_assert!((0.0..=PI).contains(&angles.beta));
             let rebuilt = angles.to_dmat3();
             prop_assert!(max_abs_difference(&rebuilt.to_cols_array(), &r.to_cols_array()) <= ANGLE_TOLERANCE);
@@ -410,11 +416,11 @@ mod tests {
             let n = 9;
             let r = DMat3::from_rotation_z(angle);
             let c = Rng::new(seed).vector(n * n);
-            let exact = ShRotation::from_dmat3(n, r).unwrap().rotate(&c).unwrap();
+            let exact = ShRotation::from_dmat3(n, r).unwrap_or_else(|e| panic!("{e}")).rotate(&c).unwrap_or_else(|e| panic!("{e}"));
             for taylor in [Taylor::First, Taylor::Second] {
-                let fast = FastRotation::from_dmat3(n, r, taylor).unwrap();
+                let fast = FastRotation::from_dmat3(n, r, taylor).unwrap_or_else(|e| panic!("{e}"));
                 prop_assert_eq!(fast.angles().beta, 0.0);
-                let approximate = fast.rotate(&c).unwrap();
+                let approximate = fast.rotate(&c).unwrap_or_else(|e| panic!("{e}"));
                 // Two rotations of each pair by mθ (exact: by I&R's recurrence, entries within
                 // 16 l ε; fast: cos and sin of mα, mγ, each ≤ l·2 ε from the angle's error):
                 // 32 l ε per entry of a pair, on ‖c‖.
@@ -438,7 +444,9 @@ mod tests {
                 * DMat3::from_rotation_y(PI - 1e-9)
                 * DMat3::from_rotation_z(1.0),
         ] {
-            let rebuilt = ZyzAngles::from_dmat3(r).unwrap().to_dmat3();
+            let rebuilt = ZyzAngles::from_dmat3(r)
+                .unwrap_or_else(|e| panic!("{e}"))
+                .to_dmat3();
             assert!(
                 max_abs_difference(&rebuilt.to_cols_array(), &r.to_cols_array()) <= ANGLE_TOLERANCE,
                 "{r}"
@@ -467,12 +475,16 @@ mod tests {
 
     /// max over bands of ‖fast − exact‖₂, measured by power iteration.
     fn measured_error(order: usize, r: DMat3, taylor: Taylor) -> f64 {
-        let exact = ShRotation::from_dmat3(order, r).unwrap();
-        let fast = FastRotation::from_dmat3(order, r, taylor).unwrap();
+        let exact = ShRotation::from_dmat3(order, r).unwrap_or_else(|e| panic!("{e}"));
+        let fast = FastRotation::from_dmat3(order, r, taylor).unwrap_or_else(|e| panic!("{e}"));
         (0..order)
             .map(|l| {
-                let a = band_matrix(order, l, |c| exact.rotate(c).unwrap());
-                let b = band_matrix(order, l, |c| fast.rotate(c).unwrap());
+                let a = band_matrix(order, l, |c| {
+                    exact.rotate(c).unwrap_or_else(|e| panic!("{e}"))
+                });
+                let b = band_matrix(order, l, |c| {
+                    fast.rotate(c).unwrap_or_else(|e| panic!("{e}"))
+                });
                 let d: Vec<f64> = a.iter().zip(&b).map(|(x, y)| x - y).collect();
                 spectral_norm(&d, 2 * l + 1)
             })
@@ -537,7 +549,7 @@ mod tests {
     #[test]
     fn a_smooth_function_loses_less_than_the_worst_case() {
         let n = 5;
-        let basis = Basis::sh(n).unwrap();
+        let basis = Basis::sh(n).unwrap_or_else(|e| panic!("{e}"));
         // Exact for z · Y_l^m on z ≥ 0 (basis tests).
         let c = crate::project(
             basis,
@@ -545,14 +557,17 @@ mod tests {
                 .into_iter()
                 .map(|(d, w)| (d, w, d.z)),
         )
-        .unwrap();
+        .unwrap_or_else(|e| panic!("{e}"));
         let mut printed = Vec::new();
         for degrees in [1.0f64, 5.0, 10.0, 20.0] {
             let r = DMat3::from_rotation_y(degrees.to_radians());
-            let exact = ShRotation::from_dmat3(n, r).unwrap().rotate(&c).unwrap();
+            let exact = ShRotation::from_dmat3(n, r)
+                .unwrap_or_else(|e| panic!("{e}"))
+                .rotate(&c)
+                .unwrap_or_else(|e| panic!("{e}"));
             for taylor in [Taylor::First, Taylor::Second] {
-                let fast = FastRotation::from_dmat3(n, r, taylor).unwrap();
-                let approximate = fast.rotate(&c).unwrap();
+                let fast = FastRotation::from_dmat3(n, r, taylor).unwrap_or_else(|e| panic!("{e}"));
+                let approximate = fast.rotate(&c).unwrap_or_else(|e| panic!("{e}"));
                 let difference: Vec<f64> =
                     exact.iter().zip(&approximate).map(|(a, b)| a - b).collect();
                 let relative = norm(&difference) / norm(&c);
@@ -596,7 +611,8 @@ mod tests {
             FastRotation::from_angles(4, angles, Taylor::Second),
             Err(ShError::NotARotation)
         );
-        let fast = FastRotation::new(4, Mat3::from_rotation_y(0.1), Taylor::Second).unwrap();
+        let fast = FastRotation::new(4, Mat3::from_rotation_y(0.1), Taylor::Second)
+            .unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(
             fast.rotate(&[0.0f32; 9]),
             Err(ShError::LengthMismatch {
@@ -613,8 +629,11 @@ mod tests {
             })
         );
         // Order 1 is the constant: untouched.
-        let one = FastRotation::from_dmat3(1, r, Taylor::First).unwrap();
-        assert_eq!(one.rotate(&[3.0f64]).unwrap(), vec![3.0]);
+        let one = FastRotation::from_dmat3(1, r, Taylor::First).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            one.rotate(&[3.0f64]).unwrap_or_else(|e| panic!("{e}")),
+            vec![3.0]
+        );
         assert_eq!(one.error_norm(), 0.0);
     }
 

@@ -276,14 +276,18 @@ mod tests {
         // quadrature error, below rounding: test above), and p equally spaced φ, exact for the
         // trigonometric degree ≤ (n_hsh − 1) + (n_sh − 1) < p of the φ part.
         let (nh, ns) = (4, 6);
-        let conversion = HemisphereConversion::new(nh, ns, Extension::Zero).unwrap();
+        let conversion =
+            HemisphereConversion::new(nh, ns, Extension::Zero).unwrap_or_else(|e| panic!("{e}"));
         let rule = hemisphere_rule_squared(2 * (nh + ns) + 32, nh + ns);
-        let (hsh, sh) = (Basis::hsh(nh).unwrap(), Basis::sh(ns).unwrap());
+        let (hsh, sh) = (
+            Basis::hsh(nh).unwrap_or_else(|e| panic!("{e}")),
+            Basis::sh(ns).unwrap_or_else(|e| panic!("{e}")),
+        );
         let mut brute = vec![0.0; nh * nh * ns * ns];
         let (mut h, mut y) = (vec![0.0; nh * nh], vec![0.0; ns * ns]);
         for &(d, w) in &rule {
-            hsh.eval_f64(d, &mut h).unwrap();
-            sh.eval_f64(d, &mut y).unwrap();
+            hsh.eval_f64(d, &mut h).unwrap_or_else(|e| panic!("{e}"));
+            sh.eval_f64(d, &mut y).unwrap_or_else(|e| panic!("{e}"));
             for j in 0..nh * nh {
                 for i in 0..ns * ns {
                     brute[j * ns * ns + i] += w * h[j] * y[i];
@@ -313,18 +317,26 @@ mod tests {
         // A band-limited sphere function's HSH coefficients, projected directly over z ≥ 0 (the
         // squared rule converges on H_l^m's square roots at the horizon) and through T.
         let (nh, ns) = (5, 4);
-        let conversion = HemisphereConversion::new(nh, ns, Extension::Mirror).unwrap();
+        let conversion =
+            HemisphereConversion::new(nh, ns, Extension::Mirror).unwrap_or_else(|e| panic!("{e}"));
         let c = Rng::new(11).vector(ns * ns);
-        let sh = Basis::sh(ns).unwrap();
+        let sh = Basis::sh(ns).unwrap_or_else(|e| panic!("{e}"));
         let rule = hemisphere_rule_squared(2 * (nh + ns) + 32, nh + ns);
         let direct = crate::project(
-            Basis::hsh(nh).unwrap(),
-            rule.iter()
-                .map(|&(d, w)| (d, w, sh.reconstruct(&c, d).unwrap())),
+            Basis::hsh(nh).unwrap_or_else(|e| panic!("{e}")),
+            rule.iter().map(|&(d, w)| {
+                (
+                    d,
+                    w,
+                    sh.reconstruct(&c, d).unwrap_or_else(|e| panic!("{e}")),
+                )
+            }),
         )
-        .unwrap();
+        .unwrap_or_else(|e| panic!("{e}"));
         let mut through = vec![0.0; nh * nh];
-        conversion.to_hsh(&c, &mut through).unwrap();
+        conversion
+            .to_hsh(&c, &mut through)
+            .unwrap_or_else(|e| panic!("{e}"));
         // ‖c‖₁ times the entries' tolerance above.
         let tolerance = 1e-12 * c.iter().map(|x| x.abs()).sum::<f64>();
         assert!(max_abs_difference(&direct, &through) <= tolerance);
@@ -336,27 +348,36 @@ mod tests {
         // the whole sphere by brute force, with the squared rule on each hemisphere.
         let (nh, ns) = (3, 5);
         let h = Rng::new(12).vector(nh * nh);
-        let hsh = Basis::hsh(nh).unwrap();
+        let hsh = Basis::hsh(nh).unwrap_or_else(|e| panic!("{e}"));
         let upper = hemisphere_rule_squared(2 * (nh + ns) + 32, nh + ns);
         for extension in [Extension::Zero, Extension::Mirror] {
-            let conversion = HemisphereConversion::new(nh, ns, extension).unwrap();
+            let conversion =
+                HemisphereConversion::new(nh, ns, extension).unwrap_or_else(|e| panic!("{e}"));
             let mut sh = vec![0.0; ns * ns];
-            conversion.to_sh(&h, &mut sh).unwrap();
+            conversion
+                .to_sh(&h, &mut sh)
+                .unwrap_or_else(|e| panic!("{e}"));
             let lower = upper.iter().map(|&(d, w)| {
                 let value = match extension {
                     Extension::Zero => 0.0,
-                    Extension::Mirror => hsh.reconstruct(&h, d).unwrap(),
+                    Extension::Mirror => hsh.reconstruct(&h, d).unwrap_or_else(|e| panic!("{e}")),
                 };
                 (DVec3::new(d.x, d.y, -d.z), w, value)
             });
             let brute = crate::project(
-                Basis::sh(ns).unwrap(),
+                Basis::sh(ns).unwrap_or_else(|e| panic!("{e}")),
                 upper
                     .iter()
-                    .map(|&(d, w)| (d, w, hsh.reconstruct(&h, d).unwrap()))
+                    .map(|&(d, w)| {
+                        (
+                            d,
+                            w,
+                            hsh.reconstruct(&h, d).unwrap_or_else(|e| panic!("{e}")),
+                        )
+                    })
                     .chain(lower),
             )
-            .unwrap();
+            .unwrap_or_else(|e| panic!("{e}"));
             let tolerance = 2e-12 * h.iter().map(|x| x.abs()).sum::<f64>();
             assert!(
                 max_abs_difference(&brute, &sh) <= tolerance,
@@ -394,9 +415,9 @@ mod tests {
 
     fn round_trip_error(c: &HemisphereConversion, h: &[f64]) -> f64 {
         let mut sh = vec![0.0; c.sh_order * c.sh_order];
-        c.to_sh(h, &mut sh).unwrap();
+        c.to_sh(h, &mut sh).unwrap_or_else(|e| panic!("{e}"));
         let mut back = vec![0.0; h.len()];
-        c.to_hsh(&sh, &mut back).unwrap();
+        c.to_hsh(&sh, &mut back).unwrap_or_else(|e| panic!("{e}"));
         let d: Vec<f64> = back.iter().zip(h).map(|(a, b)| a - b).collect();
         norm(&d) / norm(h)
     }
@@ -437,15 +458,17 @@ mod tests {
     fn round_trip_errors_are_the_table() {
         let mut rows = Vec::new();
         for (nh, ns, row) in TABLE {
-            let basis = Basis::hsh(nh).unwrap();
+            let basis = Basis::hsh(nh).unwrap_or_else(|e| panic!("{e}"));
             // 1 and z are polynomials of degree ≤ 1 in cos θ: with H_l^m, of degree ≤ n_hsh,
             // which n_hsh nodes integrate exactly (basis tests).
             let rule = hemisphere_rule(nh, 2 * nh - 1);
-            let constant = crate::project(basis, rule.iter().map(|&(d, w)| (d, w, 1.0))).unwrap();
-            let cosine = crate::project(basis, rule.iter().map(|&(d, w)| (d, w, d.z))).unwrap();
+            let constant = crate::project(basis, rule.iter().map(|&(d, w)| (d, w, 1.0)))
+                .unwrap_or_else(|e| panic!("{e}"));
+            let cosine = crate::project(basis, rule.iter().map(|&(d, w)| (d, w, d.z)))
+                .unwrap_or_else(|e| panic!("{e}"));
             let mut printed = Vec::new();
             let conversions = [Extension::Zero, Extension::Mirror]
-                .map(|e| HemisphereConversion::new(nh, ns, e).unwrap());
+                .map(|e| HemisphereConversion::new(nh, ns, e).unwrap_or_else(|e| panic!("{e}")));
             for c in &conversions {
                 printed.push(worst_round_trip(c));
             }
@@ -478,26 +501,37 @@ mod tests {
         // is the round trip followed by the same rotation of the HSH pairs, whose matrix is the
         // SH one's (the pairs turn by mα in both bases).
         let (nh, ns) = (4, 8);
-        let conversion = HemisphereConversion::new(nh, ns, Extension::Zero).unwrap();
+        let conversion =
+            HemisphereConversion::new(nh, ns, Extension::Zero).unwrap_or_else(|e| panic!("{e}"));
         let h = Rng::new(13).vector(nh * nh);
         let rz = DMat3::from_rotation_z(0.8);
         let rotated = conversion
-            .rotate_hsh(&ShRotation::from_dmat3(ns, rz).unwrap(), &h)
-            .unwrap();
+            .rotate_hsh(
+                &ShRotation::from_dmat3(ns, rz).unwrap_or_else(|e| panic!("{e}")),
+                &h,
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
         let mut sh = vec![0.0; ns * ns];
-        conversion.to_sh(&h, &mut sh).unwrap();
+        conversion
+            .to_sh(&h, &mut sh)
+            .unwrap_or_else(|e| panic!("{e}"));
         let mut round_trip = vec![0.0; nh * nh];
-        conversion.to_hsh(&sh, &mut round_trip).unwrap();
+        conversion
+            .to_hsh(&sh, &mut round_trip)
+            .unwrap_or_else(|e| panic!("{e}"));
         let want = ShRotation::from_dmat3(nh, rz)
-            .unwrap()
+            .unwrap_or_else(|e| panic!("{e}"))
             .rotate(&round_trip)
-            .unwrap();
+            .unwrap_or_else(|e| panic!("{e}"));
         // Two routes through the same few dozen products of entries below 1: 10⁻¹³.
         assert!(max_abs_difference(&rotated, &want) <= 1e-13 * norm(&h));
         // And the identity rotation is the round trip itself.
         let same = conversion
-            .rotate_hsh(&ShRotation::from_dmat3(ns, DMat3::IDENTITY).unwrap(), &h)
-            .unwrap();
+            .rotate_hsh(
+                &ShRotation::from_dmat3(ns, DMat3::IDENTITY).unwrap_or_else(|e| panic!("{e}")),
+                &h,
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
         assert!(max_abs_difference(&same, &round_trip) <= 1e-13 * norm(&h));
     }
 
@@ -509,24 +543,29 @@ mod tests {
         // as a regression; the module docs quote it.
         let nh = 4;
         let sky = |d: DVec3| 1.0 + 0.6 * d.x + 0.9 * d.z + 0.4 * d.z * d.z;
-        let hsh = Basis::hsh(nh).unwrap();
+        let hsh = Basis::hsh(nh).unwrap_or_else(|e| panic!("{e}"));
         let half = 5f64.to_radians() / 2.0;
-        let tilt = rotation_from([0.0, half.sin(), 0.0, half.cos()]).unwrap();
+        let tilt = rotation_from([0.0, half.sin(), 0.0, half.cos()])
+            .unwrap_or_else(|| panic!("a quaternion far from 0"));
         let mut rows = Vec::new();
         for ns in [8, 16, 32] {
             let rule = hemisphere_rule_squared(2 * (nh + ns) + 32, nh + ns);
             let mut printed = Vec::new();
             for r in [DMat3::IDENTITY, tilt] {
-                let h = crate::project(hsh, rule.iter().map(|&(d, w)| (d, w, sky(d)))).unwrap();
+                let h = crate::project(hsh, rule.iter().map(|&(d, w)| (d, w, sky(d))))
+                    .unwrap_or_else(|e| panic!("{e}"));
                 let want = crate::project(
                     hsh,
                     rule.iter().map(|&(d, w)| (d, w, sky(r.transpose() * d))),
                 )
-                .unwrap();
+                .unwrap_or_else(|e| panic!("{e}"));
                 for extension in [Extension::Zero, Extension::Mirror] {
-                    let conversion = HemisphereConversion::new(nh, ns, extension).unwrap();
-                    let rotation = ShRotation::from_dmat3(ns, r).unwrap();
-                    let got = conversion.rotate_hsh(&rotation, &h).unwrap();
+                    let conversion = HemisphereConversion::new(nh, ns, extension)
+                        .unwrap_or_else(|e| panic!("{e}"));
+                    let rotation = ShRotation::from_dmat3(ns, r).unwrap_or_else(|e| panic!("{e}"));
+                    let got = conversion
+                        .rotate_hsh(&rotation, &h)
+                        .unwrap_or_else(|e| panic!("{e}"));
                     let d: Vec<f64> = got.iter().zip(&want).map(|(a, b)| a - b).collect();
                     printed.push(format!("{:.1e}", norm(&d) / norm(&want)));
                 }
@@ -554,7 +593,8 @@ mod tests {
             HemisphereConversion::new(3, 33, Extension::Zero),
             Err(ShError::OrderTooLarge { order: 33 })
         );
-        let c = HemisphereConversion::new(3, 5, Extension::Mirror).unwrap();
+        let c =
+            HemisphereConversion::new(3, 5, Extension::Mirror).unwrap_or_else(|e| panic!("{e}"));
         let mut sh = vec![0.0f32; 25];
         assert_eq!(
             c.to_sh(&[0.0f32; 8], &mut sh),
@@ -571,7 +611,7 @@ mod tests {
                 actual: 16
             })
         );
-        let rotation = ShRotation::from_dmat3(4, DMat3::IDENTITY).unwrap();
+        let rotation = ShRotation::from_dmat3(4, DMat3::IDENTITY).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(
             c.rotate_hsh(&rotation, &[0.0f32; 9]),
             Err(ShError::LengthMismatch {
@@ -580,7 +620,8 @@ mod tests {
             })
         );
         // An SH order below the HSH order keeps the bands they share.
-        let low = HemisphereConversion::new(5, 2, Extension::Zero).unwrap();
+        let low =
+            HemisphereConversion::new(5, 2, Extension::Zero).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(low.transfer((0, 0), (1, 0)), low.blocks[0][1]);
         assert!(low.transfer((0, 0), (1, 0)) > 0.1);
         assert_eq!(low.transfer((4, 3), (1, 1)), 0.0);

@@ -107,25 +107,40 @@ mod tests {
     fn projecting_a_band_limited_function_recovers_it() {
         let mut rng = Rng::new(1);
         for (basis, rule) in [
-            (Basis::sh(8).unwrap(), sphere_rule(8, 15)),
-            (Basis::hsh(8).unwrap(), hemisphere_rule(8, 15)),
-            (Basis::sh(1).unwrap(), sphere_rule(1, 1)),
+            (
+                Basis::sh(8).unwrap_or_else(|e| panic!("{e}")),
+                sphere_rule(8, 15),
+            ),
+            (
+                Basis::hsh(8).unwrap_or_else(|e| panic!("{e}")),
+                hemisphere_rule(8, 15),
+            ),
+            (
+                Basis::sh(1).unwrap_or_else(|e| panic!("{e}")),
+                sphere_rule(1, 1),
+            ),
         ] {
             // f = Σ cⱼ Bⱼ; f · Bᵢ has the degree of a Gram entry, so the rules (n nodes, 2n − 1
             // angles: see the orthonormality tests) are exact for it.
             let c = rng.vector(basis.coefficient_count());
-            let samples = rule
-                .iter()
-                .map(|&(d, w)| (d, w, basis.reconstruct(&c, d).unwrap()));
-            let projected = project(basis, samples).unwrap();
+            let samples = rule.iter().map(|&(d, w)| {
+                (
+                    d,
+                    w,
+                    basis.reconstruct(&c, d).unwrap_or_else(|e| panic!("{e}")),
+                )
+            });
+            let projected = project(basis, samples).unwrap_or_else(|e| panic!("{e}"));
             let tolerance = projection_tolerance(rule.len(), basis.order(), &c, f64::EPSILON);
             for (a, b) in projected.iter().zip(&c) {
                 assert!((a - b).abs() <= tolerance, "{basis:?}: {a} vs {b}");
             }
             // And the reconstruction of the projection is f, anywhere on the domain.
             let d = DVec3::new(0.3, -0.4, 0.5);
-            let f = basis.reconstruct(&c, d).unwrap();
-            let g = basis.reconstruct(&projected, d).unwrap();
+            let f = basis.reconstruct(&c, d).unwrap_or_else(|e| panic!("{e}"));
+            let g = basis
+                .reconstruct(&projected, d)
+                .unwrap_or_else(|e| panic!("{e}"));
             let bound = (((2 * basis.order()) as f64 - 1.0) / (2.0 * PI)).sqrt();
             assert!((f - g).abs() <= tolerance * basis.coefficient_count() as f64 * bound);
         }
@@ -136,7 +151,7 @@ mod tests {
         // Three band-limited channels projected as one Vec3 in f32 arithmetic agree with the
         // f64 projection of each channel to the same bound with f32's unit roundoff (the basis
         // values are f64; every f32 product and sum rounds at 2⁻²⁴).
-        let basis = Basis::hsh(5).unwrap();
+        let basis = Basis::hsh(5).unwrap_or_else(|e| panic!("{e}"));
         let rule = hemisphere_rule(5, 9);
         let mut rng = Rng::new(2);
         let channels: Vec<Vec<f64>> = (0..3).map(|_| rng.vector(25)).collect();
@@ -145,12 +160,12 @@ mod tests {
         for &(d, w) in &rule {
             let v: Vec<f64> = channels
                 .iter()
-                .map(|c| basis.reconstruct(c, d).unwrap())
+                .map(|c| basis.reconstruct(c, d).unwrap_or_else(|e| panic!("{e}")))
                 .collect();
             rgb.add(d, w, Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32))
-                .unwrap();
+                .unwrap_or_else(|e| panic!("{e}"));
             for (p, &v) in scalar.iter_mut().zip(&v) {
-                p.add(d, w, v).unwrap();
+                p.add(d, w, v).unwrap_or_else(|e| panic!("{e}"));
             }
         }
         for (channel, (c, p)) in channels.iter().zip(&scalar).enumerate() {
@@ -166,18 +181,20 @@ mod tests {
 
     #[test]
     fn a_projection_can_be_cleared_and_reused() {
-        let basis = Basis::sh(4).unwrap();
+        let basis = Basis::sh(4).unwrap_or_else(|e| panic!("{e}"));
         let samples = [
             (DVec3::Z, 1.0, 2.0f32),
             (DVec3::new(1.0, 1.0, 0.0), 0.5, -1.0),
         ];
-        let once = project(basis, samples).unwrap();
+        let once = project(basis, samples).unwrap_or_else(|e| panic!("{e}"));
         let mut projection = Projection::new(basis);
-        projection.add(DVec3::X, 3.0, 7.0f32).unwrap();
+        projection
+            .add(DVec3::X, 3.0, 7.0f32)
+            .unwrap_or_else(|e| panic!("{e}"));
         projection.clear();
         assert!(projection.coefficients().iter().all(|&c| c == 0.0));
         for (d, w, v) in samples {
-            projection.add(d, w, v).unwrap();
+            projection.add(d, w, v).unwrap_or_else(|e| panic!("{e}"));
         }
         assert_eq!(projection.coefficients(), once.as_slice());
         // A bad direction is refused and adds nothing.
@@ -214,15 +231,16 @@ mod tests {
     /// radiance field: both unbiased; the 1/cos θ weights have the larger spread.
     #[test]
     fn stratified_gather_estimators() {
-        let basis = Basis::hsh(3).unwrap();
+        let basis = Basis::hsh(3).unwrap_or_else(|e| panic!("{e}"));
         // A smooth positive radiance field, with some structure in every coefficient.
         let radiance = |d: DVec3| 1.0 + 0.5 * d.x - 0.3 * d.y + 0.8 * d.z * d.z + 0.2 * d.x * d.z;
         // The true coefficients of L and of L cos θ, by a converged quadrature (x = u² puts
         // nodes near the horizon, where H_l^m with odd m have a square root).
         let fine = hemisphere_rule_squared(64, 64);
-        let truth = project(basis, fine.iter().map(|&(d, w)| (d, w, radiance(d)))).unwrap();
-        let truth_cos =
-            project(basis, fine.iter().map(|&(d, w)| (d, w, radiance(d) * d.z))).unwrap();
+        let truth = project(basis, fine.iter().map(|&(d, w)| (d, w, radiance(d))))
+            .unwrap_or_else(|e| panic!("{e}"));
+        let truth_cos = project(basis, fine.iter().map(|&(d, w)| (d, w, radiance(d) * d.z)))
+            .unwrap_or_else(|e| panic!("{e}"));
         let (m, n, runs) = (8, 25, 2000);
         let cell = PI / (m * n) as f64;
         let mut rng = Rng::new(3);
@@ -233,9 +251,9 @@ mod tests {
                 basis,
                 gather.iter().map(|&(d, c)| (d, cell / c, radiance(d))),
             )
-            .unwrap();
-            let weighted =
-                project(basis, gather.iter().map(|&(d, _)| (d, cell, radiance(d)))).unwrap();
+            .unwrap_or_else(|e| panic!("{e}"));
+            let weighted = project(basis, gather.iter().map(|&(d, _)| (d, cell, radiance(d))))
+                .unwrap_or_else(|e| panic!("{e}"));
             for ((sum, squares), (estimate, want)) in stats
                 .iter_mut()
                 .zip([(&plain, &truth), (&weighted, &truth_cos)])

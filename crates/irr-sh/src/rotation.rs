@@ -261,9 +261,12 @@ mod tests {
 
     #[test]
     fn the_identity_rotates_nothing() {
-        let rotation = ShRotation::from_dmat3(MAX_ORDER, DMat3::IDENTITY).unwrap();
+        let rotation =
+            ShRotation::from_dmat3(MAX_ORDER, DMat3::IDENTITY).unwrap_or_else(|e| panic!("{e}"));
         for l in 0..MAX_ORDER {
-            let block = rotation.block(l).unwrap();
+            let block = rotation
+                .block(l)
+                .unwrap_or_else(|| panic!("a band below the order"));
             let width = 2 * l + 1;
             for i in 0..width {
                 for j in 0..width {
@@ -283,8 +286,10 @@ mod tests {
     #[test]
     fn band_one_is_the_permuted_rotation() {
         let r = DMat3::from_quat(DQuat::from_axis_angle(DVec3::new(1.0, 2.0, 2.0) / 3.0, 0.7));
-        let rotation = ShRotation::from_dmat3(2, r).unwrap();
-        let b = rotation.block(1).unwrap();
+        let rotation = ShRotation::from_dmat3(2, r).unwrap_or_else(|e| panic!("{e}"));
+        let b = rotation
+            .block(1)
+            .unwrap_or_else(|| panic!("a band below the order"));
         // Rows and columns in the order y, z, x (Ivanic & Ruedenberg 1996, eq. 6.3).
         let rr = rotation.rotation();
         let want = [
@@ -307,9 +312,9 @@ mod tests {
         /// Each block is orthogonal, so the coefficient vector's norm is kept.
         #[test]
         fn rotations_are_isometries(r in any_rotation(), seed in any::<u64>()) {
-            let rotation = ShRotation::from_dmat3(MAX_ORDER, r).unwrap();
+            let rotation = ShRotation::from_dmat3(MAX_ORDER, r).unwrap_or_else(|e| panic!("{e}"));
             let c = Rng::new(seed).vector(MAX_ORDER * MAX_ORDER);
-            let rotated = rotation.rotate(&c).unwrap();
+            let rotated = rotation.rotate(&c).unwrap_or_else(|e| panic!("{e}"));
             // ‖Mc‖² − ‖c‖² = cᵀ(MᵀM − I)c ≤ ‖MᵀM − I‖₂ ‖c‖², and ‖MᵀM − I‖₂ ≤ (2l+1) times
             // its largest entry, ≤ 2 entry_error(l) (2l+1) at the top band; the two norms' own
             // rounding adds ≤ n² ε each.
@@ -327,13 +332,13 @@ mod tests {
         /// The rotated reproducing kernel: M(R) Y(ω) = Y(Rω), every band up to the cap.
         #[test]
         fn rotating_the_basis_values_moves_the_direction(r in any_rotation(), d in any_direction()) {
-            let basis = Basis::sh(MAX_ORDER).unwrap();
-            let rotation = ShRotation::from_dmat3(MAX_ORDER, r).unwrap();
+            let basis = Basis::sh(MAX_ORDER).unwrap_or_else(|e| panic!("{e}"));
+            let rotation = ShRotation::from_dmat3(MAX_ORDER, r).unwrap_or_else(|e| panic!("{e}"));
             let mut y = vec![0.0; MAX_ORDER * MAX_ORDER];
             let mut moved = y.clone();
-            basis.eval_f64(d, &mut y).unwrap();
-            basis.eval_f64(rotation.rotation() * d, &mut moved).unwrap();
-            let rotated = rotation.rotate(&y).unwrap();
+            basis.eval_f64(d, &mut y).unwrap_or_else(|e| panic!("{e}"));
+            basis.eval_f64(rotation.rotation() * d, &mut moved).unwrap_or_else(|e| panic!("{e}"));
+            let rotated = rotation.rotate(&y).unwrap_or_else(|e| panic!("{e}"));
             for l in 0..MAX_ORDER {
                 let width = (2 * l + 1) as f64;
                 let bound = (width / (4.0 * std::f64::consts::PI)).sqrt();
@@ -353,11 +358,11 @@ mod tests {
         fn rotations_compose(a in any_rotation(), b in any_rotation(), seed in any::<u64>()) {
             let n = 12;
             let c = Rng::new(seed).vector(n * n);
-            let ra = ShRotation::from_dmat3(n, a).unwrap();
-            let rb = ShRotation::from_dmat3(n, b).unwrap();
-            let rab = ShRotation::from_dmat3(n, a * b).unwrap();
-            let twice = ra.rotate(&rb.rotate(&c).unwrap()).unwrap();
-            let once = rab.rotate(&c).unwrap();
+            let ra = ShRotation::from_dmat3(n, a).unwrap_or_else(|e| panic!("{e}"));
+            let rb = ShRotation::from_dmat3(n, b).unwrap_or_else(|e| panic!("{e}"));
+            let rab = ShRotation::from_dmat3(n, a * b).unwrap_or_else(|e| panic!("{e}"));
+            let twice = ra.rotate(&rb.rotate(&c).unwrap_or_else(|e| panic!("{e}"))).unwrap_or_else(|e| panic!("{e}"));
+            let once = rab.rotate(&c).unwrap_or_else(|e| panic!("{e}"));
             // Three matrices, each within (2l+1) entry_error(l) in norm of an orthogonal one;
             // the product AB is off by ≤ 3ε per entry, which moves band l by ≤ 3 l ε · 3 (the
             // band's generators have norm l).
@@ -370,19 +375,19 @@ mod tests {
         #[test]
         fn rotating_equals_projecting_the_rotated_function(r in any_rotation(), seed in any::<u64>()) {
             let n = 6;
-            let basis = Basis::sh(n).unwrap();
+            let basis = Basis::sh(n).unwrap_or_else(|e| panic!("{e}"));
             let c = Rng::new(seed).vector(n * n);
-            let rotation = ShRotation::from_dmat3(n, r).unwrap();
+            let rotation = ShRotation::from_dmat3(n, r).unwrap_or_else(|e| panic!("{e}"));
             let rt = rotation.rotation().transpose();
             // f∘Rᵀ is band-limited to the same order, so the rule exact for the Gram matrix
             // (n nodes, 2n − 1 angles) projects it exactly.
             let rule = sphere_rule(n, 2 * n - 1);
             let projected = crate::project(
                 basis,
-                rule.iter().map(|&(d, w)| (d, w, basis.reconstruct(&c, rt * d).unwrap())),
+                rule.iter().map(|&(d, w)| (d, w, basis.reconstruct(&c, rt * d).unwrap_or_else(|e| panic!("{e}")))),
             )
-            .unwrap();
-            let rotated = rotation.rotate(&c).unwrap();
+            .unwrap_or_else(|e| panic!("{e}"));
+            let rotated = rotation.rotate(&c).unwrap_or_else(|e| panic!("{e}"));
             // The projection's bound (project tests: ‖c‖₁ (gram + (n² + value_error) √(2n−1)
             // ε)) plus the rotation's ((2l+1) entry_error(l) ‖c‖).
             let l1: f64 = c.iter().map(|x| x.abs()).sum();
@@ -397,14 +402,14 @@ mod tests {
     #[test]
     fn f32_rotations_are_accepted_and_rotate_rgb() {
         let q = Quat::from_axis_angle(Vec3::new(0.0, 0.6, 0.8), 1.1);
-        let rotation = ShRotation::new(5, Mat3::from_quat(q)).unwrap();
+        let rotation = ShRotation::new(5, Mat3::from_quat(q)).unwrap_or_else(|e| panic!("{e}"));
         let c: Vec<Vec3> = (0..25)
             .map(|i| Vec3::new(i as f32, 1.0, -0.5 * i as f32))
             .collect();
-        let rotated = rotation.rotate(&c).unwrap();
+        let rotated = rotation.rotate(&c).unwrap_or_else(|e| panic!("{e}"));
         let red = rotation
             .rotate(&c.iter().map(|v| v.x).collect::<Vec<_>>())
-            .unwrap();
+            .unwrap_or_else(|e| panic!("{e}"));
         for (v, r) in rotated.iter().zip(&red) {
             // The same f32 operations channel by channel.
             assert_eq!(v.x, *r);
@@ -413,7 +418,8 @@ mod tests {
 
     #[test]
     fn matrices_that_are_not_rotations_are_refused() {
-        let r = rotation_from([0.1, 0.2, 0.3, 0.9]).unwrap();
+        let r = rotation_from([0.1, 0.2, 0.3, 0.9])
+            .unwrap_or_else(|| panic!("a quaternion far from 0"));
         for bad in [
             r * 1.01,
             r * DMat3::from_diagonal(DVec3::new(1.0, 1.0, -1.0)),
@@ -427,7 +433,7 @@ mod tests {
         }
         // 10⁻⁶ off is accepted, and made orthonormal.
         let near = r + DMat3::from_cols(DVec3::new(1e-6, 0.0, 0.0), DVec3::ZERO, DVec3::ZERO);
-        let rotation = ShRotation::from_dmat3(4, near).unwrap();
+        let rotation = ShRotation::from_dmat3(4, near).unwrap_or_else(|e| panic!("{e}"));
         let m = rotation.rotation();
         let gram = (m.transpose() * m - DMat3::IDENTITY).to_cols_array();
         assert!(gram.iter().all(|x| x.abs() <= 4.0 * f64::EPSILON));
@@ -459,13 +465,23 @@ mod tests {
 
     #[test]
     fn set_matches_a_fresh_rotation() {
-        let a = rotation_from([0.3, -0.2, 0.5, 0.4]).unwrap();
-        let b = rotation_from([-0.7, 0.1, 0.2, 0.6]).unwrap();
-        let mut rotation = ShRotation::from_dmat3(7, a).unwrap();
-        rotation.set_dmat3(b).unwrap();
-        assert_eq!(rotation, ShRotation::from_dmat3(7, b).unwrap());
-        let order_one = ShRotation::from_dmat3(1, b).unwrap();
-        assert_eq!(order_one.rotate(&[2.5f64]).unwrap(), vec![2.5]);
+        let a = rotation_from([0.3, -0.2, 0.5, 0.4])
+            .unwrap_or_else(|| panic!("a quaternion far from 0"));
+        let b = rotation_from([-0.7, 0.1, 0.2, 0.6])
+            .unwrap_or_else(|| panic!("a quaternion far from 0"));
+        let mut rotation = ShRotation::from_dmat3(7, a).unwrap_or_else(|e| panic!("{e}"));
+        rotation.set_dmat3(b).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            rotation,
+            ShRotation::from_dmat3(7, b).unwrap_or_else(|e| panic!("{e}"))
+        );
+        let order_one = ShRotation::from_dmat3(1, b).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            order_one
+                .rotate(&[2.5f64])
+                .unwrap_or_else(|e| panic!("{e}")),
+            vec![2.5]
+        );
     }
 
     #[test]
