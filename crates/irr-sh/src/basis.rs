@@ -11,7 +11,7 @@
 //! with K_l^m = √((2l+1)/(4π) · (l−m)!/(l+m)!). They are orthonormal over the sphere.
 //!
 //! **Hemispherical harmonics** (Gautron, Křivánek, Pattanaik & Bouatouch 2004, "A Novel
-//! Hemispherical Basis for Accurate and Efficient Rendering", EGSR, eq. 5–7): the same with the
+//! Hemispherical Basis for Accurate and Efficient Rendering", EGSR): the same with the
 //! shifted functions P̃_l^m(cos θ) = P_l^m(2 cos θ − 1) and K̃_l^m = √2 K_l^m =
 //! √((2l+1)/(2π) · (l−|m|)!/(l+|m|)!). The substitution t = 2 cos θ − 1 maps the hemisphere's
 //! cos θ ∈ [0, 1] onto [−1, 1], so they are orthonormal over the upper hemisphere (z ≥ 0).
@@ -21,8 +21,12 @@
 //! coefficients.
 //!
 //! Evaluation: with a unit direction (x, y, z), sin^m θ cos mφ and sin^m θ sin mφ are the real
-//! and imaginary parts of (x + iy)^m, and the rest is a polynomial in cos θ
-//! ([`crate::legendre`]). For HSH, (1 − t²)^{m/2} = (2√(z(1−z)))^m replaces sin^m θ: it is the
+//! and imaginary parts of (x + iy)^m (Sloan 2013, "Efficient Spherical Harmonic Evaluation",
+//! JCGT 2(2)), and the rest, Q̄_l^m = K_l^m P_l^m / sin^m θ, is a polynomial in cos θ computed
+//! in f64 by the normalised three-term recurrences (no factorials, stable to order 32 and well
+//! beyond): Q̄_0^0 = 1/√(4π), Q̄_m^m = √((2m+1)/(2m)) Q̄_{m−1}^{m−1}, Q̄_{m+1}^m = √(2m+3) t
+//! Q̄_m^m, and Q̄_l^m = a (t Q̄_{l−1}^m − b Q̄_{l−2}^m) with a = √((4l²−1)/(l²−m²)) and
+//! b = √(((l−1)²−m²)/(4(l−1)²−1)) (Press et al., Numerical Recipes 3rd ed., §6.7). For HSH, (1 − t²)^{m/2} = (2√(z(1−z)))^m replaces sin^m θ: it is the
 //! m-th power of q sin θ with q = 2√(z/(1+z)), so (q(x + iy))^m gives it without dividing by
 //! sin θ.
 
@@ -259,7 +263,8 @@ mod tests {
     }
 
     /// The closed forms of SH bands 0–2 (no Condon–Shortley phase), e.g. Sloan 2008, "Stupid
-    /// Spherical Harmonics (SH) Tricks", appendix A2, with its signs of m = ±1 flipped.
+    /// Spherical Harmonics (SH) Tricks", GDC, with the signs of odd m flipped (no Condon–Shortley
+    /// phase).
     fn sh_closed_form(d: DVec3) -> [f64; 9] {
         let (x, y, z) = (d.x, d.y, d.z);
         let c1 = (3.0 / (4.0 * PI)).sqrt();
@@ -399,7 +404,7 @@ mod tests {
             let z = theta.cos();
             let t = 2.0 * z - 1.0;
             let root = (z * (1.0 - z)).sqrt();
-            // Gautron et al. 2004, eq. 5–7, with P_1^1(t) = √(1−t²) = 2√(z(1−z)),
+            // Gautron et al. 2004's definition (module docs), with P_1^1(t) = √(1−t²) = 2√(z(1−z)),
             // P_2^1(t) = 3t√(1−t²), P_2^2(t) = 3(1 − t²), and K̃_l^m as in the module docs.
             let k11 = (3.0 / (4.0 * PI)).sqrt();
             let k21 = (5.0 / (12.0 * PI)).sqrt();
@@ -460,7 +465,7 @@ mod tests {
         let c = crate::project(basis, samples.iter().map(|&(d, w)| (d, w, d.z)))
             .unwrap_or_else(|e| panic!("{e}"));
         // Ramamoorthi & Hanrahan 2001, "An Efficient Representation for Irradiance Environment
-        // Maps", SIGGRAPH, eq. 8–9: Â_l = 2π ∫₀¹ z P_l(z) dz is π, 2π/3, then 0 for odd l > 1
+        // Maps", SIGGRAPH: Â_l = 2π ∫₀¹ z P_l(z) dz is π, 2π/3, then 0 for odd l > 1
         // and 2π (−1)^{l/2−1} / ((l+2)(l−1)) · l! / (2^l (l/2)!²) for even l; c_l0 =
         // Â_l √((2l+1)/(4π)).
         let factorial = |k: usize| (1..=k).map(|i| i as f64).product::<f64>();
@@ -516,7 +521,8 @@ mod tests {
             .reconstruct(&coefficients, d)
             .unwrap_or_else(|e| panic!("{e}"));
         // The same 36 products summed in two orders (reconstruct visits m outermost): each
-        // sum is within 36 ε Σ|cᵢ yᵢ| of the exact one (Higham 2002, §4.2), so they differ by
+        // sum is within 36 ε Σ|cᵢ yᵢ| of the exact one (Higham 2002, "Accuracy and Stability of Numerical
+        // Algorithms", ch. 4), so they differ by
         // at most twice that.
         assert!((reconstructed - direct).abs() <= 72.0 * f64::EPSILON * magnitude);
         assert_ne!(reconstructed, 0.0);

@@ -1,6 +1,6 @@
 //! Křivánek et al.'s fast approximate rotation of SH coefficients (Křivánek, Konttinen,
 //! Pattanaik, Bouatouch & Žára 2006, "Fast Approximation to Spherical Harmonic Rotation",
-//! SCCG, §3–4).
+//! SCCG).
 //!
 //! The rotation is split into Euler angles, R = R_z(α) R_y(β) R_z(γ). A rotation about z by θ
 //! is exact and cheap on real SH: it turns each pair (c_l^m, c_l^{−m}) by mθ,
@@ -186,19 +186,20 @@ impl FastRotation {
         check_len(count, input.len())?;
         check_len(count, output.len())?;
         let beta = self.angles.beta;
+        // One band's worth of scratch, on the stack; each band overwrites the first 2l+1.
+        let mut v = [V::ZERO; 2 * MAX_ORDER - 1];
+        let mut g = v;
+        let mut w = v;
+        let mut gg = v;
         for l in 0..self.order {
             let band = l * l..(l + 1) * (l + 1);
             let width = 2 * l + 1;
-            let mut v = [V::ZERO; 2 * MAX_ORDER - 1];
             rotate_z(&input[band.clone()], &self.gamma, &mut v[..width]);
-            let mut g = [V::ZERO; 2 * MAX_ORDER - 1];
             generator(l, &v[..width], &mut g[..width]);
-            let mut w = [V::ZERO; 2 * MAX_ORDER - 1];
             for i in 0..width {
                 w[i] = v[i].add_scaled(g[i], beta);
             }
             if self.taylor == Taylor::Second {
-                let mut gg = [V::ZERO; 2 * MAX_ORDER - 1];
                 generator(l, &g[..width], &mut gg[..width]);
                 for i in 0..width {
                     w[i] = w[i].add_scaled(gg[i], 0.5 * beta * beta);

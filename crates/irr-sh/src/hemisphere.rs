@@ -39,8 +39,8 @@
 //!   the error.
 //!
 //! So the extension should match what the coefficients hold: **zero** for cosine-weighted
-//! radiance L cos θ (the projection the crate docs recommend, which vanishes at the horizon),
-//! **mirror** for radiance itself.
+//! radiance L cos θ, which vanishes at the horizon, **mirror** for radiance itself (the crate
+//! docs compare the two for a query whose normal is tilted from the record's).
 //!
 //! A rotation adds no error of its own (it is exact in SH), but directions that rise above the
 //! horizon bring the extension's guess with them. For a smooth "sky" that does not vanish at

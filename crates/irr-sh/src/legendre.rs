@@ -6,10 +6,10 @@
 //! computes Q̄_l^m(t) = K_l^m P_l^m(t) / (1−t²)^{m/2}, a polynomial in t of degree l − m. The
 //! factor (1−t²)^{m/2} is left to the caller, who folds it into cos mφ and sin mφ as the real
 //! and imaginary parts of (x + iy)^m (Sloan 2013, "Efficient Spherical Harmonic Evaluation",
-//! JCGT 2(2), §2), so nothing is divided by sin θ at the poles.
+//! JCGT 2(2)), so nothing is divided by sin θ at the poles.
 //!
-//! The recurrences are the usual ones for P_l^m (e.g. Press et al., Numerical Recipes 3rd ed.,
-//! eq. 6.7.9–6.7.10), rewritten for the normalised functions so that no factorial is formed
+//! The recurrences are the usual ones for P_l^m (Press et al., Numerical Recipes 3rd ed.,
+//! §6.7), rewritten for the normalised functions so that no factorial is formed
 //! (the unnormalised P_31^31 would reach 61!! ≈ 10⁴²):
 //!
 //! - Q̄_0^0 = 1/√(4π), Q̄_m^m = √((2m+1)/(2m)) Q̄_{m−1}^{m−1};
@@ -86,7 +86,7 @@ pub(crate) fn for_each_normalised(n: usize, t: f64, mut f: impl FnMut(usize, usi
 
 /// The k-point Gauss–Legendre rule on [−1, 1]: (node, weight) pairs, exact for polynomials of
 /// degree ≤ 2k − 1. Nodes by Newton's method on P_k from Tricomi's initial guess
-/// cos(π(i + 3/4)/(k + 1/2)) (Numerical Recipes 3rd ed., §4.6.1); converged to |Δx| < 10⁻¹⁵.
+/// cos(π(i + 3/4)/(k + 1/2)) (Numerical Recipes 3rd ed., §4.6); converged to |Δx| < 10⁻¹⁵.
 pub(crate) fn gauss_legendre(k: usize) -> Vec<(f64, f64)> {
     (0..k)
         .map(|i| {

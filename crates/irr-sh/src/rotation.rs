@@ -4,9 +4,9 @@
 //! along d ends up along R d). Rotations do not mix bands, so the matrix is block-diagonal: one
 //! (2l+1)×(2l+1) orthogonal block per band. Band 0 is 1. Band 1, in the (y, z, x) order of
 //! Y_1^{−1}, Y_1^0, Y_1^1, is R itself with rows and columns permuted: entry (m, m') is
-//! R[p(m)][p(m')] with p = (y, z, x). Band l ≥ 2 follows from band 1 and band l − 1 (Ivanic &
+//! R_{p(m), p(m')} with p = (y, z, x). Band l ≥ 2 follows from band 1 and band l − 1 (Ivanic &
 //! Ruedenberg 1996, "Rotation Matrices for Real Spherical Harmonics. Direct Determination by
-//! Recursion", J. Phys. Chem. 100(15), eq. 8.1–8.5 and Table 2, with the corrections of their
+//! Recursion", J. Phys. Chem. 100(15), their tables of u, v, w and of U, V, W, with the corrections of their
 //! 1998 erratum, J. Phys. Chem. A 102(45)):
 //!
 //! R^l_{m,m'} = u U + v V + w W, with
@@ -290,7 +290,7 @@ mod tests {
         let b = rotation
             .block(1)
             .unwrap_or_else(|| panic!("a band below the order"));
-        // Rows and columns in the order y, z, x (Ivanic & Ruedenberg 1996, eq. 6.3).
+        // Rows and columns in the order y, z, x (Ivanic & Ruedenberg 1996: R¹ in terms of R).
         let rr = rotation.rotation();
         let want = [
             rr.y_axis.y,

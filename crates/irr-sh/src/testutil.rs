@@ -157,7 +157,7 @@ pub fn value_error(l: usize) -> f64 {
 }
 
 /// The rounding bound for a Gram entry Σ_q w_q Bᵢ Bⱼ over K points of an exact rule:
-/// recursive summation adds ≤ K ε Σ|w Bᵢ Bⱼ| ≤ K ε (Higham 2002, §4.2; Cauchy–Schwarz with
+/// recursive summation adds ≤ K ε Σ|w Bᵢ Bⱼ| ≤ K ε (Higham 2002, ch. 4; Cauchy–Schwarz with
 /// Σ w Bᵢ² = 1 exactly), and each value's own error δ ≤ value_error(l) ε √((2l+1)/(4π))
 /// adds Σ w |δᵢ Bⱼ| ≤ max|δᵢ| √(Σw) ≤ value_error(l) ε √(2l+1), twice (for i and j). HSH's
 /// bound is √2 larger and its Σw half: the same.
