@@ -26,9 +26,10 @@
 //! in f64 by the normalised three-term recurrences (no factorials, stable to order 32 and well
 //! beyond): Q̄_0^0 = 1/√(4π), Q̄_m^m = √((2m+1)/(2m)) Q̄_{m−1}^{m−1}, Q̄_{m+1}^m = √(2m+3) t
 //! Q̄_m^m, and Q̄_l^m = a (t Q̄_{l−1}^m − b Q̄_{l−2}^m) with a = √((4l²−1)/(l²−m²)) and
-//! b = √(((l−1)²−m²)/(4(l−1)²−1)) (Press et al., Numerical Recipes 3rd ed., §6.7). For HSH, (1 − t²)^{m/2} = (2√(z(1−z)))^m replaces sin^m θ: it is the
-//! m-th power of q sin θ with q = 2√(z/(1+z)), so (q(x + iy))^m gives it without dividing by
-//! sin θ.
+//! b = √(((l−1)²−m²)/(4(l−1)²−1)) (Press et al., Numerical Recipes 3rd ed., §6.7).
+//!
+//! For HSH, (1 − t²)^{m/2} = (2√(z(1−z)))^m replaces sin^m θ: it is the m-th power of q sin θ
+//! with q = 2√(z/(1+z)), so (q(x + iy))^m gives it without dividing by sin θ.
 
 use crate::error::{ShError, check_len, check_order};
 use crate::legendre::for_each_normalised;
@@ -61,7 +62,8 @@ pub const fn index(l: usize, m: isize) -> usize {
 }
 
 impl Basis {
-    /// Real spherical harmonics of order n (bands 0..n). Errors if n = 0 or n > [`crate::MAX_ORDER`].
+    /// Real spherical harmonics of order n (bands 0..n). Errors if n = 0 or n >
+    /// [`crate::MAX_ORDER`].
     pub fn sh(order: usize) -> Result<Self, ShError> {
         Self::new(Domain::Sphere, order)
     }
@@ -312,7 +314,8 @@ mod tests {
         #[test]
         fn sh_match_closed_forms_anywhere(d in any_direction()) {
             let mut y = [0.0; 9];
-            Basis::sh(3).unwrap_or_else(|e| panic!("{e}")).eval_f64(d, &mut y).unwrap_or_else(|e| panic!("{e}"));
+            let basis = Basis::sh(3).unwrap_or_else(|e| panic!("{e}"));
+            basis.eval_f64(d, &mut y).unwrap_or_else(|e| panic!("{e}"));
             let want = sh_closed_form(d);
             for i in 0..9 {
                 // As above; the direction's normalisation adds a few ε.
@@ -336,7 +339,10 @@ mod tests {
                 // and its own rounding adds ≤ (2l+1) ε want.
                 let width = (2 * l + 1) as f64;
                 let tolerance = (2.0 * value_error(l) * width.sqrt() + width) * f64::EPSILON * want;
-                prop_assert!((sum - want).abs() <= tolerance.max(f64::EPSILON), "l={} {:e}", l, sum - want);
+                prop_assert!(
+                    (sum - want).abs() <= tolerance.max(f64::EPSILON),
+                    "l={} {:e}", l, sum - want
+                );
             }
         }
 
@@ -521,9 +527,8 @@ mod tests {
             .reconstruct(&coefficients, d)
             .unwrap_or_else(|e| panic!("{e}"));
         // The same 36 products summed in two orders (reconstruct visits m outermost): each
-        // sum is within 36 ε Σ|cᵢ yᵢ| of the exact one (Higham 2002, "Accuracy and Stability of Numerical
-        // Algorithms", ch. 4), so they differ by
-        // at most twice that.
+        // sum is within 36 ε Σ|cᵢ yᵢ| of the exact one (Higham 2002, "Accuracy and Stability
+        // of Numerical Algorithms", ch. 4), so they differ by at most twice that.
         assert!((reconstructed - direct).abs() <= 72.0 * f64::EPSILON * magnitude);
         assert_ne!(reconstructed, 0.0);
         // RGB: each channel is its own sum.

@@ -9,12 +9,12 @@
 //!   coefficients hⱼ = ∫_{z≥0} f Hⱼ = Σᵢ T_{ji} cᵢ.
 //! - **HSH → SH** must say what the function is below the horizon, and then loses what SH of
 //!   order n_sh cannot represent of the extended function. [`Extension::Zero`] extends by zero
-//!   (T itself, read the other way): cᵢ = Σⱼ T_{ji} hⱼ, a step at the horizon whose SH series converges
-//!   slowly (Gibbs ringing). [`Extension::Mirror`] extends evenly, f(x, y, −z) = f(x, y, z):
-//!   continuous at the horizon, so its SH series converges faster; since Y_l^m(x, y, −z) =
-//!   (−1)^{l+m} Y_l^m(x, y, z), cᵢ = (1 + (−1)^{l+m}) Σⱼ T_{ji} hⱼ. After a small rotation the
-//!   strip that rises above the horizon then holds the mirror image of the radiance just above
-//!   it instead of black.
+//!   (T itself, read the other way): cᵢ = Σⱼ T_{ji} hⱼ, a step at the horizon whose SH series
+//!   converges slowly (Gibbs ringing). [`Extension::Mirror`] extends evenly,
+//!   f(x, y, −z) = f(x, y, z): continuous at the horizon, so its SH series converges faster;
+//!   since Y_l^m(x, y, −z) = (−1)^{l+m} Y_l^m(x, y, z), cᵢ = (1 + (−1)^{l+m}) Σⱼ T_{ji} hⱼ.
+//!   After a small rotation the strip that rises above the horizon then holds the mirror image
+//!   of the radiance just above it instead of black.
 //!
 //! **Measured round-trip error** (HSH → SH → HSH, no rotation; relative L² error of the HSH
 //! coefficients; from the tests, which assert these values):
