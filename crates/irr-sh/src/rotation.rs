@@ -22,8 +22,8 @@
 //! - W = P(1, m+1, m') + P(−1, −m−1, m') for m > 0; P(1, m−1, m') − P(−1, −m+1, m') for m < 0
 //!   (w = 0 for m = 0).
 //!
-//! The recurrence is bilinear in (R¹, R^{l−1}), which [`crate::fast`] uses to check its
-//! derivative. Computed in f64; building all bands up to order n costs Σ(2l+1)² entries of a
+//! The recurrence is bilinear in (R¹, R^{l−1}): the fast rotation's tests differentiate it
+//! that way to check [`crate::fast`]'s generator. Computed in f64; building all bands up to order n costs Σ(2l+1)² entries of a
 //! few products each, O(n³), and applying them as much again.
 
 use crate::error::{ShError, check_len, check_order};
