@@ -48,7 +48,7 @@ use glam::Vec3;
 use irr_sampling::{Frame, HemisphereStrata};
 use std::f64::consts::TAU;
 
-/// Which translation-gradient estimator to use. Both share the cell-wall model above and the
+/// Which translation-gradient estimator to use. The first two share the cell-wall model above and the
 /// nearer-hit distance per wall; they differ in the weight of the walls between azimuthal
 /// neighbours (the φ-walls). The θ-walls and the normal component are the same in both.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -68,6 +68,12 @@ pub enum TranslationGradient {
     /// factor tending to 1/√2 and in the row at the horizon long by √2, where the cosine is
     /// far from constant over the cell.
     KrivanekGautron,
+    /// The occlusion-aware gradient of the triangle fan over the gather's hit points
+    /// (Schwarzhaupt, Jensen & Jarosz 2012; Radiance ≥ 4.2): the derivative of Lambert's formula
+    /// for the triangles, each showing its farthest corner's value, held fixed in space (see
+    /// [`GatherSamples::fan`], which also gives the Hessian). Uses the sample directions given
+    /// with [`GatherSamples::with_directions`] (the cells' middles otherwise).
+    OcclusionFan,
 }
 
 /// The irradiance of one gather and its gradients, all in the gather's local frame (normal = +z)
@@ -207,7 +213,10 @@ impl Tables {
 
         let phi_wall = (0..m)
             .map(|j| match variant {
-                TranslationGradient::WardHeckbert => (sin_b[j + 1] - sin_b[j]) as f32,
+                // The fan does not use the wall tables.
+                TranslationGradient::WardHeckbert | TranslationGradient::OcclusionFan => {
+                    (sin_b[j + 1] - sin_b[j]) as f32
+                }
                 TranslationGradient::KrivanekGautron => {
                     let s2 = (j as f64 + 0.5) / mf;
                     let (s_c, c_c) = (s2.sqrt(), (1.0 - s2).sqrt());
@@ -257,6 +266,9 @@ impl<V: GatherValue> GatherSamples<V> {
     /// ∇ₜE in the local frame, by the chosen estimator (see the module docs and
     /// [`TranslationGradient`]); x, y in the tangent plane, z along the normal.
     pub fn translation_gradient(&self, variant: TranslationGradient) -> [V; 3] {
+        if variant == TranslationGradient::OcclusionFan {
+            return self.fan().gradient;
+        }
         let t = Tables::new(self.strata(), variant);
         self.translation_with(&t)
     }
@@ -305,10 +317,15 @@ impl<V: GatherValue> GatherSamples<V> {
     /// The irradiance and both gradients, in the local frame.
     pub fn gradients(&self, variant: TranslationGradient) -> Gradients<V> {
         let t = Tables::new(self.strata(), variant);
+        let translation = if variant == TranslationGradient::OcclusionFan {
+            self.fan().gradient
+        } else {
+            self.translation_with(&t)
+        };
         Gradients {
             irradiance: self.irradiance(),
             rotation: self.rotation_with(&t),
-            translation: self.translation_with(&t),
+            translation,
         }
     }
 }

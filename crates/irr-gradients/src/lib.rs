@@ -1,6 +1,7 @@
 //! Irradiance gradients for the irradiance cache, from one stratified hemisphere gather given as
 //! plain data: the rotation gradient ∇ᵣE (Ward & Heckbert 1992), the translation gradient ∇ₜE
-//! (Ward & Heckbert 1992, or Křivánek et al. 2005 in the form of Křivánek & Gautron 2009), the
+//! (Ward & Heckbert 1992, Křivánek et al. 2005 in the form of Křivánek & Gautron 2009, or the
+//! occlusion-aware triangle fan of Schwarzhaupt et al. 2012), the irradiance Hessian, the
 //! distance statistics that size a record (harmonic mean and minimum hit distance) and the
 //! gradient-based limit on the radius (R ≤ E/‖∇ₜE‖, Křivánek et al. 2006).
 //!
@@ -20,6 +21,12 @@
 //!   [`GatherSamples::from_cells`] (their means and nearest hits, the form every estimator
 //!   reads) and [`plan_extra_samples`] (which cells get more samples to meet a noise target,
 //!   chosen without reading a cell's own value; the `cells` module's source derives both).
+//! - The triangle fan over the gather's hit points ([`GatherSamples::fan`], the `hessian`
+//!   module): the occlusion-aware translation gradient ([`TranslationGradient::OcclusionFan`])
+//!   and the relative irradiance Hessian with its tangent-plane eigen-decomposition
+//!   ([`Curvature`]), the inputs of anisotropic records (Schwarzhaupt, Jensen & Jarosz 2012;
+//!   Radiance ≥ 4.2). The edge integrals ([`edge_integrals`], [`edge_terms`]) are public, with
+//!   their closed forms derived in the module's docs.
 //! - [`GatherValue`]: the value type (f32, RGB `Vec3`, …), this crate's own, generic.
 //!
 //! Gradients are computed in the **local frame** of the gather (normal = +z, the frame in which
@@ -64,6 +71,7 @@
 
 mod cells;
 mod gradient;
+mod hessian;
 mod noise;
 mod samples;
 mod value;
@@ -73,11 +81,14 @@ mod analytic;
 #[cfg(test)]
 mod cell_aligned;
 #[cfg(test)]
+mod hessian_tests;
+#[cfg(test)]
 mod known_answers;
 #[cfg(test)]
 mod scene_tests;
 
 pub use cells::{CellSamples, plan_extra_samples};
 pub use gradient::{Gradients, TranslationGradient, directional, rotate_to_world};
+pub use hessian::{Curvature, FAR_FACTOR, Fan, edge_integrals, edge_terms};
 pub use samples::{GatherError, GatherSamples};
 pub use value::GatherValue;

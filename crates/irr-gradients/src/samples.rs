@@ -9,6 +9,7 @@
 //! and Křivánek et al. 2006: the minimum distance).
 
 use crate::value::GatherValue;
+use glam::Vec3;
 use irr_sampling::{Cell, HemisphereStrata};
 
 /// Why a gather cannot be used.
@@ -50,6 +51,16 @@ pub enum GatherError {
         /// The value given.
         value: f32,
     },
+    /// A sample direction is not finite, not unit or below the tangent plane.
+    #[error(
+        "the direction of cell (j = {j}, k = {k}) is not a unit vector above the tangent plane"
+    )]
+    Direction {
+        /// The cell's index along θ.
+        j: u32,
+        /// The cell's index along φ.
+        k: u32,
+    },
     /// A sample's cos θ is NaN or outside [0, 1].
     #[error("the cos theta of cell (j = {j}, k = {k}) is {value}: it must lie in [0, 1]")]
     CosTheta {
@@ -77,6 +88,9 @@ pub struct GatherSamples<V> {
     /// ([`GatherSamples::with_cos_theta`]); the distance statistics that skip near-horizon hits
     /// use them.
     cos_theta: Option<Vec<f32>>,
+    /// Each cell's unit sample direction in the local frame, when the caller gave them
+    /// ([`GatherSamples::with_directions`]); the triangle fan places its hit points along them.
+    directions: Option<Vec<Vec3>>,
     /// With several samples in some cells ([`GatherSamples::from_cells`]): each cell's sample
     /// count and the sample variance of its values (0 where it has one sample); `None` for one
     /// sample per cell.
@@ -133,6 +147,7 @@ impl<V: GatherValue> GatherSamples<V> {
             radiance,
             distance,
             cos_theta: None,
+            directions: None,
             cells: None,
         })
     }
@@ -162,6 +177,43 @@ impl<V: GatherValue> GatherSamples<V> {
             cos_theta: Some(cos_theta),
             ..self
         })
+    }
+
+    /// The same gather with each cell's unit sample direction in the local frame (normal +z, by
+    /// [`Cell::index`]), for the triangle fan ([`GatherSamples::fan`]); their cos θ (z) serve the
+    /// distance statistics as [`GatherSamples::with_cos_theta`]'s do. A direction must be finite,
+    /// unit within 10⁻³ and not below the tangent plane by more than that
+    /// ([`GatherError::Direction`]).
+    pub fn with_directions(self, directions: Vec<Vec3>) -> Result<Self, GatherError> {
+        if directions.len() != self.strata.len() {
+            return Err(GatherError::Length {
+                what: "directions",
+                got: directions.len(),
+                expected: self.strata.len(),
+                m: self.strata.m(),
+                n: self.strata.n(),
+            });
+        }
+        let bad = |w: &Vec3| !(w.is_finite() && (w.length() - 1.0).abs() <= 1e-3 && w.z >= -1e-3);
+        if let Some(i) = directions.iter().position(bad) {
+            let n = self.strata.n() as usize;
+            return Err(GatherError::Direction {
+                j: (i / n) as u32,
+                k: (i % n) as u32,
+            });
+        }
+        let cos_theta = directions.iter().map(|w| w.z.clamp(0.0, 1.0)).collect();
+        Ok(Self {
+            cos_theta: Some(cos_theta),
+            directions: Some(directions),
+            ..self
+        })
+    }
+
+    /// The sample directions given with [`GatherSamples::with_directions`].
+    #[inline]
+    pub fn directions(&self) -> Option<&[Vec3]> {
+        self.directions.as_deref()
     }
 
     /// cos θ of the sample of cell `i`: the caller's value if given, else the cell's middle
