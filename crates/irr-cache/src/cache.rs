@@ -193,6 +193,8 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
             query_normal: n,
             record_normal: record.normal.as_dvec3(),
             record_radius: f64::from(record.radius),
+            record_aspect: f64::from(record.aspect),
+            record_tangent: record.tangent.as_dvec3(),
         };
         let w = self.metric.weight(&candidate);
         (w > 0.0 && w.is_finite()).then_some((candidate, w))

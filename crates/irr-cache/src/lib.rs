@@ -9,8 +9,10 @@
 //!   coefficients for radiance caching).
 //! - [`Record`]: position, normal, validity radius R, value E, translation gradient ∂E/∂p and
 //!   rotation gradient ∇ᵣE, each gradient as `[V; 3]` (per world axis), and
-//!   the unclamped and minimum radii that neighbour clamping needs. 120 bytes for `Rgb`.
-//! - [`ErrorMetric`] with [`Ward`] and [`TabellionLamorlette`], the shared [`Cuts`] (Ward &
+//!   the unclamped and minimum radii that neighbour clamping needs, and for an anisotropic
+//!   record its ellipse (aspect and minor axis). 136 bytes for `Rgb`.
+//! - [`ErrorMetric`] with [`Ward`], [`TabellionLamorlette`] and [`Hessian`] (elliptical
+//!   records), the shared [`Cuts`] (Ward &
 //!   Heckbert's "in front" test with a tolerance relative to R, the normal-divergence cut with an
 //!   [`Angle`] that cannot be read in the wrong unit) and the [`RadiusLimits`] a caller clamps a
 //!   new radius to, from the pixel spacing.
@@ -83,7 +85,7 @@ pub use cache::{
 };
 pub use io::CacheFileError;
 pub use metric::{
-    Angle, Candidate, Cuts, ErrorMetric, MetricError, PixelRange, RadiusLimits,
+    Angle, Candidate, Cuts, ErrorMetric, Hessian, MetricError, PixelRange, RadiusLimits,
     TabellionLamorlette, Ward,
 };
 pub use record::{InsertError, Record};

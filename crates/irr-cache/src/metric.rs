@@ -14,8 +14,9 @@
 //!   so it keeps controlling record density in open areas (see [`PixelRange`]). The clamping
 //!   itself is the caller's (or the cache's radius pipeline, `RadiusInputs`).
 //!
-//! Two metrics are provided, [`Ward`] and [`TabellionLamorlette`]; both apply the same [`Cuts`]
-//! (the "in front" test and the normal-divergence cut) before their formula.
+//! Three metrics are provided, [`Ward`], [`TabellionLamorlette`] and [`Hessian`] (elliptical
+//! records); all apply the same [`Cuts`] (the "in front" test and the normal-divergence cut)
+//! before their formula.
 //!
 //! # Normal term
 //! Both formulas use √(1 − n·nᵢ). For unit vectors ‖n − nᵢ‖² = 2 − 2 n·nᵢ, so
@@ -72,6 +73,9 @@ pub enum MetricError {
     /// Ward's accuracy a must be positive and finite.
     #[error("the accuracy a must be positive and finite, got {0}")]
     Accuracy(f32),
+    /// The Hessian metric's accuracy must be positive and finite.
+    #[error("the Hessian accuracy must be positive and finite, got {0}")]
+    HessianAccuracy(f32),
     /// Tabellion & Lamorlette's κ must be positive and finite.
     #[error("the quality factor kappa must be positive and finite, got {0}")]
     Kappa(f32),
@@ -99,8 +103,12 @@ pub struct Candidate {
     pub query_normal: DVec3,
     /// The record's normal nᵢ (unit).
     pub record_normal: DVec3,
-    /// The record's radius Rᵢ (> 0).
+    /// The record's radius Rᵢ (> 0): the major radius of an anisotropic record.
     pub record_radius: f64,
+    /// The record's minor radius as a fraction of Rᵢ, in (0, 1] (1: isotropic).
+    pub record_aspect: f64,
+    /// The record's minor axis (unit, ⟂ nᵢ; zero for an isotropic record).
+    pub record_tangent: DVec3,
 }
 
 impl Candidate {
@@ -114,6 +122,18 @@ impl Candidate {
             query_normal: n,
             record_normal: normal.as_dvec3(),
             record_radius: f64::from(radius),
+            record_aspect: 1.0,
+            record_tangent: DVec3::ZERO,
+        }
+    }
+
+    /// The same candidate for an anisotropic record (see [`crate::Record`]).
+    #[inline]
+    pub fn with_ellipse(self, aspect: f32, tangent: Vec3) -> Self {
+        Self {
+            record_aspect: f64::from(aspect),
+            record_tangent: tangent.as_dvec3(),
+            ..self
         }
     }
 
@@ -487,6 +507,103 @@ impl ErrorMetric for TabellionLamorlette {
     fn radius_limits(&self, pixel_spacing: f32) -> RadiusLimits {
         // Distance scale R/2: R ∈ [2R⁻, 2R⁺] pixels, whatever κ (influence R/(2κ)).
         self.pixels.radius_limits(pixel_spacing, 2.0)
+    }
+}
+
+/// The Hessian metric (Schwarzhaupt, Jensen & Jarosz 2012, in the form Radiance ≥ 4.2 looks
+/// records up with, `sumambient`): records are ellipses (see [`crate::Record`]) whose radii the
+/// caller set from the irradiance Hessian, and a record is used inside its ellipse scaled by the
+/// accuracy a.
+///
+/// With Δ = p − pᵢ in the record's frame (u the minor axis, v = nᵢ × u), r₁ = Rᵢ and
+/// r₀ = aspect·Rᵢ:
+///
+/// δₜ = √((Δ·nᵢ)² / r₀² + (Δ·u)² / r₀² + (Δ·v)² / r₁²)  (the ellipsoid with axes r₀, r₁, r₀;
+/// ‖Δ‖/Rᵢ for a record without a minor axis),
+/// wᵢ = (1 − δₜ/a)·(1 − ‖n − nᵢ‖/(2 sin 5°)),  used where both factors are positive.
+///
+/// The normal factor reaches 0 at 10°, as Tabellion & Lamorlette's normal term reaches 1 there
+/// (Radiance's limit is 10° + a radians). An isotropic record (aspect 1) has
+/// δₜ = ‖Δ‖/Rᵢ: Ward's distance term in Radiance's linear weight.
+///
+/// Influence radius: δₜ < a needs ‖Δ‖ < a·r₁ = a·Rᵢ (r₀ ≤ r₁), so the octree's sphere contains
+/// the ellipse. The radius limits are Ward's ([R⁻, R⁺] pixels on Rᵢ): the distance scale is R.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hessian {
+    accuracy: f32,
+    inv_chord_10: f64,
+    cuts: Cuts,
+    pixels: PixelRange,
+}
+
+impl Hessian {
+    /// The metric with accuracy `a` (> 0; smaller is stricter), default [`Cuts`] and
+    /// [`PixelRange`].
+    pub fn new(accuracy: f32) -> Result<Self, MetricError> {
+        if !(accuracy.is_finite() && accuracy > 0.0) {
+            return Err(MetricError::HessianAccuracy(accuracy));
+        }
+        Ok(Self {
+            accuracy,
+            inv_chord_10: 1.0 / Angle::from_degrees(10.0).chord(),
+            cuts: Cuts::default(),
+            pixels: PixelRange::default(),
+        })
+    }
+    /// The same metric with other cuts.
+    pub fn with_cuts(self, cuts: Cuts) -> Self {
+        Self { cuts, ..self }
+    }
+    /// The same metric with other influence limits in pixels.
+    pub fn with_pixel_range(self, pixels: PixelRange) -> Self {
+        Self { pixels, ..self }
+    }
+    /// The accuracy a.
+    pub fn accuracy(&self) -> f32 {
+        self.accuracy
+    }
+    /// δₜ, the candidate's distance in units of the record's ellipse (no cuts).
+    #[inline]
+    pub fn elliptical_distance(c: &Candidate) -> f64 {
+        let r1 = c.record_radius;
+        if c.record_tangent == DVec3::ZERO {
+            return c.distance / r1;
+        }
+        let r0 = c.record_aspect * r1;
+        let u = c.record_tangent;
+        let v = c.record_normal.cross(u);
+        let (dn, du, dv) = (
+            c.offset.dot(c.record_normal),
+            c.offset.dot(u),
+            c.offset.dot(v),
+        );
+        ((dn * dn + du * du) / (r0 * r0) + dv * dv / (r1 * r1)).sqrt()
+    }
+}
+
+impl ErrorMetric for Hessian {
+    #[inline]
+    fn influence_radius(&self, record_radius: f32) -> f32 {
+        f32_up(f64::from(self.accuracy) * f64::from(record_radius))
+    }
+
+    #[inline]
+    fn weight(&self, c: &Candidate) -> f64 {
+        if !self.cuts.accept(c) {
+            return 0.0;
+        }
+        let position = 1.0 - Self::elliptical_distance(c) / f64::from(self.accuracy);
+        let normal = 1.0 - c.normal_chord() * self.inv_chord_10;
+        if position > 0.0 && normal > 0.0 {
+            position * normal
+        } else {
+            0.0
+        }
+    }
+
+    fn radius_limits(&self, pixel_spacing: f32) -> RadiusLimits {
+        // Distance scale R: R ∈ [R⁻, R⁺] pixels, as Ward's.
+        self.pixels.radius_limits(pixel_spacing, 1.0)
     }
 }
 

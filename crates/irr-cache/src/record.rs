@@ -7,8 +7,16 @@ use thiserror::Error;
 /// One cached value: where it was computed, how far it may be reused, and its gradients.
 ///
 /// Stored as plain `f32` data (`Vec3` is three `f32`, no padding): an RGB record,
-/// `Record<Rgb>`, takes 4 · (3 + 3 + 1 + 2 + 3 + 9 + 9) = **120 bytes**, a scalar record
-/// `Record<f32>` 4 · (3 + 3 + 1 + 2 + 1 + 3 + 3) = 64 bytes.
+/// `Record<Rgb>`, takes 4 · (3 + 3 + 1 + 2 + 1 + 3 + 3 + 9 + 9) = **136 bytes**, a scalar
+/// record `Record<f32>` 4 · (3 + 3 + 1 + 2 + 1 + 3 + 1 + 3 + 3) = 80 bytes.
+///
+/// A record may be **anisotropic** (Schwarzhaupt et al. 2012; Radiance ≥ 4.2): an ellipse on its
+/// tangent plane with the major radius R along `normal × tangent` and the minor radius
+/// `aspect`·R along `tangent`. R stays the radius every metric, the octree and neighbour
+/// clamping use (so the sphere the octree files contains the ellipse), and an isotropic record
+/// is the special case `aspect` = 1 (what [`Record::new`] makes; `tangent` is then unused and
+/// may be zero). Only a metric that reads the ellipse ([`crate::Hessian`]) treats the record as
+/// one.
 ///
 /// Besides the radius R it uses, a record keeps what neighbour clamping needs to change R later
 /// (Křivánek et al. 2006; Mitsuba 0.6 keeps the same per record): the **unclamped radius**, the
@@ -37,6 +45,11 @@ pub struct Record<V> {
     /// The smallest R neighbour clamping may leave (the pixel or world-space minimum); finite
     /// and ≥ 0.
     pub min_radius: f32,
+    /// The minor radius as a fraction of R, in (0, 1]; 1 for an isotropic record.
+    pub aspect: f32,
+    /// The unit direction of the minor axis, perpendicular to the normal (zero allowed where
+    /// `aspect` = 1).
+    pub tangent: Vec3,
     /// Eᵢ, the value.
     pub value: V,
     /// ∂E/∂p, one value per world axis.
@@ -54,6 +67,8 @@ impl<V: CacheValue> Record<V> {
             radius,
             unclamped_radius: radius,
             min_radius: 0.0,
+            aspect: 1.0,
+            tangent: Vec3::ZERO,
             value,
             translation_gradient: [V::zero(); 3],
             rotation_gradient: [V::zero(); 3],
@@ -66,6 +81,16 @@ impl<V: CacheValue> Record<V> {
         Self {
             unclamped_radius,
             min_radius,
+            ..self
+        }
+    }
+
+    /// The same record as an ellipse: the minor radius `aspect`·R along `tangent` (see the
+    /// type's docs); R is unchanged.
+    pub fn with_ellipse(self, aspect: f32, tangent: Vec3) -> Self {
+        Self {
+            aspect,
+            tangent,
             ..self
         }
     }
@@ -97,6 +122,22 @@ impl<V: CacheValue> Record<V> {
             return Err(InsertError::MinRadius(self.min_radius));
         }
         let normal = unit_normal(self.normal).ok_or(InsertError::Normal)?;
+        if !(self.aspect > 0.0 && self.aspect <= 1.0) {
+            return Err(InsertError::Aspect(self.aspect));
+        }
+        // The minor axis made perpendicular to the normal and unit (Gram–Schmidt in f64); an
+        // isotropic record keeps whatever it has, an ellipse needs a usable axis.
+        let tangent = if self.aspect == 1.0 && self.tangent == Vec3::ZERO {
+            Vec3::ZERO
+        } else {
+            let (t, n) = (self.tangent.as_dvec3(), normal.as_dvec3());
+            let t = t - n * t.dot(n);
+            let len = t.length();
+            if !(len.is_finite() && len > 1e-6 * self.tangent.as_dvec3().length()) {
+                return Err(InsertError::Tangent);
+            }
+            unit_normal((t / len).as_vec3()).ok_or(InsertError::Tangent)?
+        };
         let finite = |v: &V| v.channels().iter().all(|c| c.is_finite());
         if !finite(&self.value) {
             return Err(InsertError::Value);
@@ -109,7 +150,11 @@ impl<V: CacheValue> Record<V> {
         {
             return Err(InsertError::Gradient);
         }
-        Ok(Self { normal, ..self })
+        Ok(Self {
+            normal,
+            tangent,
+            ..self
+        })
     }
 }
 
@@ -187,6 +232,12 @@ pub enum InsertError {
     /// tiny accuracy).
     #[error("the metric gives an influence radius of {0}, which is not finite")]
     Influence(f32),
+    /// The aspect (minor radius / radius) is not in (0, 1].
+    #[error("record aspect (minor radius / radius) must lie in (0, 1], got {0}")]
+    Aspect(f32),
+    /// An anisotropic record's minor axis is not finite, zero or along the normal.
+    #[error("record minor axis is not finite, zero or parallel to the normal")]
+    Tangent,
     /// The value has a NaN or infinite channel.
     #[error("record value is not finite")]
     Value,
@@ -208,8 +259,8 @@ mod tests {
 
     #[test]
     fn layout_is_compact() {
-        assert_eq!(size_of::<Record<Rgb>>(), 120);
-        assert_eq!(size_of::<Record<f32>>(), 64);
+        assert_eq!(size_of::<Record<Rgb>>(), 136);
+        assert_eq!(size_of::<Record<f32>>(), 80);
         assert_eq!(align_of::<Record<Rgb>>(), 4);
     }
 

@@ -843,7 +843,7 @@ proptest! {
     fn files_round_trip_bit_for_bit(records in prop::collection::vec(record_strategy(), 0..80)) {
         let cache = cache_of(tl(), &records);
         let bytes = bytes_of(&cache);
-        prop_assert_eq!(bytes.len(), 28 + 120 * records.len() + 8);
+        prop_assert_eq!(bytes.len(), 28 + 136 * records.len() + 8);
         let back = IrradianceCache::<Rgb, _>::read_from(bytes.as_slice(), tl())
             .unwrap_or_else(|e| panic!("{e}"));
         prop_assert_eq!(bytes_of(&back), bytes);
@@ -886,14 +886,15 @@ fn foreign_and_wrong_version_files_are_rejected_with_the_reason() {
     assert!(matches!(read(png), Some(CacheFileError::NotACacheFile)));
     assert!(matches!(read(b""), Some(CacheFileError::Truncated)));
 
-    // A file of the previous format (version 1, without the radii neighbour clamping keeps) and
-    // of a future one are refused by version, never misread.
-    for version in [1u32, 3] {
+    // Files of the previous formats (version 1, without the radii neighbour clamping keeps;
+    // version 2, without the ellipses) and of a future one are refused by version, never
+    // misread.
+    for version in [1u32, 2, 4] {
         let mut other = bytes.clone();
         other[8..12].copy_from_slice(&version.to_le_bytes());
         let e = read(&other);
         assert!(
-            matches!(e, Some(CacheFileError::Version { found, supported: 2 }) if found == version),
+            matches!(e, Some(CacheFileError::Version { found, supported: 3 }) if found == version),
             "{e:?}"
         );
     }
@@ -942,7 +943,7 @@ fn scalar_and_coefficient_caches_round_trip() {
     ao.insert(Record::new(Vec3::ONE, Vec3::X, 0.5, 0.75))
         .unwrap_or_else(|e| panic!("{e}"));
     let bytes = bytes_of(&ao);
-    assert_eq!(bytes.len(), 28 + 64 + 8);
+    assert_eq!(bytes.len(), 28 + 80 + 8);
     let back = IrradianceCache::<f32, _>::read_from(bytes.as_slice(), ward(0.2))
         .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(back.records(), ao.records());
@@ -1345,4 +1346,136 @@ proptest! {
             }
         }
     }
+}
+
+fn hessian(a: f32) -> Hessian {
+    Hessian::new(a).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A unit vector perpendicular to `n` at angle `angle` in its plane.
+fn across(n: Vec3, angle: f32) -> Vec3 {
+    let (s, t) = (
+        n.any_orthonormal_vector(),
+        n.cross(n.any_orthonormal_vector()),
+    );
+    (s * angle.cos() + t * angle.sin()).normalize()
+}
+
+proptest! {
+    #![proptest_config(config(256))]
+
+    /// An ellipse whose radii agree (aspect 1, with a minor axis) weighs exactly as the
+    /// isotropic record: δₜ² = ((Δ·n)² + (Δ·u)² + (Δ·v)²)/R² = ‖Δ‖²/R² for an orthonormal
+    /// (n, u, v). The stored n and u are `f32` unit vectors, orthonormal only to their rounding:
+    /// |n·u| and |‖u‖ − 1| up to ~2·2⁻²⁴ each, so the frame's Gram matrix is off by ≲ 4·2⁻²⁴
+    /// and δ² by as much relative; δ then by 2·2⁻²⁴ relative, and the weight 1 − δ/a (positive
+    /// only for δ/a < 1) by at most 2·2⁻²⁴ absolute. Bound 4·2⁻²⁴ ≈ 2.4e-7.
+    #[test]
+    fn hessian_weight_with_equal_radii_is_isotropic(
+        q in v3(-2.0..2.0), n in unit(), rn in unit(), angle in 0.0f32..6.3,
+        radius in 0.1f32..4.0, a in 0.1f32..2.0,
+    ) {
+        let m = hessian(a);
+        let iso = Candidate::new(q.as_dvec3(), n.as_dvec3(), Vec3::ZERO, rn, radius);
+        let ell = iso.with_ellipse(1.0, across(rn, angle));
+        let (wi, we) = (m.weight(&iso), m.weight(&ell));
+        prop_assert!((wi - we).abs() <= 4.0 * f64::from(f32::EPSILON) * 0.5, "{wi} vs {we}");
+    }
+
+    /// Turning the minor axis by π (u → −u, so v → −v) leaves the weight bit for bit: every
+    /// projection only changes sign, and only squares enter.
+    #[test]
+    fn hessian_weight_is_invariant_under_a_half_turn_of_the_axis(
+        q in v3(-2.0..2.0), n in unit(), rn in unit(), angle in 0.0f32..6.3,
+        radius in 0.1f32..4.0, aspect in 0.3f32..1.0, a in 0.1f32..2.0,
+    ) {
+        let m = hessian(a);
+        let u = across(rn, angle);
+        let base = Candidate::new(q.as_dvec3(), n.as_dvec3(), Vec3::ZERO, rn, radius);
+        prop_assert_eq!(
+            m.weight(&base.with_ellipse(aspect, u)),
+            m.weight(&base.with_ellipse(aspect, -u))
+        );
+    }
+
+    /// Inside the influence sphere only: a positive weight implies ‖Δ‖ < a·R (the octree files
+    /// records by that sphere), and along the minor axis the weight vanishes at a·aspect·R.
+    #[test]
+    fn hessian_weight_stays_in_its_ellipse(
+        q in v3(-2.0..2.0), rn in unit(), angle in 0.0f32..6.3,
+        radius in 0.1f32..4.0, aspect in 0.3f32..1.0, a in 0.1f32..2.0, t in 0.0f32..1.5,
+    ) {
+        let m = hessian(a);
+        let u = across(rn, angle);
+        let c = Candidate::new(q.as_dvec3(), rn.as_dvec3(), Vec3::ZERO, rn, radius)
+            .with_ellipse(aspect, u);
+        if m.weight(&c) > 0.0 {
+            prop_assert!(c.distance < f64::from(m.influence_radius(radius)));
+        }
+        // Along the minor axis at t times the scaled minor radius.
+        let along = u.as_dvec3() * (f64::from(t) * f64::from(a) * f64::from(aspect) * f64::from(radius));
+        let c = Candidate::new(along, rn.as_dvec3(), Vec3::ZERO, rn, radius).with_ellipse(aspect, u);
+        // δₜ/a = t up to rounding (a few 2⁻⁵³): away from t = 1 the sign is certain.
+        if t < 0.999 {
+            prop_assert!(m.weight(&c) > 0.0);
+        } else if t > 1.001 {
+            prop_assert_eq!(m.weight(&c), 0.0);
+        }
+    }
+
+    /// Interpolation among elliptical records stays a convex combination: without gradients
+    /// each channel of E(p, n) lies within the records' own range (f64 sums rounded once to f32:
+    /// one ulp of slack).
+    #[test]
+    fn hessian_interpolation_is_convex(
+        records in prop::collection::vec(
+            (v3(-1.0..1.0), 0.2f32..1.5, 0.5f32..1.0, 0.0f32..6.3, rgb()), 1..40),
+        queries in prop::collection::vec(v3(-1.0..1.0), 1..20),
+    ) {
+        let records: Vec<Record<Rgb>> = records
+            .iter()
+            .map(|&(p, r, aspect, angle, v)| {
+                Record::new(Vec3::new(p.x, p.y, 0.0), Vec3::Z, r, v)
+                    .with_ellipse(aspect, across(Vec3::Z, angle))
+            })
+            .collect();
+        let cache = cache_of(hessian(0.8), &records);
+        let lo = records.iter().fold(Vec3::splat(f32::INFINITY), |m, r| m.min(Vec3::from_slice(r.value.channels())));
+        let hi = records.iter().fold(Vec3::splat(f32::NEG_INFINITY), |m, r| m.max(Vec3::from_slice(r.value.channels())));
+        for q in queries {
+            if let Some(i) = cache.interpolate(Vec3::new(q.x, q.y, 0.0), Vec3::Z) {
+                let v = Vec3::from_slice(i.value.channels());
+                let slack = hi.abs() * f32::EPSILON;
+                prop_assert!(v.cmpge(lo - slack).all() && v.cmple(hi + slack).all(), "{v} not in [{lo}, {hi}]");
+            }
+        }
+    }
+}
+
+/// An anisotropic record's minor axis is made perpendicular to its normal and unit; a missing or
+/// normal-parallel axis on an ellipse, and an aspect outside (0, 1], are refused.
+#[test]
+fn ellipses_are_validated() {
+    let r = Record::new(Vec3::ZERO, Vec3::Z, 1.0, Rgb::new(1.0, 1.0, 1.0));
+    let v = r
+        .with_ellipse(0.5, Vec3::new(2.0, 0.0, 1.0))
+        .validated()
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(v.tangent, Vec3::X);
+    assert_eq!(
+        r.with_ellipse(0.5, Vec3::ZERO).validated(),
+        Err(InsertError::Tangent)
+    );
+    assert_eq!(
+        r.with_ellipse(0.5, Vec3::Z).validated(),
+        Err(InsertError::Tangent)
+    );
+    for bad in [0.0, -0.5, 1.5, f32::NAN] {
+        assert!(matches!(
+            r.with_ellipse(bad, Vec3::X).validated(),
+            Err(InsertError::Aspect(_))
+        ));
+    }
+    // Isotropic records need no axis.
+    assert!(r.validated().is_ok());
 }
