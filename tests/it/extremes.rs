@@ -5,7 +5,7 @@ use crate::support::{ic_image, path_image, rel_mse};
 use glam::Vec3;
 use irr_geometry::{Geometry, TriangleMesh};
 use irr_integrator::Scene;
-use irr_render::{Camera, IcSettings, Image, RenderSettings, load_gltf};
+use irr_render::{Camera, IcSettings, Image, MetricKind, RenderSettings, load_gltf};
 use std::path::Path;
 
 /// The Cornell box's meshes, materials and camera, every position mapped by `f` (a uniform scale
@@ -44,9 +44,24 @@ fn ic_render(scene: &Scene, camera: &Camera, settings: &RenderSettings) -> Image
     ic_image(scene, camera, ic, settings).0
 }
 
+/// The cache with the Hessian metric: elliptical records whose radii come from the irradiance
+/// Hessian (1/length²) and the scene's diagonal.
+fn hessian_render(scene: &Scene, camera: &Camera, settings: &RenderSettings) -> Image {
+    let ic = IcSettings {
+        strata_m: 8,
+        strata_n: 32,
+        metric: MetricKind::Hessian,
+        error: 0.5,
+        ..IcSettings::default()
+    };
+    ic_image(scene, camera, ic, settings).0
+}
+
 /// No record, weight, radius, clamp, octree query or ray offset depends on the unit: the Cornell
 /// box in metres, in millimetres (×1000) and at ×1e-4 gives the same image with the same seed,
-/// for the irradiance cache and for the path tracer. "The same" is measured against the natural
+/// for the irradiance cache (with Tabellion & Lamorlette's metric and with the Hessian's, whose
+/// radii (4/|λ|)^¼ scale as √length until the scene's diagonal makes them lengths) and for the
+/// path tracer. "The same" is measured against the natural
 /// scale of the images' differences: two renders of the unscaled scene with different seeds.
 /// With the same seed the scaled render follows the same random numbers, so its difference from
 /// the unscaled one must be far below that noise; we allow a quarter of it (a scale-dependent
@@ -70,6 +85,7 @@ fn units_do_not_change_the_image() {
             "cache",
             ic_render as fn(&Scene, &Camera, &RenderSettings) -> Image,
         ),
+        ("hessian cache", hessian_render),
         ("path", path_image),
     ] {
         let base = render_with(&scene, &camera, &settings);
@@ -110,6 +126,7 @@ fn far_from_the_origin_the_image_holds() {
             "cache",
             ic_render as fn(&Scene, &Camera, &RenderSettings) -> Image,
         ),
+        ("hessian cache", hessian_render),
         ("path", path_image),
     ] {
         let base = render_with(&scene, &camera, &settings);

@@ -7,8 +7,8 @@ use glam::Vec3;
 use irr_geometry::Geometry;
 use irr_integrator::{Integrator, Material, Scene};
 use irr_render::{
-    Camera, IcSettings, Image, IrradianceCacheIntegrator, LeakGuard, LoadedScene, PathSettings,
-    PathTracer, RenderSettings, build_cache, load_scene, render,
+    Camera, IcSettings, Image, IrradianceCacheIntegrator, LeakGuard, LoadedScene, MetricKind,
+    PathSettings, PathTracer, RenderSettings, build_cache, load_scene, render,
 };
 use std::path::Path;
 
@@ -397,6 +397,24 @@ fn indirect_reference(scene: &Scene, camera: &Camera, settings: &RenderSettings)
 /// - and its mean bias is smaller than the loosest setting's.
 #[test]
 fn the_cache_converges_to_the_path_tracer() {
+    assert_converges(
+        MetricKind::TabellionLamorlette,
+        [(0.5, 6, 24), (1.0, 8, 32), (2.0, 12, 48), (4.0, 16, 64)],
+    );
+}
+
+/// The same consistency for the Hessian metric's elliptical records (its parameter a is
+/// stricter when smaller: the ladder halves it).
+#[test]
+fn the_hessian_cache_converges_to_the_path_tracer() {
+    assert_converges(
+        MetricKind::Hessian,
+        [(2.0, 6, 24), (1.0, 8, 32), (0.5, 12, 48), (0.25, 16, 64)],
+    );
+}
+
+/// The body of the two tests above: `ladder` is (error, M, N) from loose to tight.
+fn assert_converges(metric: MetricKind, ladder: [(f32, u32, u32); 4]) {
     let loaded = cornell();
     let (w, h) = (16u32, 16u32);
     let camera = loaded.camera_for(w, h);
@@ -408,16 +426,11 @@ fn the_cache_converges_to_the_path_tracer() {
         threads: 0,
     };
     let (reference, reference_noise) = indirect_reference(&loaded.scene, &camera, &settings);
-    let ladder = [
-        (0.5f32, 6u32, 24u32),
-        (1.0, 8, 32),
-        (2.0, 12, 48),
-        (4.0, 16, 64),
-    ];
     let mut errors = Vec::new();
-    for (kappa, m, n) in ladder {
+    for (error, m, n) in ladder {
         let ic = IcSettings {
-            error: kappa,
+            metric,
+            error,
             strata_m: m,
             strata_n: n,
             ..IcSettings::default()
@@ -426,15 +439,17 @@ fn the_cache_converges_to_the_path_tracer() {
         let e = rel_mse(&image, &reference);
         let b = mean_bias(&image, &reference);
         println!(
-            "κ = {kappa}, {m}×{n}: {records} records, relMSE {e:.3e}, bias {:+.3} %",
+            "{metric:?} {error}, {m}×{n}: {records} records, relMSE {e:.3e}, bias {:+.3} %",
             100.0 * b
         );
         errors.push((e, b));
     }
+    let (error, m, n) = ladder[3];
     let tight = IcSettings {
-        error: 4.0,
-        strata_m: 16,
-        strata_n: 64,
+        metric,
+        error,
+        strata_m: m,
+        strata_n: n,
         ..IcSettings::default()
     };
     let (a, _) = ic_indirect(

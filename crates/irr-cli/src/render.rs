@@ -39,6 +39,9 @@ pub enum MetricChoice {
     TabellionLamorlette,
     /// Ward et al. 1988: --error is a (smaller is stricter)
     Ward,
+    /// Schwarzhaupt et al. 2012 (Radiance 4.2): elliptical records sized by the irradiance
+    /// Hessian, with occlusion-aware gradients; --error is a (smaller is stricter)
+    Hessian,
 }
 
 /// The records' translation gradient.
@@ -79,7 +82,9 @@ pub struct IcArgs {
     #[arg(long, value_enum, default_value_t = MetricChoice::TabellionLamorlette)]
     pub metric: MetricChoice,
     /// The error parameter: κ for tabellion-lamorlette (> 0, larger is stricter), a for ward
-    /// (> 0, smaller is stricter)
+    /// (> 0, smaller is stricter), a for hessian (> 0, smaller is stricter: a record is used
+    /// within a times its radii, which are Radiance's (4/|λ|)^¼ in units of the scene's
+    /// diagonal)
     #[arg(long, default_value_t = IcSettings::default().error, allow_negative_numbers = true)]
     pub error: f32,
     /// Hemisphere strata M×N of a gather (M along θ, N along φ)
@@ -163,6 +168,7 @@ impl IcArgs {
             metric: match self.metric {
                 MetricChoice::TabellionLamorlette => MetricKind::TabellionLamorlette,
                 MetricChoice::Ward => MetricKind::Ward,
+                MetricChoice::Hessian => MetricKind::Hessian,
             },
             error: self.error,
             strata_m: self.strata.0,

@@ -4,7 +4,7 @@
 use super::builder::{Candidate, Probe};
 use super::guard::GuardRecord;
 use super::levels::Core;
-use super::settings::GradientMode;
+use super::settings::{GradientMode, MetricKind};
 use super::value::{IcValue, to_rgb_record};
 use crate::integrator::RayCounter;
 use crate::path::ShadingPoint;
@@ -13,9 +13,13 @@ use glam::Vec3;
 use irr_cache::{RadiusInputs, Record};
 use irr_geometry::{Ray, SurfacePoint};
 use irr_gradients::{
-    CellSamples, GatherSamples, Gradients, TranslationGradient, plan_extra_samples,
+    CellSamples, Curvature, GatherSamples, Gradients, TranslationGradient, plan_extra_samples,
 };
 use irr_sampling::{Cell, Frame, HemisphereStrata, SampleKey};
+
+/// The smallest minor radius as a fraction of the major: Radiance's 2:1 cap on the anisotropy
+/// (a longer ellipse trusts one eigenvalue of a noisy Hessian too far).
+const MIN_ASPECT: f64 = 0.5;
 
 /// A gather cell's traced ray: what it hit (`None`: it left the scene), its direction and the
 /// cell's sample key.
@@ -77,7 +81,17 @@ impl<V: IcValue> Core<V> {
             let local = strata.sample(cell, cell_key.uniform_2d(0));
             let w = frame.to_world(local);
             let ray = (w.dot(x.ng) > 0.0).then(|| Ray::spawn(x.position, x.ng, w));
-            (ray, w, cell_key, local.z.clamp(0.0, 1.0))
+            (ray, w, cell_key, local)
+        };
+        // The Hessian metric's triangle fan needs each cell's direction; the other metrics
+        // only its cos θ.
+        let fan = self.settings.metric == MetricKind::Hessian;
+        let attach = |g: GatherSamples<V::Gathered>, local: &[Vec3]| {
+            if fan {
+                g.with_directions(local.to_vec())
+            } else {
+                g.with_cos_theta(local.iter().map(|w| w.z.clamp(0.0, 1.0)).collect())
+            }
         };
         // Traces `batch` (each ray's direction and key in `meta`) and returns each ray's
         // (value, distance), in order. A gather's rays share their origin and neighbouring
@@ -109,13 +123,13 @@ impl<V: IcValue> Core<V> {
                 .collect::<Vec<_>>()
         };
         // The first ray of every cell.
-        let mut cos_theta = Vec::with_capacity(strata.len());
+        let mut local = Vec::with_capacity(strata.len());
         let mut below = Vec::with_capacity(strata.len());
         let mut batch = Vec::with_capacity(strata.len());
         let mut meta = Vec::with_capacity(strata.len());
         for cell in strata.cells() {
-            let (ray, w, k, cos) = ray_of(cell, 0);
-            cos_theta.push(cos);
+            let (ray, w, k, dir) = ray_of(cell, 0);
+            local.push(dir);
             below.push(ray.is_none());
             if let Some(ray) = ray {
                 batch.push(ray);
@@ -137,7 +151,7 @@ impl<V: IcValue> Core<V> {
             .unzip();
         let Some(more) = more else {
             let pilot = GatherSamples::new(strata, radiance, distance)
-                .and_then(|g| g.with_cos_theta(cos_theta))
+                .and_then(|g| attach(g, &local))
                 .ok()?;
             return Some((pilot, None, frame));
         };
@@ -147,7 +161,7 @@ impl<V: IcValue> Core<V> {
             .map(|(value, distance)| CellSamples::first(value, distance))
             .collect();
         let pilot = GatherSamples::from_cells(strata, &cells)
-            .and_then(|g| g.with_cos_theta(cos_theta.clone()))
+            .and_then(|g| attach(g, &local))
             .ok()?;
         // The extra rays of the plan, all in one batch.
         let plan = plan_extra_samples(&pilot, &below, more.target, more.cap);
@@ -174,7 +188,7 @@ impl<V: IcValue> Core<V> {
             cells[i].push(value, distance);
         }
         let samples = GatherSamples::from_cells(strata, &cells)
-            .and_then(|g| g.with_cos_theta(cos_theta))
+            .and_then(|g| attach(g, &local))
             .ok()?;
         Some((samples, Some(pilot), frame))
     }
@@ -195,6 +209,15 @@ impl<V: IcValue> Core<V> {
         frame: &Frame,
         spacing: f32,
     ) -> (Record<V>, RadiusInputs, f32) {
+        if self.settings.metric == MetricKind::Hessian {
+            let (record, distance) = self.hessian_record(x, (samples, pilot), frame);
+            let inputs = RadiusInputs {
+                distance,
+                limits: self.limits(level, spacing),
+                neighbour_clamping: self.settings.neighbour_clamping,
+            };
+            return (record, inputs, samples.min_distance().min(self.diagonal));
+        }
         let variant = match self.settings.gradients {
             // Without gradients only E is computed.
             GradientMode::Off => None,
@@ -225,6 +248,67 @@ impl<V: IcValue> Core<V> {
         // finite (so a cache file can refuse any non-finite distance), and no query within half
         // the diagonal needs a shadow ray, as no query at any distance did with +∞.
         (record, inputs, samples.min_distance().min(self.diagonal))
+    }
+
+    /// A Hessian-metric record at `x` and its major radius (before the pipeline's limits):
+    /// the triangle fan of the first rays (`pilot`, or `samples` when not super-sampled) gives
+    /// the tangent curvature; the fan of all `samples` gives the occlusion-aware translation
+    /// gradient (with `--gradients` not off; the rotation gradient is Ward & Heckbert's).
+    ///
+    /// Radii: Radiance's rᵢ = (4/|λᵢ|)^¼ (Schwarzhaupt et al. 2012: the radius that bounds a
+    /// record's integrated second-order error), which scales as √length, made a length by the
+    /// scene's diagonal D: rᵢ = √D·(4/|λᵢ|)^¼ — Radiance's radii in units where the scene's
+    /// diagonal is 1, so a scene drawn at any scale gets the same records. The major radius
+    /// comes from the smaller |λ| (+∞ for a flat direction: the pipeline's limits bound it);
+    /// the minor is at least half the major (Radiance's 2:1 cap), along the direction of the
+    /// larger |λ|.
+    fn hessian_record(
+        &self,
+        x: &ShadingPoint,
+        (samples, pilot): (
+            &GatherSamples<V::Gathered>,
+            Option<&GatherSamples<V::Gathered>>,
+        ),
+        frame: &Frame,
+    ) -> (Record<V>, f32) {
+        let curvature = Curvature::of(&pilot.unwrap_or(samples).fan().hessian);
+        let scale = f64::from(self.diagonal).sqrt();
+        let radius = |lambda: f64| {
+            if lambda > 0.0 {
+                scale * (4.0 / lambda).sqrt().sqrt()
+            } else {
+                f64::INFINITY
+            }
+        };
+        let (major, minor) = (radius(curvature.minor), radius(curvature.major));
+        let aspect = if major.is_finite() {
+            (minor / major).clamp(MIN_ASPECT, 1.0) as f32
+        } else if minor.is_finite() {
+            MIN_ASPECT as f32
+        } else {
+            1.0
+        };
+        let tangent = frame.to_world(curvature.axis.as_vec3());
+        let record = if self.settings.gradients == GradientMode::Off {
+            Record::new(
+                x.position,
+                x.ns,
+                1.0,
+                V::from_gathered(samples.irradiance()),
+            )
+        } else {
+            let g = Gradients {
+                irradiance: samples.irradiance(),
+                rotation: samples.rotation_gradient(),
+                translation: samples.fan().gradient,
+            }
+            .in_world(frame);
+            Record::new(x.position, x.ns, 1.0, V::from_gathered(g.irradiance)).with_gradients(
+                g.translation.map(V::from_gathered),
+                g.rotation.map(V::from_gathered),
+            )
+        };
+        (record.with_ellipse(aspect, tangent), major as f32)
     }
 
     /// The candidate of `probe` from its gather.

@@ -3,7 +3,9 @@
 
 use super::radius::HORIZON_CUT_COS;
 use crate::path::PathSettings;
-use irr_cache::{ErrorMetric, MetricError, PixelRange, RadiusLimits, TabellionLamorlette, Ward};
+use irr_cache::{
+    ErrorMetric, Hessian, MetricError, PixelRange, RadiusLimits, TabellionLamorlette, Ward,
+};
 use irr_sampling::HemisphereStrata;
 use thiserror::Error;
 
@@ -15,6 +17,9 @@ pub enum MetricKind {
     TabellionLamorlette,
     /// Ward et al. 1988; the error parameter is a (smaller is stricter).
     Ward,
+    /// Schwarzhaupt et al. 2012 (Radiance ≥ 4.2): elliptical records sized by the irradiance
+    /// Hessian of the gather's triangle fan; the error parameter is a (smaller is stricter).
+    Hessian,
 }
 
 /// The cache's metric as one concrete type, so one cache type serves both.
@@ -24,6 +29,8 @@ pub enum IcMetric {
     TabellionLamorlette(TabellionLamorlette),
     /// See [`Ward`].
     Ward(Ward),
+    /// See [`Hessian`].
+    Hessian(Hessian),
 }
 
 impl ErrorMetric for IcMetric {
@@ -32,6 +39,7 @@ impl ErrorMetric for IcMetric {
         match self {
             Self::TabellionLamorlette(m) => m.influence_radius(record_radius),
             Self::Ward(m) => m.influence_radius(record_radius),
+            Self::Hessian(m) => m.influence_radius(record_radius),
         }
     }
     #[inline]
@@ -39,12 +47,14 @@ impl ErrorMetric for IcMetric {
         match self {
             Self::TabellionLamorlette(m) => m.weight(candidate),
             Self::Ward(m) => m.weight(candidate),
+            Self::Hessian(m) => m.weight(candidate),
         }
     }
     fn radius_limits(&self, pixel_spacing: f32) -> RadiusLimits {
         match self {
             Self::TabellionLamorlette(m) => m.radius_limits(pixel_spacing),
             Self::Ward(m) => m.radius_limits(pixel_spacing),
+            Self::Hessian(m) => m.radius_limits(pixel_spacing),
         }
     }
 }
@@ -371,6 +381,11 @@ impl IcSettings {
             ),
             MetricKind::Ward => IcMetric::Ward(
                 Ward::new(self.error * loosen)
+                    .map_err(bad)?
+                    .with_pixel_range(pixels),
+            ),
+            MetricKind::Hessian => IcMetric::Hessian(
+                Hessian::new(self.error * loosen)
                     .map_err(bad)?
                     .with_pixel_range(pixels),
             ),
