@@ -53,6 +53,8 @@ pub enum GradientChoice {
     WardHeckbert,
     /// Křivánek et al. 2005
     KrivanekGautron,
+    /// The occlusion-aware gradient of the gather's triangle fan (Schwarzhaupt et al. 2012)
+    Fan,
 }
 
 /// The statistic of a gather's hit distances that sizes its record.
@@ -182,6 +184,7 @@ impl IcArgs {
                 GradientChoice::Off => GradientMode::Off,
                 GradientChoice::WardHeckbert => GradientMode::WardHeckbert,
                 GradientChoice::KrivanekGautron => GradientMode::KrivanekGautron,
+                GradientChoice::Fan => GradientMode::Fan,
             },
             radius_statistic: match self.radius_statistic {
                 RadiusChoice::Harmonic => RadiusStatistic::HarmonicMean,

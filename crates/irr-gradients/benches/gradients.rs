@@ -1,5 +1,5 @@
-//! Benchmarks of the gradient estimators: the cost of one record's gradients (both variants) and
-//! of building a gather, for the sample counts an irradiance cache uses (256 to 4096 cells).
+//! Benchmarks of the gradient estimators: the cost of one record's gradients (both variants), of
+//! the triangle fan, and of building a gather, for the sample counts an irradiance cache uses (256 to 4096 cells).
 //!
 //! Run with `cargo bench -p irr-gradients`.
 
@@ -35,6 +35,14 @@ fn gradients_ward_heckbert(bencher: Bencher, samples: u32) {
 fn gradients_krivanek_gautron(bencher: Bencher, samples: u32) {
     let g = gather(samples);
     bencher.bench(|| divan::black_box(&g).gradients(TranslationGradient::KrivanekGautron));
+}
+
+/// The triangle fan (the Hessian metric's curvature and occlusion-aware gradient), once per
+/// record.
+#[divan::bench(args = [256, 1024, 4096])]
+fn triangle_fan(bencher: Bencher, samples: u32) {
+    let g = gather(samples);
+    bencher.bench(|| divan::black_box(&g).fan());
 }
 
 #[divan::bench(args = [1024])]

@@ -59,6 +59,8 @@ pub enum Group {
     Ladder,
     /// The default κ with other strata.
     Strata,
+    /// The Hessian metric's ladder: its accuracy a with the gathers' M×N growing alongside.
+    Hessian,
     /// One setting changed from the defaults.
     Variant,
     /// A setting asked for with `--extra`.
@@ -72,6 +74,7 @@ impl Group {
             Group::Spp => "spp",
             Group::Ladder => "kappa",
             Group::Strata => "strata",
+            Group::Hessian => "hessian",
             Group::Variant => "variant",
             Group::Extra => "extra",
         }

@@ -7,7 +7,8 @@
 //!    bytes, the size, the samples, the seeds, the path tracer's settings, the renderer's
 //!    source). relMSE between the halves / 4 is its own noise, printed beside every error.
 //! 2. Runs, all with seed [`RUN_SEED`]: the path tracer over spp, raw and denoised by OIDN; the
-//!    irradiance cache along its κ ladder, raw and denoised; and the cache's ablations (other
+//!    irradiance cache along its κ ladder, raw and denoised; the Hessian metric's ladder (its
+//!    accuracy a with the strata, beside the κ ladder); and the cache's ablations (other
 //!    strata, gradients, clamping, bounce modes, radius statistic, adaptive gathers). A
 //!    denoised run's time includes the auxiliary images and the denoiser.
 //! 3. A report in target/compare/<scene>/ (`runs.csv`, `report.md`, `plot.svg`, heat maps,
@@ -23,7 +24,7 @@ use clap::Args;
 use figures::{Curve, Group, Method, Run, level_rows, pareto_front};
 use irr_render::{
     BounceMode, CacheBuilder, DENOISER, DENOISER_AOVS, GradientMode, IcSettings, Image, Integrator,
-    IrradianceCacheIntegrator, LoadedScene, PathSettings, PathTracer, RadiusStatistic,
+    IrradianceCacheIntegrator, LoadedScene, MetricKind, PathSettings, PathTracer, RadiusStatistic,
     RenderSettings, build_cache, denoise, load_scene, render_with_aovs,
 };
 use metrics::{block_errors, metrics, metrics_with_flip};
@@ -239,6 +240,28 @@ fn ic_sweep(quick: bool) -> Vec<Sweep> {
             group: Group::Strata,
             kappa: base.error,
             settings: IcSettings {
+                strata_m: m,
+                strata_n: n,
+                ..base
+            },
+        });
+    }
+    // The Hessian metric's ladder, its a chosen so that each rung's record count is near the κ
+    // ladder's (on the Cornell box: a ≈ 0.85 gives κ 0.65's count, a ≈ 0.5 κ 1.06's).
+    for &(a, m, n) in &[
+        (2.5f32, 8u32, 32u32),
+        (1.1, 12, 48),
+        (0.5, 16, 64),
+        (0.35, 24, 96),
+        (0.25, 32, 128),
+    ] {
+        out.push(Sweep {
+            label: format!("metric=hessian a={a} strata={m}x{n}"),
+            group: Group::Hessian,
+            kappa: base.error,
+            settings: IcSettings {
+                metric: MetricKind::Hessian,
+                error: a,
                 strata_m: m,
                 strata_n: n,
                 ..base

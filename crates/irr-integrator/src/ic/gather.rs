@@ -85,7 +85,8 @@ impl<V: IcValue> Core<V> {
         };
         // The Hessian metric's triangle fan needs each cell's direction; the other metrics
         // only its cos θ.
-        let fan = self.settings.metric == MetricKind::Hessian;
+        let fan = self.settings.metric == MetricKind::Hessian
+            || self.settings.gradients == GradientMode::Fan;
         let attach = |g: GatherSamples<V::Gathered>, local: &[Vec3]| {
             if fan {
                 g.with_directions(local.to_vec())
@@ -223,6 +224,7 @@ impl<V: IcValue> Core<V> {
             GradientMode::Off => None,
             GradientMode::WardHeckbert => Some(TranslationGradient::WardHeckbert),
             GradientMode::KrivanekGautron => Some(TranslationGradient::KrivanekGautron),
+            GradientMode::Fan => Some(TranslationGradient::OcclusionFan),
         };
         let record = match variant {
             None => Record::new(
@@ -252,8 +254,8 @@ impl<V: IcValue> Core<V> {
 
     /// A Hessian-metric record at `x` and its major radius (before the pipeline's limits):
     /// the triangle fan of the first rays (`pilot`, or `samples` when not super-sampled) gives
-    /// the tangent curvature; the fan of all `samples` gives the occlusion-aware translation
-    /// gradient (with `--gradients` not off; the rotation gradient is Ward & Heckbert's).
+    /// the tangent curvature; the translation gradient is `--gradients`' (with `fan`, the
+    /// occlusion-aware gradient of the fan of all `samples`).
     ///
     /// Radii: Radiance's rᵢ = (4/|λᵢ|)^¼ (Schwarzhaupt et al. 2012: the radius that bounds a
     /// record's integrated second-order error), which scales as √length, made a length by the
@@ -271,7 +273,9 @@ impl<V: IcValue> Core<V> {
         ),
         frame: &Frame,
     ) -> (Record<V>, f32) {
-        let curvature = Curvature::of(&pilot.unwrap_or(samples).fan().hessian);
+        // One fan when the gather was not super-sampled: its Hessian and its gradient.
+        let fan = samples.fan();
+        let curvature = Curvature::of(&pilot.map_or(fan.hessian, |p| p.fan().hessian));
         let scale = f64::from(self.diagonal).sqrt();
         let radius = |lambda: f64| {
             if lambda > 0.0 {
@@ -289,23 +293,33 @@ impl<V: IcValue> Core<V> {
             1.0
         };
         let tangent = frame.to_world(curvature.axis.as_vec3());
-        let record = if self.settings.gradients == GradientMode::Off {
-            Record::new(
-                x.position,
-                x.ns,
-                1.0,
-                V::from_gathered(samples.irradiance()),
-            )
-        } else {
+        let translation = match self.settings.gradients {
+            GradientMode::Off => None,
+            GradientMode::WardHeckbert => {
+                Some(samples.translation_gradient(TranslationGradient::WardHeckbert))
+            }
+            GradientMode::KrivanekGautron => {
+                Some(samples.translation_gradient(TranslationGradient::KrivanekGautron))
+            }
+            GradientMode::Fan => Some(fan.gradient),
+        };
+        let record = if let Some(translation) = translation {
             let g = Gradients {
                 irradiance: samples.irradiance(),
                 rotation: samples.rotation_gradient(),
-                translation: samples.fan().gradient,
+                translation,
             }
             .in_world(frame);
             Record::new(x.position, x.ns, 1.0, V::from_gathered(g.irradiance)).with_gradients(
                 g.translation.map(V::from_gathered),
                 g.rotation.map(V::from_gathered),
+            )
+        } else {
+            Record::new(
+                x.position,
+                x.ns,
+                1.0,
+                V::from_gathered(samples.irradiance()),
             )
         };
         (record.with_ellipse(aspect, tangent), major as f32)

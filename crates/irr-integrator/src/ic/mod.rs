@@ -43,6 +43,19 @@
 //! to the textured one by the rotation gradient, would be cheaper but keep a bias of second order
 //! in the tilt that no error parameter removes.)
 //!
+//! # Hessian records
+//! With [`MetricKind::Hessian`] (`--metric hessian`) a record is an ellipse on its tangent plane
+//! (Schwarzhaupt, Jensen & Jarosz 2012; Radiance ≥ 4.2): its gather keeps each ray's direction,
+//! irr-gradients' triangle fan over the hit points gives the relative irradiance Hessian, and
+//! its tangent block's eigenvalues λ give the radii √D·(4/|λ|)^¼ (D the scene's diagonal: the
+//! radii stay lengths, so the image does not depend on the unit), the minor one along the
+//! direction of fastest curvature and at least half the major. The same fan gives the
+//! occlusion-aware translation gradient. The radius pipeline (gradient limit, pixel and world
+//! limits, neighbour clamping) acts on the major radius; the metric uses a record within the
+//! ellipse scaled by the accuracy a (`irr_cache::Hessian`). Records are placed where the
+//! irradiance curves, not where geometry is near: large on open walls, small at contact
+//! shadows and light boundaries.
+//!
 //! A record's gather at x traces one cosine-distributed ray per cell of an M×N
 //! [`HemisphereStrata`]; the radiance a ray brings back from the point x₁ it hits is what x₁
 //! *reflects* towards x (its emission excluded: that is x's `direct`): (ρ(x₁)/π) times the

@@ -69,6 +69,9 @@ pub enum GradientMode {
     WardHeckbert,
     /// Křivánek et al. 2005 in Křivánek & Gautron's form (Mitsuba 0.6).
     KrivanekGautron,
+    /// The occlusion-aware gradient of the gather's triangle fan (Schwarzhaupt et al. 2012;
+    /// Radiance ≥ 4.2): irr-gradients' `TranslationGradient::OcclusionFan`.
+    Fan,
 }
 
 /// Which statistic of a gather's hit distances sizes its record (the hits more than 10° above
@@ -137,7 +140,10 @@ pub struct IcSettings {
     /// The metric. Default: Tabellion & Lamorlette.
     pub metric: MetricKind,
     /// The error parameter: κ for Tabellion & Lamorlette (larger is stricter; default 1, range
-    /// (0, ∞)), or a for Ward (smaller is stricter; typical 0.1–0.3).
+    /// (0, ∞)), a for Ward (smaller is stricter; typical 0.1–0.3), or a for the Hessian metric
+    /// (smaller is stricter; range (0, ∞), records used within a times their radii
+    /// √D·(4/|λ|)^¼, D the scene's diagonal; 0.5–0.85 matches κ = 1's record count on the
+    /// scenes in assets/).
     pub error: f32,
     /// M, strata along θ of a first-level gather. Default: 16. Range: ≥ 1 (M·N ≤ 2²⁰).
     ///
