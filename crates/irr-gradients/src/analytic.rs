@@ -23,6 +23,32 @@ pub fn fixed_config(cases: u32, seed: u64) -> proptest::test_runner::Config {
     }
 }
 
+/// Gauss–Legendre nodes and weights on [−1, 1] (Newton's iteration on Pₙ; Golub–Welsch would do
+/// as well): exact for polynomials of degree 2n − 1.
+pub fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
+    (0..n)
+        .map(|i| {
+            let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+            let mut dp = 0.0;
+            for _ in 0..100 {
+                let (mut p0, mut p1) = (1.0, x);
+                for k in 2..=n {
+                    let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
+                    p0 = p1;
+                    p1 = p2;
+                }
+                dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
+                let dx = p1 / dp;
+                x -= dx;
+                if dx.abs() < 1e-16 {
+                    break;
+                }
+            }
+            (x, 2.0 / ((1.0 - x * x) * dp * dp))
+        })
+        .collect()
+}
+
 /// The angle step of the rotation differences (see `known_answers` for the error bound).
 pub const ROTATION_STEP: f64 = 1e-6;
 

@@ -15,36 +15,11 @@
 //! The truth is the derivative of the patch's irradiance, by central differences of a
 //! Gauss–Legendre quadrature of E(x, n) = L ∫ cos θₓ cos θ_y / d² dA over the patch (f64).
 
+use crate::analytic::gauss_legendre;
 use crate::{GatherSamples, TranslationGradient};
 use glam::DVec3;
 use irr_sampling::HemisphereStrata;
 use std::f64::consts::{PI, TAU};
-
-/// Gauss–Legendre nodes and weights on [−1, 1] (Newton's iteration on Pₙ; Golub–Welsch would do
-/// as well). With n = 16 on each of 8 panels the smooth integrands below are exact to ~1e-15.
-fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    (0..n)
-        .map(|i| {
-            let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-            let mut dp = 0.0;
-            for _ in 0..100 {
-                let (mut p0, mut p1) = (1.0, x);
-                for k in 2..=n {
-                    let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-                let dx = p1 / dp;
-                x -= dx;
-                if dx.abs() < 1e-16 {
-                    break;
-                }
-            }
-            (x, 2.0 / ((1.0 - x * x) * dp * dp))
-        })
-        .collect()
-}
 
 /// A spherical patch: radius R about the origin, θ ∈ [θa, θb], φ ∈ [φa, φb], radiance L.
 struct Patch {
@@ -58,6 +33,7 @@ impl Patch {
     /// E at x with normal n (only the patch's part above the tangent plane counts; here the
     /// patch stays well above it).
     fn irradiance(&self, x: DVec3, n: DVec3) -> f64 {
+        // 16 nodes on each of 8 panels: the smooth integrands here are exact to ~1e-15.
         let gl = gauss_legendre(16);
         let panels = 8;
         let mut sum = 0.0;

@@ -3,7 +3,7 @@
 //! triangles held fixed while the viewpoint moves, a step's closed-form curvature converging as
 //! the strata grow, exact scaling, and the eigen-decomposition.
 
-use crate::analytic::{Scene, fixed_config};
+use crate::analytic::{Scene, fixed_config, gauss_legendre};
 use crate::hessian::{accumulate, fan_triangles, with_horizon};
 use crate::{Curvature, GatherSamples, edge_integrals, edge_terms};
 use glam::{DMat3, DVec3};
@@ -11,40 +11,17 @@ use irr_sampling::{HemisphereStrata, SampleKey};
 use proptest::prelude::*;
 use std::f64::consts::PI;
 
-/// Gauss–Legendre nodes and weights on [0, 1], by Newton's iteration on Pₙ (Golub–Welsch would
-/// do too; Newton from the Chebyshev guesses converges to f64 precision in a few steps).
-fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    (0..n)
-        .map(|i| {
-            let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-            let mut dp = 0.0;
-            for _ in 0..100 {
-                let (mut p0, mut p1) = (1.0, x);
-                for k in 2..=n {
-                    let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-                let step = p1 / dp;
-                x -= step;
-                if step.abs() < 1e-16 {
-                    break;
-                }
-            }
-            let w = 2.0 / ((1.0 - x * x) * dp * dp);
-            (0.5 * (1.0 - x), 0.5 * w)
-        })
-        .collect()
-}
-
 /// ∫₀¹ f by 16-point Gauss–Legendre on `panels` equal panels.
 fn quadrature<T: std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>>(
     panels: usize,
     zero: T,
     f: impl Fn(f64) -> T,
 ) -> T {
-    let rule = gauss_legendre(16);
+    // The rule on [−1, 1] carried to [0, 1].
+    let rule: Vec<(f64, f64)> = gauss_legendre(16)
+        .into_iter()
+        .map(|(x, w)| (0.5 * (1.0 - x), 0.5 * w))
+        .collect();
     let h = 1.0 / panels as f64;
     let mut sum = zero;
     for p in 0..panels {
