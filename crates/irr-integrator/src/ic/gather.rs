@@ -273,9 +273,16 @@ impl<V: IcValue> Core<V> {
         ),
         frame: &Frame,
     ) -> (Record<V>, f32) {
-        // One fan when the gather was not super-sampled: its Hessian and its gradient.
-        let fan = samples.fan();
-        let curvature = Curvature::of(&pilot.map_or(fan.hessian, |p| p.fan().hessian));
+        // The curvature from the first rays' fan; without super-sampling that fan is also the
+        // one `--gradients fan` reads, so it is computed once.
+        let (hessian, own) = match pilot {
+            None => {
+                let fan = samples.fan();
+                (fan.hessian, Some(fan))
+            }
+            Some(p) => (p.fan().hessian, None),
+        };
+        let curvature = Curvature::of(&hessian);
         let scale = f64::from(self.diagonal).sqrt();
         let radius = |lambda: f64| {
             if lambda > 0.0 {
@@ -301,7 +308,7 @@ impl<V: IcValue> Core<V> {
             GradientMode::KrivanekGautron => {
                 Some(samples.translation_gradient(TranslationGradient::KrivanekGautron))
             }
-            GradientMode::Fan => Some(fan.gradient),
+            GradientMode::Fan => Some(own.unwrap_or_else(|| samples.fan()).gradient),
         };
         let record = if let Some(translation) = translation {
             let g = Gradients {
