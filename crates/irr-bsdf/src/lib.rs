@@ -123,6 +123,7 @@
 //! [`diffuse_albedo`]: MetallicRoughness::diffuse_albedo
 //! [`glossy_probability`]: MetallicRoughness::glossy_probability
 
+pub mod basis;
 pub mod fresnel;
 mod material;
 pub mod microfacet;
