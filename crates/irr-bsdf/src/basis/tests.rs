@@ -1,8 +1,10 @@
+//! The measurement sweeps that fill the module docs' tables are `#[ignore]`d (run them in
+//! release with `--ignored --nocapture`); the asserted tests use small tables and grids.
+
 use super::*;
 use crate::testing::{spec_albedo, to_f32};
 
-/// Prints a measurement table; the sweeps are `#[ignore]`d (run them in release with
-/// `--ignored --nocapture`), the asserted tests use small sizes.
+/// The relative L2 distance ‖a − b‖ / ‖b‖ of two coefficient vectors.
 fn relative(a: &[f64], b: &[f64]) -> f64 {
     let d: f64 = a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum();
     let n: f64 = b.iter().map(|y| y * y).sum();
@@ -142,16 +144,19 @@ fn interpolation_error_shrinks_with_resolution() {
     assert!(e_fine < 0.5 * e_coarse, "{e_fine} vs {e_coarse}");
 }
 
-/// Reconstruction of a lobe: for HSH order 8 at roughness 1 the lobe is smooth and nearly
-/// exactly represented (measured 〈see module docs〉); raising the order never increases the
-/// error (orthogonal projection onto nested spaces, up to quadrature error).
+/// Reconstruction of a lobe: raising the order must lower the error, since HSH of order n is a
+/// subspace of order n + 2 and the coefficients are the orthogonal projection onto it. The
+/// quadrature makes this only approximate (its discrete inner product leaves the basis
+/// orthonormal within the quadrature error, ≲ 1e-2 at 32² nodes), while the decrease from order
+/// to order at roughness 0.6 is several percent or more (module docs' table), so a strict
+/// decrease is asserted.
 #[test]
 fn reconstruction_error_decreases_with_order() {
     let mut last = f64::INFINITY;
     for n in [2, 4, 6] {
         let basis = Basis::hsh(n).unwrap_or_else(|e| panic!("{e}"));
         let e = reconstruction_error(basis, 0.6, 0.7, 32).unwrap_or_else(|e| panic!("{e}"));
-        assert!(e <= last + 1e-9, "order {n}: {e} > {last}");
+        assert!(e < last, "order {n}: {e} > {last}");
         last = e;
     }
 }
