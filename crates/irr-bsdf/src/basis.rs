@@ -13,8 +13,9 @@
 //! below the horizon). With c_k the incoming radiance's coefficients **in the frame whose x axis
 //! is wo's azimuth** (normal +z), the glossy outgoing radiance is Σ_k c_k b_k
 //! ([`GlossyTable::radiance`]). A caller whose wo has azimuth φo ≠ 0 first rotates its
-//! coefficients by −φo about z (irr-sh's [`irr_sh::ShRotation`] for SH; for HSH a z rotation
-//! mixes only (l, m) with (l, −m), by the angle |m|φo, and is the caller's to apply).
+//! coefficients into the frame whose x axis is at azimuth φo: [`rotate_about_z`] (exact for both
+//! SH and HSH, since a rotation about the normal keeps the hemisphere; it mixes only (l, m) with
+//! (l, −m), by the angle |m|φo).
 //!
 //! # The Fresnel split (exact)
 //! irr-bsdf's glossy lobe is F·D·ν with Schlick's F = f0 + (f90 − f0)·w, w = (1 − |wo·h|)⁵, and
@@ -399,6 +400,38 @@ impl GlossyTable {
         }
         Ok(incoming.iter().zip(&b).map(|(c, k)| *c * *k).sum())
     }
+}
+
+/// Re-expresses `coefficients` (of `basis`, real SH or HSH as irr-sh defines them) in the frame
+/// turned by `azimuth` about z, whose x axis points at azimuth `azimuth` of the old frame: a
+/// function's value at a direction of azimuth φ' in the new frame is its value at φ' + azimuth in
+/// the old one. With f = a cos mφ + b sin mφ (a at index (l, m), b at (l, −m)), the new pair is
+/// (a cos mβ + b sin mβ, b cos mβ − a sin mβ) for β = `azimuth`.
+pub fn rotate_about_z<V>(basis: Basis, coefficients: &mut [V], azimuth: f64) -> Result<(), ShError>
+where
+    V: Copy
+        + std::ops::Mul<f32, Output = V>
+        + std::ops::Add<Output = V>
+        + std::ops::Sub<Output = V>,
+{
+    let count = basis.coefficient_count();
+    if coefficients.len() != count {
+        return Err(ShError::LengthMismatch {
+            expected: count,
+            actual: coefficients.len(),
+        });
+    }
+    for l in 0..basis.order() {
+        for m in 1..=l {
+            let (sin, cos) = (m as f64 * azimuth).sin_cos();
+            let (sin, cos) = (sin as f32, cos as f32);
+            let (ip, im) = (l * l + l + m, l * l + l - m);
+            let (a, b) = (coefficients[ip], coefficients[im]);
+            coefficients[ip] = a * cos + b * sin;
+            coefficients[im] = b * cos - a * sin;
+        }
+    }
+    Ok(())
 }
 
 /// The largest relative L2 error ‖b_table − b_direct‖ / ‖b_direct‖ of `table`'s b_A against

@@ -10,6 +10,9 @@
 //!   height-correlated visibility terms, and the visible-normal sampler in a three:
 //!   [`sample_visible_normal`], [`visible_normal_pdf`], [`invert_visible_normal`].
 //! - [`fresnel`]: Schlick's approximation and the dielectric diffuse base's albedo.
+//! - [`basis`]: the cosine-weighted glossy lobe's coefficients in irr-sh's HSH or SH basis per
+//!   view angle ([`basis::GlossyTable`]), for radiance caching (Křivánek et al. 2005), with the
+//!   measured quadrature, interpolation and reconstruction errors.
 //!
 //! # What it must not know
 //! Rays, scenes, textures, glTF files. It takes plain numbers: a base colour (linear RGB),

@@ -224,3 +224,50 @@ fn reconstruction_error_table() {
         println!("{row}");
     }
 }
+
+/// [`rotate_about_z`] against evaluation: the rotated coefficients reconstructed at a direction
+/// with azimuth φ' must equal the original ones reconstructed at φ' + β. Both are sums of
+/// n² = 16 f32 products of values ≲ 1: absolute difference ≲ 16 · 4 · 2⁻²⁴ ≈ 4e-6, asserted at
+/// 1e-5. Checked for SH and HSH.
+#[test]
+fn rotation_about_z_matches_evaluation() {
+    for basis in [Basis::sh(4), Basis::hsh(4)] {
+        let basis = basis.unwrap_or_else(|e| panic!("{e}"));
+        let original: Vec<f32> = (0..16).map(|k| ((k * 7 % 11) as f32 - 5.0) / 7.0).collect();
+        let mut turned = original.clone();
+        let beta = 0.7;
+        rotate_about_z(basis, &mut turned, beta).unwrap_or_else(|e| panic!("{e}"));
+        for (theta, phi) in [(0.3f64, 0.2f64), (1.1, 2.5), (0.8, -1.9)] {
+            let at = |p: f64| DVec3::new(theta.sin() * p.cos(), theta.sin() * p.sin(), theta.cos());
+            let new = basis
+                .reconstruct(&turned, at(phi))
+                .unwrap_or_else(|e| panic!("{e}"));
+            let old = basis
+                .reconstruct(&original, at(phi + beta))
+                .unwrap_or_else(|e| panic!("{e}"));
+            assert!(
+                (new - old).abs() < 1e-5,
+                "{basis:?} {theta} {phi}: {new} vs {old}"
+            );
+        }
+    }
+}
+
+/// The SH version of the uniform-light answer: a constant L has the single SH coefficient
+/// c_00 = L √(4π) (Y_0^0 = 1/√(4π)), and the lobe's SH coefficients (zero below the horizon)
+/// give c_00 b_00 = L ∫ f cos θi dωi. Same grid for both sides, so they agree up to f32 rounding
+/// of the table (2⁻²⁴ relative) and of the products (a few 2⁻²⁴): asserted at 1e-6 relative
+/// against the HSH value, whose H_0^0 = 1/√(2π) gives the same integral.
+#[test]
+fn uniform_light_sh_matches_hsh() {
+    let sh = Basis::sh(2).unwrap_or_else(|e| panic!("{e}"));
+    let hsh = Basis::hsh(2).unwrap_or_else(|e| panic!("{e}"));
+    let (a_sh, _) = glossy_coefficients(sh, 0.3, 0.6, 24).unwrap_or_else(|e| panic!("{e}"));
+    let (a_hsh, _) = glossy_coefficients(hsh, 0.3, 0.6, 24).unwrap_or_else(|e| panic!("{e}"));
+    let via_sh = a_sh[0] * (2.0 * TAU).sqrt();
+    let via_hsh = a_hsh[0] * TAU.sqrt();
+    assert!(
+        (via_sh - via_hsh).abs() <= 1e-6 * via_hsh,
+        "{via_sh} vs {via_hsh}"
+    );
+}
