@@ -1,6 +1,6 @@
 //! The glossy lobe in a (hemi)spherical-harmonic basis, for radiance caching (Křivánek,
 //! Gautron, Pattanaik & Bouatouch 2005, "Radiance Caching for Efficient Global Illumination
-//! Computation", TVCG 11(5), section 4: the BRDF's coefficients are precomputed per view angle
+//! Computation", TVCG 11(5): the BRDF's coefficients are precomputed per view angle
 //! and tabulated, and a shading point's outgoing radiance is their dot product with the incoming
 //! radiance's coefficients).
 //!
