@@ -158,6 +158,27 @@ fn d_nu(alpha: f64, wo: DVec3, wi: DVec3, h: DVec3) -> f64 {
     d * nu
 }
 
+/// The cell of a table axis of `nodes` nodes over [0, 1] that holds `x` (clamped into [0, 1],
+/// NaN read as 0), and the position within it.
+fn cell(x: f32, nodes: usize) -> (usize, f32) {
+    let x = if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
+    let t = x * (nodes - 1) as f32;
+    let i = (t.floor() as usize).min(nodes - 2);
+    (i, t - i as f32)
+}
+
+/// The position on the table's θo axis of cos θo = `cos_o` (clamped into [0, 1], NaN read as 0).
+/// The axis is uniform in θo: the coefficients of odd m vary like sin θo, whose slope in
+/// cos θo is infinite at normal incidence, but which is smooth in θo.
+fn theta_axis(cos_o: f32) -> f32 {
+    let cos_o = if cos_o.is_nan() {
+        0.0
+    } else {
+        cos_o.clamp(0.0, 1.0)
+    };
+    1.0 - cos_o.acos() / std::f32::consts::FRAC_PI_2
+}
+
 /// cos θo at position t ∈ [0, 1] of the table's θo axis: θo = (1 − t) π/2, so t = 1 is normal
 /// incidence and nodes are uniform in θo.
 fn node_cos(t: f64) -> f64 {
@@ -195,6 +216,17 @@ fn for_each_node(alpha: f64, cos_o: f64, nodes: usize, mut f: impl FnMut(DVec3, 
     }
 }
 
+/// Which function of wi a table projects: the lobe times cos θi (its product with the incoming
+/// *radiance*'s coefficients is the reflected radiance), or the lobe alone (its product with the
+/// coefficients of the *cosine-weighted* radiance L cos θi is).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Weighting {
+    /// D ν cos θi: pairs with the coefficients of L.
+    Cosine,
+    /// D ν: pairs with the coefficients of L cos θi.
+    Plain,
+}
+
 /// The coefficients (b_A, b_B) of the Fresnel-free and Schlick-weighted cosine-weighted glossy
 /// lobe (module docs) for GGX width `alpha` and cos θo = `cos_o`, by the quadrature with
 /// `nodes`² nodes. Each vector has `basis.coefficient_count()` entries.
@@ -204,12 +236,26 @@ pub fn glossy_coefficients(
     cos_o: f64,
     nodes: usize,
 ) -> Result<(Vec<f64>, Vec<f64>), BasisTableError> {
+    let (a, b, _) = lobe_coefficients(basis, alpha, cos_o, nodes, Weighting::Cosine)?;
+    Ok((a, b))
+}
+
+/// [`glossy_coefficients`] with either [`Weighting`], and the squared L2 norm ∫ g² dωi of the
+/// Fresnel-free function g projected (for the reconstruction error by Parseval's identity).
+fn lobe_coefficients(
+    basis: Basis,
+    alpha: f64,
+    cos_o: f64,
+    nodes: usize,
+    weighting: Weighting,
+) -> Result<(Vec<f64>, Vec<f64>, f64), BasisTableError> {
     if nodes == 0 {
         return Err(BasisTableError::Quadrature(nodes));
     }
     let alpha = alpha.max(f64::from(MIN_ALPHA));
     let count = basis.coefficient_count();
     let (mut a, mut b) = (vec![0.0; count], vec![0.0; count]);
+    let mut norm = 0.0;
     let mut values = vec![0.0; count];
     let wo = view(cos_o);
     let mut result = Ok(());
@@ -218,7 +264,12 @@ pub fn glossy_coefficients(
             result = Err(e);
             return;
         }
-        let g = d_nu(alpha, wo, wi, h) * wi.z * weight;
+        let lobe = match weighting {
+            Weighting::Cosine => d_nu(alpha, wo, wi, h) * wi.z,
+            Weighting::Plain => d_nu(alpha, wo, wi, h),
+        };
+        norm += lobe * lobe * weight;
+        let g = lobe * weight;
         let w = (1.0 - wo.dot(h).abs()).clamp(0.0, 1.0).powi(5);
         for ((ak, bk), bv) in a.iter_mut().zip(&mut b).zip(&values) {
             *ak += g * bv;
@@ -226,7 +277,19 @@ pub fn glossy_coefficients(
         }
     });
     result?;
-    Ok((a, b))
+    Ok((a, b, norm))
+}
+
+/// The relative L2 error √(1 − ‖b‖²/‖g‖²) of a function g of norm² `norm` reconstructed from its
+/// coefficients `b` in an orthonormal basis (Parseval's identity: the part of g outside the
+/// basis has norm² ‖g‖² − ‖b‖²); clamped at 0 where the quadrature's rounding makes ‖b‖ exceed
+/// ‖g‖.
+fn parseval_error(b: &[f64], norm: f64) -> f64 {
+    if norm <= 0.0 {
+        return 0.0;
+    }
+    let kept: f64 = b.iter().map(|x| x * x).sum();
+    (1.0 - kept / norm).max(0.0).sqrt()
 }
 
 /// The coefficients b_A, b_B of the cosine-weighted glossy lobe (module docs), tabulated over
@@ -234,11 +297,15 @@ pub fn glossy_coefficients(
 #[derive(Clone, Debug)]
 pub struct GlossyTable {
     basis: Basis,
+    weighting: Weighting,
     roughness_nodes: usize,
     cos_nodes: usize,
     /// [roughness][cos θo][k] for b_A, then the same for b_B.
     a: Vec<f32>,
     b: Vec<f32>,
+    /// [roughness][cos θo]: the relative L2 error of the Fresnel-free lobe reconstructed from
+    /// b_A (Parseval's identity, [`GlossyTable::reconstruction_error`]).
+    error: Vec<f32>,
 }
 
 impl GlossyTable {
@@ -262,6 +329,21 @@ impl GlossyTable {
         cos_nodes: usize,
         quadrature_nodes: usize,
     ) -> Result<Self, BasisTableError> {
+        Self::with_weighting(
+            basis,
+            (roughness_nodes, cos_nodes),
+            quadrature_nodes,
+            Weighting::Cosine,
+        )
+    }
+
+    /// [`GlossyTable::new`] for either [`Weighting`], at `(roughness, cos θo)` nodes.
+    pub fn with_weighting(
+        basis: Basis,
+        (roughness_nodes, cos_nodes): (usize, usize),
+        quadrature_nodes: usize,
+        weighting: Weighting,
+    ) -> Result<Self, BasisTableError> {
         if roughness_nodes < 2 || cos_nodes < 2 {
             return Err(BasisTableError::Resolution {
                 roughness: roughness_nodes,
@@ -271,22 +353,45 @@ impl GlossyTable {
         let count = basis.coefficient_count();
         let size = roughness_nodes * cos_nodes * count;
         let (mut a, mut b) = (Vec::with_capacity(size), Vec::with_capacity(size));
+        let mut error = Vec::with_capacity(roughness_nodes * cos_nodes);
         for i in 0..roughness_nodes {
             let r = i as f64 / (roughness_nodes - 1) as f64;
             for j in 0..cos_nodes {
                 let c = node_cos(j as f64 / (cos_nodes - 1) as f64);
-                let (ca, cb) = glossy_coefficients(basis, r * r, c, quadrature_nodes)?;
+                let (ca, cb, norm) =
+                    lobe_coefficients(basis, r * r, c, quadrature_nodes, weighting)?;
                 a.extend(ca.iter().map(|&x| x as f32));
                 b.extend(cb.iter().map(|&x| x as f32));
+                error.push(parseval_error(&ca, norm) as f32);
             }
         }
         Ok(Self {
             basis,
+            weighting,
             roughness_nodes,
             cos_nodes,
             a,
             b,
+            error,
         })
+    }
+
+    /// What the table projects (the lobe with or without cos θi).
+    pub fn weighting(&self) -> Weighting {
+        self.weighting
+    }
+
+    /// The relative L2 error over the hemisphere of the Fresnel-free lobe reconstructed from its
+    /// coefficients, √(1 − ‖b_A‖²/‖g‖²) by Parseval's identity (g = D ν, times cos θi with
+    /// [`Weighting::Cosine`]), computed at the nodes and interpolated bilinearly at
+    /// (roughness, cos θo): how well the basis' order holds the lobe there (module docs'
+    /// "Reconstruction error" table, for HSH and the cosine).
+    pub fn reconstruction_error(&self, roughness: f32, cos_o: f32) -> f32 {
+        let (i, u) = cell(roughness, self.roughness_nodes);
+        let (j, v) = cell(theta_axis(cos_o), self.cos_nodes);
+        let at = |ii: usize, jj: usize| self.error[ii * self.cos_nodes + jj];
+        (1.0 - u) * ((1.0 - v) * at(i, j) + v * at(i, j + 1))
+            + u * ((1.0 - v) * at(i + 1, j) + v * at(i + 1, j + 1))
     }
 
     /// The basis of the coefficients.
@@ -318,24 +423,8 @@ impl GlossyTable {
                 .into());
             }
         }
-        let cell = |x: f32, nodes: usize| {
-            let x = if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
-            let t = x * (nodes - 1) as f32;
-            let i = (t.floor() as usize).min(nodes - 2);
-            (i, t - i as f32)
-        };
         let (i, u) = cell(roughness, self.roughness_nodes);
-        // The axis is uniform in θo: the coefficients of odd m vary like sin θo, whose slope in
-        // cos θo is infinite at normal incidence, but which is smooth in θo.
-        let cos_o = if cos_o.is_nan() {
-            0.0
-        } else {
-            cos_o.clamp(0.0, 1.0)
-        };
-        let (j, v) = cell(
-            1.0 - cos_o.acos() / std::f32::consts::FRAC_PI_2,
-            self.cos_nodes,
-        );
+        let (j, v) = cell(theta_axis(cos_o), self.cos_nodes);
         let at = |ii: usize, jj: usize| (ii * self.cos_nodes + jj) * count;
         let corners = [
             (at(i, j), (1.0 - u) * (1.0 - v)),
@@ -503,6 +592,9 @@ pub fn reconstruction_error(
     result?;
     Ok((err / norm).sqrt())
 }
+
+mod residual;
+pub use residual::ResidualTable;
 
 #[cfg(test)]
 mod tests;
