@@ -62,8 +62,37 @@ fn light_cached_images_are_identical_for_any_thread_count() {
     }
 }
 
+/// The same with radiance records on a glossy scene: their coefficients are part of each
+/// candidate, committed with it in pixel order, and a lookup sums its records in index order.
+/// The records do change the image (the glossy lobes no longer trace a BSDF sample).
+#[test]
+fn radiance_cached_images_are_identical_for_any_thread_count() {
+    let glossy =
+        load_scene(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/glossy-room.gltf"))
+            .unwrap_or_else(|e| panic!("{e}"));
+    let radiance = IcSettings {
+        radiance_order: 4,
+        radiance_error: 1.0,
+        light_cache_paths: 40_000,
+        ..small()
+    };
+    let with = identical_images(&glossy, radiance);
+    let without = identical_images(
+        &glossy,
+        IcSettings {
+            radiance_order: 0,
+            ..radiance
+        },
+    );
+    assert_ne!(with, without, "radiance records left the image unchanged");
+}
+
 fn identical_for_any_thread_count(ic: IcSettings) {
-    let loaded = cornell();
+    identical_images(&cornell(), ic);
+}
+
+/// The image of `loaded` with `ic` for 1, 2 and 8 threads, asserted bit-identical; its bits.
+fn identical_images(loaded: &LoadedScene, ic: IcSettings) -> Vec<u32> {
     let mut images = Vec::new();
     for threads in [1, 2, 8] {
         let settings = RenderSettings {
@@ -86,6 +115,7 @@ fn identical_for_any_thread_count(ic: IcSettings) {
     }
     assert_eq!(images[0], images[1], "1 vs 2 threads");
     assert_eq!(images[0], images[2], "1 vs 8 threads");
+    images.swap_remove(0)
 }
 
 /// Two rooms of 2 m × 2 m, 1 m high, open at the top to a black void, side by side along x and

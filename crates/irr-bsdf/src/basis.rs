@@ -240,8 +240,11 @@ pub fn glossy_coefficients(
     Ok((a, b))
 }
 
-/// [`glossy_coefficients`] with either [`Weighting`], and the squared L2 norm ∫ g² dωi of the
-/// Fresnel-free function g projected (for the reconstruction error by Parseval's identity).
+/// [`glossy_coefficients`] with either [`Weighting`], and the relative L2 error of the
+/// Fresnel-free **cosine-weighted** lobe D ν cos θi reconstructed in the basis, by Parseval's
+/// identity (`parseval_error`): the lobe as the light it multiplies weighs it. (Without the
+/// cosine the lobe jumps to zero at the horizon, a jump no SH order holds, though it matters
+/// little once multiplied by L cos θi, which vanishes there.)
 fn lobe_coefficients(
     basis: Basis,
     alpha: f64,
@@ -255,7 +258,8 @@ fn lobe_coefficients(
     let alpha = alpha.max(f64::from(MIN_ALPHA));
     let count = basis.coefficient_count();
     let (mut a, mut b) = (vec![0.0; count], vec![0.0; count]);
-    let mut norm = 0.0;
+    // The cosine-weighted lobe's coefficients and squared norm, for the error.
+    let (mut cosine, mut norm) = (vec![0.0; count], 0.0);
     let mut values = vec![0.0; count];
     let wo = view(cos_o);
     let mut result = Ok(());
@@ -264,20 +268,23 @@ fn lobe_coefficients(
             result = Err(e);
             return;
         }
-        let lobe = match weighting {
-            Weighting::Cosine => d_nu(alpha, wo, wi, h) * wi.z,
-            Weighting::Plain => d_nu(alpha, wo, wi, h),
-        };
-        norm += lobe * lobe * weight;
-        let g = lobe * weight;
+        let lobe = d_nu(alpha, wo, wi, h);
+        let weighted = lobe * wi.z;
+        norm += weighted * weighted * weight;
+        let g = match weighting {
+            Weighting::Cosine => weighted,
+            Weighting::Plain => lobe,
+        } * weight;
         let w = (1.0 - wo.dot(h).abs()).clamp(0.0, 1.0).powi(5);
-        for ((ak, bk), bv) in a.iter_mut().zip(&mut b).zip(&values) {
+        for (((ak, bk), ck), bv) in a.iter_mut().zip(&mut b).zip(&mut cosine).zip(&values) {
             *ak += g * bv;
             *bk += g * w * bv;
+            *ck += weighted * weight * bv;
         }
     });
     result?;
-    Ok((a, b, norm))
+    let error = parseval_error(&cosine, norm);
+    Ok((a, b, error))
 }
 
 /// The relative L2 error √(1 − ‖b‖²/‖g‖²) of a function g of norm² `norm` reconstructed from its
@@ -303,8 +310,8 @@ pub struct GlossyTable {
     /// [roughness][cos θo][k] for b_A, then the same for b_B.
     a: Vec<f32>,
     b: Vec<f32>,
-    /// [roughness][cos θo]: the relative L2 error of the Fresnel-free lobe reconstructed from
-    /// b_A (Parseval's identity, [`GlossyTable::reconstruction_error`]).
+    /// [roughness][cos θo]: the relative L2 error of the Fresnel-free cosine-weighted lobe in
+    /// the basis (Parseval's identity, [`GlossyTable::reconstruction_error`]).
     error: Vec<f32>,
 }
 
@@ -358,11 +365,10 @@ impl GlossyTable {
             let r = i as f64 / (roughness_nodes - 1) as f64;
             for j in 0..cos_nodes {
                 let c = node_cos(j as f64 / (cos_nodes - 1) as f64);
-                let (ca, cb, norm) =
-                    lobe_coefficients(basis, r * r, c, quadrature_nodes, weighting)?;
+                let (ca, cb, e) = lobe_coefficients(basis, r * r, c, quadrature_nodes, weighting)?;
                 a.extend(ca.iter().map(|&x| x as f32));
                 b.extend(cb.iter().map(|&x| x as f32));
-                error.push(parseval_error(&ca, norm) as f32);
+                error.push(e as f32);
             }
         }
         Ok(Self {
@@ -381,11 +387,12 @@ impl GlossyTable {
         self.weighting
     }
 
-    /// The relative L2 error over the hemisphere of the Fresnel-free lobe reconstructed from its
-    /// coefficients, √(1 − ‖b_A‖²/‖g‖²) by Parseval's identity (g = D ν, times cos θi with
-    /// [`Weighting::Cosine`]), computed at the nodes and interpolated bilinearly at
-    /// (roughness, cos θo): how well the basis' order holds the lobe there (module docs'
-    /// "Reconstruction error" table, for HSH and the cosine).
+    /// The relative L2 error over the hemisphere of the Fresnel-free cosine-weighted lobe
+    /// g = D ν cos θi reconstructed from its coefficients in the table's basis,
+    /// √(1 − ‖b‖²/‖g‖²) by Parseval's identity, computed at the nodes and interpolated
+    /// bilinearly at (roughness, cos θo): how well the basis' order holds the lobe as the light
+    /// it multiplies weighs it (module docs' "Reconstruction error" table, for HSH), whatever
+    /// the table's [`Weighting`].
     pub fn reconstruction_error(&self, roughness: f32, cos_o: f32) -> f32 {
         let (i, u) = cell(roughness, self.roughness_nodes);
         let (j, v) = cell(theta_axis(cos_o), self.cos_nodes);
@@ -423,15 +430,7 @@ impl GlossyTable {
                 .into());
             }
         }
-        let (i, u) = cell(roughness, self.roughness_nodes);
-        let (j, v) = cell(theta_axis(cos_o), self.cos_nodes);
-        let at = |ii: usize, jj: usize| (ii * self.cos_nodes + jj) * count;
-        let corners = [
-            (at(i, j), (1.0 - u) * (1.0 - v)),
-            (at(i, j + 1), (1.0 - u) * v),
-            (at(i + 1, j), u * (1.0 - v)),
-            (at(i + 1, j + 1), u * v),
-        ];
+        let corners = self.corners(roughness, cos_o);
         for (table, out) in [(&self.a, &mut *a), (&self.b, &mut *b)] {
             out.fill(0.0);
             for &(start, w) in &corners {
@@ -443,8 +442,24 @@ impl GlossyTable {
         Ok(())
     }
 
+    /// The start of each of the four table entries around (roughness, cos θo) and its bilinear
+    /// weight.
+    fn corners(&self, roughness: f32, cos_o: f32) -> [(usize, f32); 4] {
+        let count = self.basis.coefficient_count();
+        let (i, u) = cell(roughness, self.roughness_nodes);
+        let (j, v) = cell(theta_axis(cos_o), self.cos_nodes);
+        let at = |ii: usize, jj: usize| (ii * self.cos_nodes + jj) * count;
+        [
+            (at(i, j), (1.0 - u) * (1.0 - v)),
+            (at(i, j + 1), (1.0 - u) * v),
+            (at(i + 1, j), u * (1.0 - v)),
+            (at(i + 1, j + 1), u * v),
+        ]
+    }
+
     /// The glossy lobe's coefficients for `material` and cos θo = `cos_o`, per channel:
-    /// f0 · b_A + (f90 − f0) · b_B (module docs), written into `out`.
+    /// f0 · b_A + (f90 − f0) · b_B (module docs), interpolated as [`GlossyTable::lookup`] does,
+    /// written into `out`.
     pub fn coefficients(
         &self,
         material: &MetallicRoughness,
@@ -452,8 +467,6 @@ impl GlossyTable {
         out: &mut [Vec3],
     ) -> Result<(), BasisTableError> {
         let count = self.basis.coefficient_count();
-        let (mut a, mut b) = (vec![0.0; count], vec![0.0; count]);
-        self.lookup(material.roughness(), cos_o, &mut a, &mut b)?;
         if out.len() != count {
             return Err(ShError::LengthMismatch {
                 expected: count,
@@ -463,8 +476,13 @@ impl GlossyTable {
         }
         let f0 = material.specular_f0();
         let df = material.specular_f90() - f0;
-        for ((o, ak), bk) in out.iter_mut().zip(&a).zip(&b) {
-            *o = f0 * *ak + df * *bk;
+        out.fill(Vec3::ZERO);
+        for (start, w) in self.corners(material.roughness(), cos_o) {
+            let (a, b) = (&self.a[start..start + count], &self.b[start..start + count]);
+            let (wa, wb) = (f0 * w, df * w);
+            for ((o, ak), bk) in out.iter_mut().zip(a).zip(b) {
+                *o += wa * *ak + wb * *bk;
+            }
         }
         Ok(())
     }
@@ -510,10 +528,17 @@ where
             actual: coefficients.len(),
         });
     }
+    // cos mβ and sin mβ by the angle-addition recurrence from one sin_cos, in f64 (each step
+    // is a rotation of the unit circle: the error grows by ~2⁻⁵³ per step, far below f32).
+    let (s1, c1) = azimuth.sin_cos();
+    let mut turns = [(0.0f32, 1.0f32); irr_sh::MAX_ORDER];
+    let (mut c, mut s) = (1.0f64, 0.0f64);
+    for t in turns.iter_mut().take(basis.order()) {
+        *t = (s as f32, c as f32);
+        (c, s) = (c * c1 - s * s1, s * c1 + c * s1);
+    }
     for l in 0..basis.order() {
-        for m in 1..=l {
-            let (sin, cos) = (m as f64 * azimuth).sin_cos();
-            let (sin, cos) = (sin as f32, cos as f32);
+        for (m, &(sin, cos)) in turns.iter().enumerate().take(l + 1).skip(1) {
             let (ip, im) = (l * l + l + m, l * l + l - m);
             let (a, b) = (coefficients[ip], coefficients[im]);
             coefficients[ip] = a * cos + b * sin;

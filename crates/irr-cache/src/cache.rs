@@ -338,6 +338,38 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         mean.finish()
     }
 
+    /// Calls `f` with every record of `nearby` (as [`IrradianceCache::records_meeting_box`]
+    /// found them for a box that holds `p`) that has a positive weight at (`p`, `n`), and that
+    /// weight, in index order: the records and weights of [`IrradianceCache::interpolate_among`].
+    /// For a caller that combines values the cache cannot, e.g. coefficients in each record's
+    /// own frame that must be rotated into the query's before they are averaged.
+    pub fn for_each_weighted_among(
+        &self,
+        nearby: &[NearbyRecord],
+        p: Vec3,
+        n: Vec3,
+        mut f: impl FnMut(RecordId, &Record<V>, f64),
+    ) {
+        let Some(nd) = unit_query_normal(n) else {
+            return;
+        };
+        if !p.is_finite() {
+            return;
+        }
+        let pd = p.as_dvec3();
+        for near in nearby {
+            let Some((offset, d2)) = contains_offset(near.center, near.influence, pd) else {
+                continue;
+            };
+            let Some(record) = self.records.get(near.id as usize) else {
+                continue;
+            };
+            if let Some((_, w)) = self.weigh(record, offset, d2, nd) {
+                f(near.id, record, w);
+            }
+        }
+    }
+
     /// Whether any record has a positive weight at (`p`, `n`): the test [`IrradianceCache::interpolate`]
     /// makes before it sums, without the sums, and stopping at the first record found. `false`
     /// when `p` or `n` is not finite or `n` is zero. A renderer that computes candidate records in

@@ -1329,6 +1329,14 @@ proptest! {
             let among = cache.interpolate_among(&nearby, p, n, |id, _| { b.push(id); true });
             a.sort_unstable();
             prop_assert_eq!(&a, &b);
+            // The bare enumeration: the same records, in the same order, with weights whose
+            // sum (same terms, same order, f64) is interpolate_among's total to the bit.
+            let (mut ids, mut total) = (Vec::new(), 0.0f64);
+            cache.for_each_weighted_among(&nearby, p, n, |id, _, w| { ids.push(id); total += w; });
+            prop_assert_eq!(&ids, &b);
+            if let Some(y) = &among {
+                prop_assert_eq!(total, y.total_weight);
+            }
             match (whole, among) {
                 (None, None) => {}
                 (Some(x), Some(y)) => {

@@ -151,6 +151,17 @@ pub struct IcArgs {
     /// pass then almost never gathers for itself)
     #[arg(long)]
     pub fill_samples: bool,
+    /// Radiance caching of glossy lobes (Křivánek et al. 2005): each record also stores its
+    /// gather's incoming light in real spherical harmonics of this order (N² coefficients per
+    /// colour, N ≤ 10), and a glossy point whose lobe the order holds reflects their
+    /// interpolation instead of path-tracing its lobe. 0: off
+    #[arg(long, default_value_t = IcSettings::default().radiance_order)]
+    pub radiance_order: u32,
+    /// With --radiance-order: a glossy point uses the records where its lobe's relative
+    /// reconstruction error in the basis (by roughness and view angle) is at most this, in
+    /// (0, 1]; elsewhere its lobe is path-traced. Larger: more points cached, more bias
+    #[arg(long, default_value_t = IcSettings::default().radiance_error, allow_negative_numbers = true)]
+    pub radiance_error: f32,
     /// Write a second image, <out stem>-records.exr/.png, with every record marked: a dot, and
     /// a ring of its influence radius in the colour of its noise (the estimated relative
     /// standard error of its irradiance: blue 0, green 5 %, yellow 10 %, red 20 % and more)
@@ -209,6 +220,8 @@ impl IcArgs {
             gather_error: self.gather_error,
             gather_budget: self.gather_budget,
             fill_samples: self.fill_samples,
+            radiance_order: self.radiance_order,
+            radiance_error: self.radiance_error,
             path: PathSettings {
                 max_depth,
                 ..PathSettings::default()
@@ -431,6 +444,14 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
     };
     if args.ic.cache.is_some() && args.integrator != IntegratorChoice::Ic {
         return Err("--cache: a persistent cache works with --integrator ic only".into());
+    }
+    // A cache file holds irradiance records only: a render read back from one would path-trace
+    // the lobes the first one reflected from radiance records, a different image.
+    if args.ic.cache.is_some() && args.ic.radiance_order > 0 {
+        return Err(
+            "--cache: cache files do not hold radiance records; use --radiance-order 0 with --cache"
+                .into(),
+        );
     }
     let scene_path = scene_path.to_path_buf();
     let out = out.to_path_buf();

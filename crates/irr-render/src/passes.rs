@@ -202,6 +202,8 @@ pub struct CacheBuildStats {
     pub noise: Vec<(f32, f32)>,
     /// The light cache, when the integrator has one: what it holds, its rays and seconds.
     pub light: Option<LightCacheStats>,
+    /// With radiance caching: records with coefficients, the order, their bytes.
+    pub radiance: Option<(usize, usize, usize)>,
 }
 
 /// What building the light cache did (`BounceMode::LightCache`).
@@ -266,7 +268,12 @@ impl CacheBuildStats {
             self.rays().total() as f64 / 1e6,
             dropped,
             100.0 * self.wasted_share()
-        ) + &self.light.map_or_else(String::new, |l| {
+        ) + &self.radiance.map_or_else(String::new, |(records, order, bytes)| {
+            format!(
+                "; radiance records: {records} of order {order} ({:.1} MB of coefficients)",
+                bytes as f64 / 1e6
+            )
+        }) + &self.light.map_or_else(String::new, |l| {
             format!(
                 "; light cache: {} paths, {} deposits in {} cells ({} used, {:.1} % error), {:.2} s",
                 l.counts.paths,
@@ -560,6 +567,7 @@ pub fn build_cache(
     bar.finish_and_clear();
     stats.seconds = start.elapsed().as_secs_f64();
     stats.records = builder.record_counts();
+    stats.radiance = builder.radiance_records();
     stats.noise = (0..stats.records.len())
         .map(|l| median_and_p90(builder.record_noise(l)))
         .collect();

@@ -377,8 +377,13 @@ fn parseval_error_matches_the_direct_reconstruction() {
         let alpha = (r * r).max(f64::from(MIN_ALPHA));
         for j in [1usize, 2, 4] {
             let cos_o = node_cos(j as f64 / 4.0);
-            let (b, _, norm) = lobe_coefficients(basis, alpha, cos_o, nodes, Weighting::Cosine)
+            let (b, _, _) = lobe_coefficients(basis, alpha, cos_o, nodes, Weighting::Cosine)
                 .unwrap_or_else(|e| panic!("{e}"));
+            let mut norm = 0.0;
+            let wo = view(cos_o);
+            for_each_node(alpha, cos_o, nodes, |wi, w, h| {
+                norm += w * (d_nu(alpha, wo, wi, h) * wi.z).powi(2);
+            });
             let mut gram = vec![0.0; count * count];
             let mut values = vec![0.0; count];
             for_each_node(alpha, cos_o, nodes, |wi, w, _| {

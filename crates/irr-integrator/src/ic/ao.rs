@@ -61,7 +61,7 @@ impl CachedAmbientOcclusion {
     ) -> Option<(GatherSamples<f32>, Frame)> {
         let max = self.max_distance;
         self.core
-            .gather(scene, (strata, None), x, key, rays, |traced, _| {
+            .gather(scene, (strata, None), x, key, rays, None, |traced, _| {
                 let value = |hit: &Option<SurfacePoint>| match hit {
                     Some(s) if (s.position - x.position).length() < max => 0.0,
                     _ => FRAC_1_PI,

@@ -35,6 +35,9 @@ pub struct Candidate {
     /// The estimated relative standard error of its irradiance, from its gather's strata
     /// (`GatherSamples::relative_error`).
     pub(super) noise: f32,
+    /// With radiance caching, on the first level: its gather's coefficients (module
+    /// `radiance`).
+    pub(super) radiance: Option<Vec<Vec3>>,
     /// Gather rays (and their continuations) this candidate cost.
     pub rays: RayCounter,
 }
@@ -212,6 +215,12 @@ pub trait CacheBuilder: Integrator + Send {
     /// the paths alone, never on the threads.
     fn light_cache_converged(&self) -> bool {
         true
+    }
+
+    /// With radiance caching: the first level's records that hold coefficients, the basis'
+    /// order n and the bytes of their coefficients (3n² f32 each); `None` when off.
+    fn radiance_records(&self) -> Option<(usize, usize, usize)> {
+        None
     }
 
     /// What the final pass found that no record covered so far.

@@ -50,12 +50,17 @@ impl<V: IcValue> Core<V> {
     /// what they need in batches), in order, each ray as (hit, direction, key), the hit `None`
     /// where the ray escaped; it returns one value per entry. First one ray per cell; then, with
     /// `more`, the extra rays its plan gives the noisiest cells, in one batch (cell, then sample
-    /// order). Returns the samples (each cell's mean and nearest hit; each first sample's cos θ),
+    /// order). With `log`, every ray's (cell, direction in the frame, value) is appended to
+    /// it, those below the surface with a zero value. Returns the samples (each cell's mean and nearest hit; each first sample's cos θ),
     /// the first rays' samples alone if there were more (the record's radius comes from those,
     /// so that super-sampling does not move records) and the gather's frame.
     #[expect(
         clippy::type_complexity,
         reason = "the gather, the pilot's samples and the frame, used together by each caller"
+    )]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the ray log is an optional output beside the gather's inputs"
     )]
     pub(super) fn gather(
         &self,
@@ -64,6 +69,7 @@ impl<V: IcValue> Core<V> {
         x: &ShadingPoint,
         key: SampleKey,
         rays: &mut RayCounter,
+        mut log: Option<&mut Vec<(u32, Vec3, V::Gathered)>>,
         mut values: impl FnMut(&[Traced], &mut RayCounter) -> Vec<V::Gathered>,
     ) -> Option<(
         GatherSamples<V::Gathered>,
@@ -150,6 +156,15 @@ impl<V: IcValue> Core<V> {
                 }
             })
             .unzip();
+        if let Some(log) = log.as_deref_mut() {
+            log.extend(
+                local
+                    .iter()
+                    .zip(&radiance)
+                    .enumerate()
+                    .map(|(i, (w, v))| (i as u32, *w, *v)),
+            );
+        }
         let Some(more) = more else {
             let pilot = GatherSamples::new(strata, radiance, distance)
                 .and_then(|g| attach(g, &local))
@@ -171,22 +186,30 @@ impl<V: IcValue> Core<V> {
             let i = cell.index(&strata) as usize;
             for index in 1..=u64::from(count) {
                 match ray_of(cell, index) {
-                    (Some(ray), w, k, _) => {
+                    (Some(ray), w, k, dir) => {
                         extra.push(ray);
                         extra_meta.push((w, k));
-                        owner.push(i);
+                        owner.push((i, dir));
                     }
                     // Part of a cell can lie below the geometric surface: nothing arrives
                     // from there.
-                    (None, ..) => cells[i].push(V::Gathered::default(), f32::INFINITY),
+                    (None, _, _, dir) => {
+                        cells[i].push(V::Gathered::default(), f32::INFINITY);
+                        if let Some(log) = log.as_deref_mut() {
+                            log.push((i as u32, dir, V::Gathered::default()));
+                        }
+                    }
                 }
             }
         }
         if extra.is_empty() {
             return Some((pilot, None, frame));
         }
-        for (&i, (value, distance)) in owner.iter().zip(trace(&extra, &extra_meta, rays)) {
+        for (&(i, dir), (value, distance)) in owner.iter().zip(trace(&extra, &extra_meta, rays)) {
             cells[i].push(value, distance);
+            if let Some(log) = log.as_deref_mut() {
+                log.push((i as u32, dir, value));
+            }
         }
         let samples = GatherSamples::from_cells(strata, &cells)
             .and_then(|g| attach(g, &local))
@@ -359,6 +382,7 @@ impl<V: IcValue> Core<V> {
                 geometric_normal: probe.x.ng,
             },
             noise: samples.relative_error(),
+            radiance: None,
             rays,
         }
     }

@@ -4,11 +4,13 @@
 use super::IcMetric;
 use super::builder::{Candidate, CommitStats, DisplayRecord, Probe};
 use super::guard::{GuardRecord, Query};
+use super::radiance::RadianceCaching;
 use super::settings::{IcSettings, IcSettingsError};
 use super::value::{IcValue, convert_record};
 use crate::integrator::RayCounter;
 use crate::path::ShadingPoint;
 use crate::scene::Scene;
+use glam::Vec3;
 use irr_cache::{ErrorMetric, InsertError, IrradianceCache, Record};
 use irr_geometry::Ray;
 use irr_sampling::{Frame, HemisphereStrata, SampleKey, sample_cosine_hemisphere};
@@ -23,6 +25,9 @@ pub(super) struct Level<V: IcValue> {
     pub(super) guard: Vec<GuardRecord>,
     /// Per record (by id): the estimated relative standard error of its irradiance.
     pub(super) noise: Vec<f32>,
+    /// With radiance caching, on the first level: per record (by id), its coefficients
+    /// (`RadianceCaching::count()` each, module `radiance`); empty otherwise.
+    pub(super) radiance: Vec<Vec3>,
     pub(super) strata: HemisphereStrata,
 }
 
@@ -41,6 +46,9 @@ pub(super) struct Core<V: IcValue> {
     pub(super) misses: AtomicU64,
     /// The final pass's own gathers for them.
     pub(super) fallbacks: AtomicU64,
+    /// Radiance caching of glossy lobes, when on and the scene has a glossy material (set by
+    /// `set_scene`).
+    pub(super) radiance: Option<RadianceCaching>,
 }
 
 impl<V: IcValue> Core<V> {
@@ -52,6 +60,7 @@ impl<V: IcValue> Core<V> {
                     cache: IrradianceCache::new(settings.metric_at(l)?),
                     guard: Vec::new(),
                     noise: Vec::new(),
+                    radiance: Vec::new(),
                     strata: settings.strata_at(l)?,
                 })
             })
@@ -63,13 +72,29 @@ impl<V: IcValue> Core<V> {
             diagonal: 1.0,
             misses: AtomicU64::new(0),
             fallbacks: AtomicU64::new(0),
+            radiance: None,
         })
     }
 
+    /// The scene's diagonal; with `radiance_order` > 0 and a glossy material in the scene, the
+    /// radiance caching tables (module `radiance`; the order was validated, so the table
+    /// cannot fail).
     pub(super) fn set_scene(&mut self, scene: &Scene) {
         let (lo, hi) = scene.geometry().bounds();
         let d = (hi - lo).length();
         self.diagonal = if d.is_finite() && d > 0.0 { d } else { 1.0 };
+        let order = self.settings.radiance_order as usize;
+        let glossy = scene.materials().iter().any(|m| !m.is_lambertian());
+        self.radiance = (order > 0 && glossy && !self.levels.is_empty())
+            .then(|| RadianceCaching::new(order, self.settings.radiance_error).ok())
+            .flatten();
+    }
+
+    /// The coefficients of record `id` of `level`, when it has them.
+    pub(super) fn coefficients<'a>(&self, level: &'a Level<V>, id: u32) -> Option<&'a [Vec3]> {
+        let count = self.radiance.as_ref()?.count();
+        let start = id as usize * count;
+        level.radiance.get(start..start + count)
     }
 
     /// Follows `level` cosine bounces from the camera ray's first hit; the shading point there
@@ -159,6 +184,11 @@ impl<V: IcValue> Core<V> {
                     debug_assert_eq!(id as usize, l.guard.len());
                     l.guard.push(c.guard);
                     l.noise.push(c.noise);
+                    // Coefficients stay aligned with the ids: a record of the first level has
+                    // them whenever radiance caching is on (`complete`).
+                    if let Some(coefficients) = c.radiance {
+                        l.radiance.extend(coefficients);
+                    }
                     stats.inserted += 1;
                 }
                 Err(InsertError::Full) | Err(_) => stats.refused += 1,

@@ -83,8 +83,8 @@ pub use guard::GuardRecord;
 pub use light_cache::{LightCache, LightCacheCounts, LightDeposit, MIN_DEPOSITS};
 pub use radius::HORIZON_CUT_COS;
 pub use settings::{
-    BounceMode, GradientMode, IcMetric, IcSettings, IcSettingsError, LeakGuard, MetricKind,
-    RadiusStatistic,
+    BounceMode, GradientMode, IcMetric, IcSettings, IcSettingsError, LeakGuard, MAX_RADIANCE_ORDER,
+    MetricKind, RadiusStatistic,
 };
 pub use value::IcValue;
 
@@ -115,6 +115,7 @@ mod levels;
 mod light_cache;
 mod lookup;
 mod pixel;
+mod radiance;
 mod radius;
 mod settings;
 mod value;
@@ -605,19 +606,24 @@ impl CacheBuilder for IrradianceCacheIntegrator {
     fn complete(&self, scene: &Scene, probe: &Probe, rays: &mut RayCounter) -> Option<Candidate> {
         let li = probe.level as usize;
         let mut spent = RayCounter::default();
+        // With radiance caching, a first-level record also keeps its rays' coefficients.
+        let radiance = self.core.radiance.as_ref().filter(|_| li == 0);
+        let mut log = Vec::new();
         let (samples, pilot, frame) = self.core.gather(
             scene,
             (self.core.levels[li].strata, self.core.super_sampling(li)),
             &probe.x,
             probe.key,
             &mut spent,
+            radiance.is_some().then_some(&mut log),
             |traced, r| self.gather_radiances(scene, li, traced, r),
         )?;
         *rays += spent;
-        Some(
-            self.core
-                .candidate(probe, (&samples, pilot.as_ref()), &frame, spent),
-        )
+        let mut candidate = self
+            .core
+            .candidate(probe, (&samples, pilot.as_ref()), &frame, spent);
+        candidate.radiance = radiance.map(|r| r.project(self.core.levels[li].strata, &log));
+        Some(candidate)
     }
 
     fn light_paths(&self) -> u32 {
@@ -649,6 +655,16 @@ impl CacheBuilder for IrradianceCacheIntegrator {
         for p in &paths {
             self.light.add_path(p);
         }
+    }
+
+    fn radiance_records(&self) -> Option<(usize, usize, usize)> {
+        let radiance = self.core.radiance.as_ref()?;
+        let stored = self.core.levels.first().map_or(0, |l| l.radiance.len());
+        Some((
+            stored / radiance.count(),
+            radiance.order(),
+            stored * size_of::<Vec3>(),
+        ))
     }
 
     fn light_cache_counts(&self) -> LightCacheCounts {
@@ -782,6 +798,7 @@ mod tests {
                     &x,
                     SampleKey::new(5, g, 0),
                     &mut rays,
+                    None,
                     |t, r| ic.gather_radiances(&scene, 0, t, r),
                 )
                 .unwrap_or_else(|| panic!("gather {g}"));

@@ -44,7 +44,16 @@ struct Pending {
     index: usize,
     x: ShadingPoint,
     albedo: Vec3,
+    /// With radiance caching, the BSDF whose lobe the records reflect (module `radiance`).
+    lobe: Option<Bsdf>,
     partial: Radiance,
+}
+
+/// Scratch for the radiance records' sums (`lobe_in_pixel`), reused across a pixel's samples.
+#[derive(Default)]
+struct LobeScratch {
+    sum: Vec<Vec3>,
+    turned: Vec<Vec3>,
 }
 
 /// The leak guard's answers within one pixel: (record, triangle the sample hit, visible).
@@ -114,8 +123,15 @@ impl IrradianceCacheIntegrator {
             let bsdf = Bsdf::at(scene, &x);
             let light_samples = self.core.settings.direct_samples;
             // Direct light: NEE at x₀; on a glossy x₀ weighted against the BSDF sample that
-            // also brings the light the cache leaves out (`glossy_sample`).
-            let glossy = !bsdf.is_lambertian();
+            // also brings the light the cache leaves out (`glossy_sample`), unless the
+            // radiance records reflect that lobe (module `radiance`): then NEE alone.
+            let lobe = self
+                .core
+                .radiance
+                .as_ref()
+                .is_some_and(|r| r.covers(&bsdf))
+                .then_some(bsdf);
+            let glossy = !bsdf.is_lambertian() && lobe.is_none();
             let mut direct = direct_light(scene, &x, &bsdf, light_samples, glossy, d, rays);
             let mut indirect = Vec3::ZERO;
             // Without a cache level (at most one reflection) no record brings the background
@@ -136,11 +152,12 @@ impl IrradianceCacheIntegrator {
             // The cache holds irradiance, so the (textured) diffuse reflectance of x₀ itself
             // multiplies it, never a record's.
             let albedo = bsdf.diffuse_reflectance();
-            if albedo != Vec3::ZERO && !self.core.levels.is_empty() {
+            if (albedo != Vec3::ZERO || lobe.is_some()) && !self.core.levels.is_empty() {
                 pending.push(Pending {
                     index,
                     x,
                     albedo,
+                    lobe,
                     partial: *o,
                 });
             }
@@ -162,8 +179,46 @@ impl IrradianceCacheIntegrator {
         let mut memo = GuardMemo::default();
         let mut local: Option<Level<Rgb>> = None;
         let mut guard_rays = 0;
+        let mut lobe_scratch = LobeScratch::default();
         for p in &pending {
             let q = Query::from(&p.x);
+            let mut indirect = p.partial.indirect;
+            if let Some(bsdf) = &p.lobe {
+                let reflected = self.lobe_in_pixel(
+                    scene,
+                    level,
+                    (walked.then_some(nearby.as_slice()), &q, p.x.triangle),
+                    bsdf,
+                    (&mut memo, &mut guard_rays),
+                    &mut lobe_scratch,
+                );
+                indirect += match reflected {
+                    Some(v) => v,
+                    // No record with coefficients covers x₀: its lobe is path-traced, and the
+                    // BSDF sample's emitter hits count for nothing (its direct light was NEE
+                    // alone).
+                    None => {
+                        let light_samples = self.core.settings.direct_samples;
+                        let d = &mut dims[p.index];
+                        self.glossy_sample(
+                            scene,
+                            &p.x,
+                            (bsdf, false),
+                            (light_samples, false),
+                            d,
+                            rays,
+                        )
+                        .1
+                    }
+                };
+            }
+            if p.albedo == Vec3::ZERO {
+                out[p.index] = Radiance {
+                    indirect,
+                    ..p.partial
+                };
+                continue;
+            }
             let shared = self.lookup_in_pixel(
                 scene,
                 level,
@@ -187,7 +242,7 @@ impl IrradianceCacheIntegrator {
                 }
             };
             out[p.index] = Radiance {
-                indirect: p.partial.indirect + p.albedo * FRAC_1_PI * e,
+                indirect: indirect + p.albedo * FRAC_1_PI * e,
                 ..p.partial
             };
         }
@@ -228,6 +283,65 @@ impl IrradianceCacheIntegrator {
         found.map(|i| Vec3::from_array(i.value.0))
     }
 
+    /// The light `bsdf`'s lobe reflects from the first level's radiance records at `q`
+    /// (module `radiance`): the records `nearby` (or the octree's own query) weigh in as for
+    /// the irradiance, through the same leak guard; `None` when none of them has coefficients.
+    fn lobe_in_pixel(
+        &self,
+        scene: &Scene,
+        level: &Level<Rgb>,
+        (nearby, q, triangle): (Option<&[NearbyRecord]>, &Query, u32),
+        bsdf: &Bsdf,
+        (memo, guard_rays): (&mut GuardMemo, &mut u64),
+        scratch: &mut LobeScratch,
+    ) -> Option<Vec3> {
+        let (radiance, Bsdf::Glossy { frame, .. }) = (self.core.radiance.as_ref()?, bsdf) else {
+            return None;
+        };
+        let count = radiance.count();
+        scratch.sum.clear();
+        scratch.sum.resize(count, Vec3::ZERO);
+        scratch.turned.resize(count, Vec3::ZERO);
+        let mut total = 0.0f64;
+        let mut visit = |id: RecordId, r: &Record<Rgb>, w: f64| {
+            let Some(stored) = self.core.coefficients(level, id) else {
+                return;
+            };
+            let visible = match self.core.guard_test(level, id, r, q) {
+                GuardTest::Pass => true,
+                GuardTest::Fail => false,
+                GuardTest::Ray(ray) => memo.get(id, triangle, || {
+                    *guard_rays += 1;
+                    !scene.occluded(&ray)
+                }),
+            };
+            if visible {
+                total += w;
+                radiance.accumulate(
+                    (stored, r.normal),
+                    frame,
+                    w as f32,
+                    &mut scratch.sum,
+                    &mut scratch.turned,
+                );
+            }
+        };
+        match nearby {
+            Some(nearby) => level
+                .cache
+                .for_each_weighted_among(nearby, q.p, q.ns, &mut visit),
+            None => level.cache.for_each_weighted(q.p, q.ns, &mut visit),
+        }
+        if !(total > 0.0 && total.is_finite()) {
+            return None;
+        }
+        let inverse = (1.0 / total) as f32;
+        for c in &mut scratch.sum {
+            *c *= inverse;
+        }
+        Some(radiance.reflect(bsdf, &mut scratch.sum, &mut scratch.turned))
+    }
+
     /// The irradiance at `x`, which no record of the cache covers: from the pixel's own records
     /// (`local`) if one covers it, else from a gather of its own, which becomes one of them with
     /// an influence of at least `reach` (the pixel's points on the same triangle).
@@ -264,6 +378,7 @@ impl IrradianceCacheIntegrator {
             x,
             key,
             rays,
+            None,
             |traced, r| self.gather_radiances(scene, 0, traced, r),
         ) else {
             return Vec3::ZERO;
@@ -283,6 +398,7 @@ impl IrradianceCacheIntegrator {
                 cache: IrradianceCache::new(*first.cache.metric()),
                 guard: Vec::new(),
                 noise: Vec::new(),
+                radiance: Vec::new(),
                 strata: self.core.fallback_strata,
             });
             if l.cache.insert_with_radius(record, &inputs).is_ok() {

@@ -217,9 +217,22 @@ pub struct IcSettings {
     /// lattice), so the final pass almost never gathers for itself, at the cost of a probe per
     /// sample. Default: off.
     pub fill_samples: bool,
+    /// Radiance caching (Křivánek et al. 2005) for glossy lobes: the order n of the real
+    /// spherical harmonics (n² coefficients per colour) in which each first-level record also
+    /// stores the cosine-weighted incoming radiance of its gather. 0: off (every glossy lobe
+    /// path-traced by one BSDF sample per camera sample). Range: 0..=[`MAX_RADIANCE_ORDER`].
+    pub radiance_order: u32,
+    /// With radiance caching: a glossy shading point uses the records only where its lobe's
+    /// relative L2 reconstruction error in the basis (irr-bsdf's `ResidualTable`, by
+    /// roughness and view angle) is at most this; elsewhere the lobe is path-traced. Range:
+    /// (0, 1].
+    pub radiance_error: f32,
     /// The path tracer of continuations and of the fallback.
     pub path: PathSettings,
 }
+
+/// The highest order of radiance records (100 coefficients per colour).
+pub const MAX_RADIANCE_ORDER: u32 = 10;
 
 impl Default for IcSettings {
     fn default() -> Self {
@@ -247,6 +260,8 @@ impl Default for IcSettings {
             light_cache_error: 0.12,
             light_cache_cell: 1.0 / 64.0,
             fill_samples: false,
+            radiance_order: 0,
+            radiance_error: 0.1,
             path: PathSettings::default(),
         }
     }
@@ -318,6 +333,21 @@ impl IcSettings {
             return Err(setting_error(
                 "--level-loosening",
                 format!("must be finite and >= 1, got {}", self.level_loosening),
+            ));
+        }
+        if self.radiance_order > MAX_RADIANCE_ORDER {
+            return Err(setting_error(
+                "--radiance-order",
+                format!(
+                    "must lie in 0..={MAX_RADIANCE_ORDER} (0: off), got {}",
+                    self.radiance_order
+                ),
+            ));
+        }
+        if !(self.radiance_error > 0.0 && self.radiance_error <= 1.0) {
+            return Err(setting_error(
+                "--radiance-error",
+                format!("must lie in (0, 1], got {}", self.radiance_error),
             ));
         }
         if self.direct_samples == 0 {
@@ -418,7 +448,7 @@ mod tests {
     fn nonsense_settings_name_the_option() {
         let base = IcSettings::default();
         assert!(base.validate().is_ok());
-        let cases: [(IcSettings, &str); 13] = [
+        let cases: [(IcSettings, &str); 16] = [
             (IcSettings { error: 0.0, ..base }, "--error"),
             (
                 IcSettings {
@@ -506,6 +536,27 @@ mod tests {
                     ..base
                 },
                 "--gather-budget",
+            ),
+            (
+                IcSettings {
+                    radiance_order: MAX_RADIANCE_ORDER + 1,
+                    ..base
+                },
+                "--radiance-order",
+            ),
+            (
+                IcSettings {
+                    radiance_error: 0.0,
+                    ..base
+                },
+                "--radiance-error",
+            ),
+            (
+                IcSettings {
+                    radiance_error: f32::NAN,
+                    ..base
+                },
+                "--radiance-error",
             ),
         ];
         for (s, option) in cases {
