@@ -34,7 +34,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a glTF scene to OpenEXR (linear radiance) and a PNG preview.
-    Render(render::RenderCommand),
+    Render(Box<render::RenderCommand>),
     /// Measure the irradiance cache's speed and error against the path tracer.
     Compare(compare::CompareArgs),
     /// Check the codebase's own rules: crate docs, and the one-way dependency table.
@@ -72,7 +72,7 @@ pub fn find_workspace_root(start: &Path) -> Option<PathBuf> {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = workspace_root().and_then(|root| match cli.command {
-        Command::Render(args) => render::run(args, &root),
+        Command::Render(args) => render::run(*args, &root),
         Command::Compare(args) => compare::run(args, &root),
         Command::Tidy => tidy::run(&root),
     });

@@ -273,14 +273,49 @@ impl<V: GatherValue> GatherSamples<V> {
         self.translation_with(&t)
     }
 
+    /// The translation gradient, by the walls of `variant` (Ward–Heckbert or
+    /// Křivánek–Gautron; the occlusion fan's variant takes Ward–Heckbert's walls), of another
+    /// quantity gathered by the same rays: `values` has one entry per cell, in the gather's
+    /// cell order, and moves with the walls as the radiance does (the walls' distances are this
+    /// gather's). For example the coefficients of the radiance in a basis, each cell's value
+    /// the radiance times the basis function (Křivánek et al. 2005's gradients of a radiance
+    /// record). `None` unless there is one value per cell.
+    pub fn translation_gradient_of<W: GatherValue>(
+        &self,
+        variant: TranslationGradient,
+        values: &[W],
+    ) -> Option<[W; 3]> {
+        if values.len() != self.radiance().len() {
+            return None;
+        }
+        let variant = match variant {
+            TranslationGradient::OcclusionFan => TranslationGradient::WardHeckbert,
+            v => v,
+        };
+        let t = Tables::new(self.strata(), variant);
+        Some(walls(self.strata(), self.distance(), values, &t))
+    }
+
     fn translation_with(&self, t: &Tables) -> [V; 3] {
-        let n = self.strata().n() as usize;
-        let l = self.radiance();
+        walls(self.strata(), self.distance(), self.radiance(), t)
+    }
+}
+
+/// The translation gradient of the per-cell values `l` whose cells' hits lie at `distance`, by
+/// the walls of `t` (module docs, "Translation").
+fn walls<V: GatherValue>(
+    strata: &HemisphereStrata,
+    distance: &[f32],
+    l: &[V],
+    t: &Tables,
+) -> [V; 3] {
+    {
+        let n = strata.n() as usize;
         // 1/R per cell; a miss gives 0, so a wall between two misses adds nothing. Distances are
         // ≥ f32::MIN_POSITIVE (checked on construction), so 1/r is finite.
-        let inv_r: Vec<f32> = self.distance().iter().map(|&r| 1.0 / r).collect();
+        let inv_r: Vec<f32> = distance.iter().map(|&r| 1.0 / r).collect();
         let (mut x, mut y, mut z) = (V::default(), V::default(), V::default());
-        for j in 0..self.strata().m() as usize {
+        for j in 0..strata.m() as usize {
             let (mut rx, mut ry, mut rz) = (V::default(), V::default(), V::default());
             let row = j * n;
             for k in 0..n {
@@ -313,7 +348,9 @@ impl<V: GatherValue> GatherSamples<V> {
         }
         [x, y, z]
     }
+}
 
+impl<V: GatherValue> GatherSamples<V> {
     /// The irradiance and both gradients, in the local frame.
     pub fn gradients(&self, variant: TranslationGradient) -> Gradients<V> {
         let t = Tables::new(self.strata(), variant);
@@ -394,6 +431,28 @@ mod tests {
 
     proptest! {
         #![proptest_config(fixed_config(256, 0x6a7d))]
+
+        /// The gradient of another per-cell quantity by the same walls: the radiance itself
+        /// gives the radiance's gradient, bit for bit (the same sums in the same order); the
+        /// radiance as one channel of an RGB value gives it in that channel; the fan's
+        /// variant takes Ward–Heckbert's walls; a wrong count is refused.
+        #[test]
+        fn gradient_of_another_quantity_uses_the_same_walls(g in gathers()) {
+            for variant in [TranslationGradient::WardHeckbert, TranslationGradient::KrivanekGautron] {
+                let own = g.translation_gradient(variant);
+                prop_assert_eq!(g.translation_gradient_of(variant, g.radiance()), Some(own));
+                let rgb: Vec<Vec3> = g.radiance().iter().map(|&l| Vec3::new(0.0, l, 0.0)).collect();
+                let of = g.translation_gradient_of(variant, &rgb).unwrap_or_default();
+                prop_assert_eq!(of.map(|v| v.y), own);
+                prop_assert_eq!(of.map(|v| v.x), [0.0; 3]);
+            }
+            prop_assert_eq!(
+                g.translation_gradient_of(TranslationGradient::OcclusionFan, g.radiance()),
+                Some(g.translation_gradient(TranslationGradient::WardHeckbert))
+            );
+            let one_more = vec![1.0f32; g.radiance().len() + 1];
+            prop_assert_eq!(g.translation_gradient_of(TranslationGradient::WardHeckbert, &one_more), None);
+        }
 
         /// A constant radiance field has no rotation gradient: the column weights sum to zero
         /// (Σₖ 2 sin(π/N) eφ(φ꜀) = 0), up to rounding. (That it has no translation gradient

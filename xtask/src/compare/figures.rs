@@ -61,6 +61,8 @@ pub enum Group {
     Strata,
     /// The Hessian metric's ladder: its accuracy a with the gathers' M×N growing alongside.
     Hessian,
+    /// The κ ladder with radiance records for the glossy lobes.
+    Radiance,
     /// One setting changed from the defaults.
     Variant,
     /// A setting asked for with `--extra`.
@@ -75,6 +77,7 @@ impl Group {
             Group::Ladder => "kappa",
             Group::Strata => "strata",
             Group::Hessian => "hessian",
+            Group::Radiance => "radiance",
             Group::Variant => "variant",
             Group::Extra => "extra",
         }

@@ -8,7 +8,9 @@
 //!    source). relMSE between the halves / 4 is its own noise, printed beside every error.
 //! 2. Runs, all with seed [`RUN_SEED`]: the path tracer over spp, raw and denoised by OIDN; the
 //!    irradiance cache along its κ ladder, raw and denoised; the Hessian metric's ladder (its
-//!    accuracy a with the strata, beside the κ ladder); and the cache's ablations (other
+//!    accuracy a with the strata, beside the κ ladder); on a scene with glossy materials, the
+//!    κ ladder with radiance records for the glossy lobes and other orders and thresholds
+//!    (module `radiance` of irr-integrator's cache); and the cache's ablations (other
 //!    strata, gradients, clamping, bounce modes, radius statistic, adaptive gathers). A
 //!    denoised run's time includes the auxiliary images and the denoiser.
 //! 3. A report in target/compare/<scene>/ (`runs.csv`, `report.md`, `plot.svg`, heat maps,
@@ -210,8 +212,53 @@ fn ladder(quick: bool) -> &'static [(f32, u32, u32)] {
     }
 }
 
-/// The irradiance-cache settings of the sweep: the ladder, then the ablations.
-fn ic_sweep(quick: bool) -> Vec<Sweep> {
+/// The order and threshold of the radiance ladder (`radiance_sweep`).
+const RADIANCE_ORDER: u32 = 6;
+const RADIANCE_ERROR: f32 = 0.3;
+
+/// Radiance caching's rows, on a scene with glossy materials: the κ ladder with radiance
+/// records ([`RADIANCE_ORDER`], [`RADIANCE_ERROR`]), then other orders and thresholds at the
+/// default κ.
+fn radiance_sweep(base: IcSettings) -> Vec<Sweep> {
+    let mut out: Vec<Sweep> = ladder(false)
+        .iter()
+        .map(|&(k, m, n)| Sweep {
+            label: format!("radiance-order={RADIANCE_ORDER} kappa={k} strata={m}x{n}"),
+            group: Group::Radiance,
+            kappa: k,
+            settings: IcSettings {
+                error: k,
+                strata_m: m,
+                strata_n: n,
+                radiance_order: RADIANCE_ORDER,
+                radiance_error: RADIANCE_ERROR,
+                ..base
+            },
+        })
+        .collect();
+    for (order, error) in [
+        (4, RADIANCE_ERROR),
+        (8, RADIANCE_ERROR),
+        (RADIANCE_ORDER, 0.1),
+        (RADIANCE_ORDER, 1.0),
+    ] {
+        out.push(Sweep {
+            label: format!("radiance-order={order} radiance-error={error}"),
+            group: Group::Variant,
+            kappa: base.error,
+            settings: IcSettings {
+                radiance_order: order,
+                radiance_error: error,
+                ..base
+            },
+        });
+    }
+    out
+}
+
+/// The irradiance-cache settings of the sweep: the ladder, then the ablations; with `glossy`
+/// (the scene has a glossy material), radiance caching's rows.
+fn ic_sweep(quick: bool, glossy: bool) -> Vec<Sweep> {
     let base = IcSettings::default();
     let mut out: Vec<Sweep> = ladder(quick)
         .iter()
@@ -350,6 +397,9 @@ fn ic_sweep(quick: bool) -> Vec<Sweep> {
             settings,
         });
     }
+    if glossy {
+        out.extend(radiance_sweep(base));
+    }
     out
 }
 
@@ -393,7 +443,7 @@ struct Job {
 }
 
 /// Every render of a scene's comparison, in order.
-fn jobs(args: &CompareArgs, denoiser: bool) -> Result<Vec<Job>, String> {
+fn jobs(args: &CompareArgs, denoiser: bool, glossy: bool) -> Result<Vec<Job>, String> {
     let mut out = Vec::new();
     let (path_spps, denoised_spps): (&[u32], &[u32]) = if args.quick {
         (&[4, 16, 64], &[4, 16])
@@ -420,7 +470,7 @@ fn jobs(args: &CompareArgs, denoiser: bool) -> Result<Vec<Job>, String> {
             spp,
         });
     }
-    let mut sweep = ic_sweep(args.quick);
+    let mut sweep = ic_sweep(args.quick, glossy);
     for extra in &args.extra {
         sweep.push(Sweep {
             label: format!("extra {extra}"),
@@ -609,7 +659,8 @@ pub fn compare(args: &CompareArgs, scene_path: &Path, root: &Path) -> Result<Rep
         );
     }
 
-    let jobs = jobs(args, denoiser)?;
+    let glossy = loaded.scene.materials().iter().any(|m| !m.is_lambertian());
+    let jobs = jobs(args, denoiser, glossy)?;
     let bar = indicatif::ProgressBar::new(jobs.len() as u64);
     if let Ok(style) = indicatif::ProgressStyle::with_template(
         "{elapsed_precise} [{wide_bar}] {pos}/{len} runs: {msg}",

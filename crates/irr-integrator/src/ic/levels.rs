@@ -25,8 +25,8 @@ pub(super) struct Level<V: IcValue> {
     pub(super) guard: Vec<GuardRecord>,
     /// Per record (by id): the estimated relative standard error of its irradiance.
     pub(super) noise: Vec<f32>,
-    /// With radiance caching, on the first level: per record (by id), its coefficients
-    /// (`RadianceCaching::count()` each, module `radiance`); empty otherwise.
+    /// With radiance caching, on the first level: per record (by id), its coefficients and
+    /// their gradients (`RadianceCaching::stride()` each, module `radiance`); empty otherwise.
     pub(super) radiance: Vec<Vec3>,
     pub(super) strata: HemisphereStrata,
 }
@@ -92,9 +92,9 @@ impl<V: IcValue> Core<V> {
 
     /// The coefficients of record `id` of `level`, when it has them.
     pub(super) fn coefficients<'a>(&self, level: &'a Level<V>, id: u32) -> Option<&'a [Vec3]> {
-        let count = self.radiance.as_ref()?.count();
-        let start = id as usize * count;
-        level.radiance.get(start..start + count)
+        let stride = self.radiance.as_ref()?.stride();
+        let start = id as usize * stride;
+        level.radiance.get(start..start + stride)
     }
 
     /// Follows `level` cosine bounces from the camera ray's first hit; the shading point there

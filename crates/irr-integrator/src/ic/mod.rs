@@ -100,6 +100,7 @@ use glam::Vec3;
 use guard::Query;
 use irr_cache::{IrradianceCache, Rgb};
 use irr_geometry::{Ray, SurfacePoint};
+use irr_gradients::TranslationGradient;
 use irr_sampling::SampleKey;
 use irr_sampling::rng::Dimensions;
 use levels::{Core, display};
@@ -622,7 +623,14 @@ impl CacheBuilder for IrradianceCacheIntegrator {
         let mut candidate = self
             .core
             .candidate(probe, (&samples, pilot.as_ref()), &frame, spent);
-        candidate.radiance = radiance.map(|r| r.project(self.core.levels[li].strata, &log));
+        let variant = match self.core.settings.gradients {
+            GradientMode::Off => None,
+            GradientMode::WardHeckbert | GradientMode::Fan => {
+                Some(TranslationGradient::WardHeckbert)
+            }
+            GradientMode::KrivanekGautron => Some(TranslationGradient::KrivanekGautron),
+        };
+        candidate.radiance = radiance.map(|r| r.project(&samples, &log, &frame, variant));
         Some(candidate)
     }
 
@@ -661,7 +669,7 @@ impl CacheBuilder for IrradianceCacheIntegrator {
         let radiance = self.core.radiance.as_ref()?;
         let stored = self.core.levels.first().map_or(0, |l| l.radiance.len());
         Some((
-            stored / radiance.count(),
+            stored / radiance.stride(),
             radiance.order(),
             stored * size_of::<Vec3>(),
         ))

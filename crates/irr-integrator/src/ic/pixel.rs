@@ -53,6 +53,7 @@ struct Pending {
 #[derive(Default)]
 struct LobeScratch {
     sum: Vec<Vec3>,
+    moved: Vec<Vec3>,
     turned: Vec<Vec3>,
 }
 
@@ -302,6 +303,7 @@ impl IrradianceCacheIntegrator {
         scratch.sum.clear();
         scratch.sum.resize(count, Vec3::ZERO);
         scratch.turned.resize(count, Vec3::ZERO);
+        scratch.moved.resize(count, Vec3::ZERO);
         let mut total = 0.0f64;
         let mut visit = |id: RecordId, r: &Record<Rgb>, w: f64| {
             let Some(stored) = self.core.coefficients(level, id) else {
@@ -318,11 +320,11 @@ impl IrradianceCacheIntegrator {
             if visible {
                 total += w;
                 radiance.accumulate(
-                    (stored, r.normal),
+                    (stored, r.normal, q.p - r.position),
                     frame,
                     w as f32,
                     &mut scratch.sum,
-                    &mut scratch.turned,
+                    (&mut scratch.moved, &mut scratch.turned),
                 );
             }
         };

@@ -32,9 +32,14 @@
 //! covers the point, the lobe is path-traced as without radiance caching. The choice depends
 //! only on the point, so it is deterministic.
 //!
-//! **Left out.** Per-coefficient translation gradients: records interpolate their coefficients
-//! by weight alone (Ward et al. 1988's form), which is consistent (the records' spacing, and so
-//! the error, shrinks with the error parameter).
+//! # Gradients
+//! Each coefficient has its translation gradient (Křivánek et al. 2005, §4.2): the gather's
+//! walls move with the point as for the irradiance, and a wall between two cells changes
+//! c_k by the difference of their values L·Y_k, so irr-gradients' estimator of the records'
+//! translation gradient (`--gradients`), given each cell's mean of L·Y_k in place of its
+//! radiance, gives ∇c_k. A lookup extrapolates each record's coefficients to the query
+//! point before it rotates them. No rotation gradient: the rotation into the query's frame
+//! is exact.
 //!
 //! [`IcSettings::radiance_order`]: super::IcSettings::radiance_order
 //! [`IcSettings::radiance_error`]: super::IcSettings::radiance_error
@@ -42,7 +47,8 @@
 use crate::bsdf::Bsdf;
 use glam::{Mat3, Vec3};
 use irr_bsdf::basis::{BasisTableError, ResidualTable, rotate_about_z};
-use irr_sampling::{Frame, HemisphereStrata};
+use irr_gradients::{GatherSamples, TranslationGradient, rotate_to_world};
+use irr_sampling::Frame;
 use irr_sh::{Basis, ShRotation};
 use std::f32::consts::PI;
 
@@ -90,42 +96,95 @@ impl RadianceCaching {
         }
     }
 
-    /// The coefficients of a gather's cosine-weighted radiance from its rays `log` (every ray,
-    /// including those of super-sampled cells and those below the geometric surface, which
-    /// brought back nothing), in the gather's frame.
-    pub(super) fn project(&self, strata: HemisphereStrata, log: &[LoggedRay]) -> Vec<Vec3> {
+    /// Values stored per record: the n² coefficients, then their translation gradients along
+    /// world x, y and z (n² each).
+    pub(super) fn stride(&self) -> usize {
+        4 * self.count()
+    }
+
+    /// A record's stored values (`stride()` of them) from its gather: the coefficients of the
+    /// cosine-weighted radiance of its rays `log` (every ray, including those of super-sampled
+    /// cells and those below the geometric surface, which brought back nothing) in the gather's
+    /// frame, then, with `variant`, each coefficient's translation gradient in world space by
+    /// the same walls as the irradiance's (irr-gradients' `translation_gradient_of`, on the
+    /// gather `samples` whose rays these are; zero without).
+    pub(super) fn project(
+        &self,
+        samples: &GatherSamples<Vec3>,
+        log: &[LoggedRay],
+        frame: &Frame,
+        variant: Option<TranslationGradient>,
+    ) -> Vec<Vec3> {
+        let strata = *samples.strata();
+        let count = self.count();
         let mut per_cell = vec![0u32; strata.len()];
         for &(cell, _, _) in log {
             if let Some(c) = per_cell.get_mut(cell as usize) {
                 *c += 1;
             }
         }
-        let cell_weight = PI / strata.len() as f32;
-        let mut out = vec![Vec3::ZERO; self.count()];
-        let mut values = vec![0.0f32; self.count()];
+        // Each cell's mean of L·Y_k over its rays, [cell][k].
+        let mut cells = vec![Vec3::ZERO; strata.len() * count];
+        let mut values = vec![0.0f32; count];
         for &(cell, w, value) in log {
             let samples = per_cell.get(cell as usize).copied().unwrap_or(0);
             if samples == 0 || value == Vec3::ZERO || self.basis.eval(w, &mut values).is_err() {
                 continue;
             }
-            let weighted = value * (cell_weight / samples as f32);
-            for (o, y) in out.iter_mut().zip(&values) {
+            let start = cell as usize * count;
+            let weighted = value / samples as f32;
+            for (o, y) in cells[start..start + count].iter_mut().zip(&values) {
                 *o += weighted * *y;
+            }
+        }
+        // c_k = Σ_cells (π/MN) mean(L·Y_k): the irradiance's estimator, cell by cell.
+        let cell_weight = PI / strata.len() as f32;
+        let mut out = vec![Vec3::ZERO; self.stride()];
+        for row in cells.chunks_exact(count) {
+            for (o, v) in out[..count].iter_mut().zip(row) {
+                *o += *v * cell_weight;
+            }
+        }
+        if let Some(variant) = variant {
+            let mut field = vec![Vec3::ZERO; strata.len()];
+            for k in 0..count {
+                for (f, row) in field.iter_mut().zip(cells.chunks_exact(count)) {
+                    *f = row[k];
+                }
+                if let Some(local) = samples.translation_gradient_of(variant, &field) {
+                    let world = rotate_to_world(&local, frame);
+                    for (axis, g) in world.iter().enumerate() {
+                        out[(1 + axis) * count + k] = *g;
+                    }
+                }
             }
         }
         out
     }
 
-    /// Adds `weight` times the record's coefficients `stored` (in the frame of `record_normal`)
-    /// turned into `frame` to `sum`; `turned` is scratch of `count()` entries.
+    /// Adds `weight` times a record's coefficients, extrapolated by their gradients to the
+    /// offset `offset` from it (`stored` holds `stride()` values: module docs) and turned from
+    /// the frame of `record_normal` into `frame`, to `sum`; `moved` and `turned` are scratch of
+    /// `count()` entries.
     pub(super) fn accumulate(
         &self,
-        (stored, record_normal): (&[Vec3], Vec3),
+        (stored, record_normal, offset): (&[Vec3], Vec3, Vec3),
         frame: &Frame,
         weight: f32,
         sum: &mut [Vec3],
-        turned: &mut [Vec3],
+        (moved, turned): (&mut [Vec3], &mut [Vec3]),
     ) {
+        let count = self.count();
+        if stored.len() != self.stride() || moved.len() != count {
+            return;
+        }
+        let (c, g) = stored.split_at(count);
+        let (gx, rest) = g.split_at(count);
+        let (gy, gz) = rest.split_at(count);
+        for ((((m, c), x), y), z) in moved.iter_mut().zip(c).zip(gx).zip(gy).zip(gz) {
+            *m = *c + *x * offset.x + *y * offset.y + *z * offset.z;
+        }
+        let stored: &[Vec3] = moved;
         // Normals within 2⁻²⁰ of each other (a flat surface's interpolated normals, equal up
         // to rounding) share the frame to that order: no rotation.
         if (record_normal - frame.n).length_squared() < 1e-12 {
@@ -174,65 +233,153 @@ impl RadianceCaching {
 mod tests {
     use super::*;
     use irr_bsdf::MetallicRoughness;
-    use irr_sampling::SampleKey;
+    use irr_sampling::{HemisphereStrata, SampleKey};
     use std::f32::consts::TAU;
 
     fn caching(order: usize) -> RadianceCaching {
         RadianceCaching::new(order, 0.5).unwrap_or_else(|e| panic!("{e}"))
     }
 
-    /// A uniform sky of radiance 1 seen by a cosine-stratified gather: c₀ = (π/MN)·Σ Y₀ =
-    /// π·Y₀ = π/√(4π), exactly (every ray brings 1, Y₀ is constant), so √(4π)·c₀ = E = π, up to
-    /// f32 rounding of MN sums (MN·2⁻²⁴ relative).
-    #[test]
-    fn projection_of_a_uniform_sky_gives_its_irradiance() {
-        let rc = caching(3);
-        let strata = HemisphereStrata::new(4, 16).unwrap_or_else(|e| panic!("{e}"));
-        let log: Vec<LoggedRay> = strata
+    /// A gather of `strata` whose cell (j, k) brings back `radiance(j, k)` from `distance(j, k)`,
+    /// one ray per cell: its samples and its log.
+    fn gather(
+        strata: HemisphereStrata,
+        radiance: impl Fn(u32, u32) -> Vec3,
+        distance: impl Fn(u32, u32) -> f32,
+    ) -> (GatherSamples<Vec3>, Vec<LoggedRay>) {
+        let samples = GatherSamples::from_fn(strata, |c| (radiance(c.j, c.k), distance(c.j, c.k)))
+            .unwrap_or_else(|e| panic!("{e}"));
+        let log = strata
             .cells()
             .map(|cell| {
                 let key = SampleKey::new(7, u64::from(cell.index(&strata)), 0);
                 (
                     cell.index(&strata),
                     strata.sample(cell, key.uniform_2d(0)),
-                    Vec3::ONE,
+                    radiance(cell.j, cell.k),
                 )
             })
             .collect();
-        let c = rc.project(strata, &log);
-        let e = c[0] * (4.0 * PI).sqrt();
-        assert!((e - Vec3::splat(PI)).abs().max_element() < 64.0 * 6e-8 * PI);
+        (samples, log)
     }
 
-    /// Turning a record into a frame that differs only by the tangent's choice (same normal,
-    /// frames from different normals' conventions) and back is the identity; and a record
-    /// whose frame is the query's is added unchanged. The rotation is exact up to f32 rounding
-    /// of order-n sums (n² terms: 16·2⁻²⁴ per entry, asserted at 1e-5 for entries ≲ 1).
+    /// A uniform sky of radiance 1 seen by a cosine-stratified gather: c₀ = (π/MN)·Σ Y₀ =
+    /// π·Y₀ = π/√(4π), exactly (every ray brings 1, Y₀ is constant), so √(4π)·c₀ = E = π, up to
+    /// f32 rounding of MN sums (MN·2⁻²⁴ relative); and no gradient (no wall of a sky moves).
     #[test]
-    fn accumulate_rotates_between_frames() {
+    fn projection_of_a_uniform_sky_gives_its_irradiance() {
+        let rc = caching(3);
+        let strata = HemisphereStrata::new(4, 16).unwrap_or_else(|e| panic!("{e}"));
+        let (samples, log) = gather(strata, |_, _| Vec3::ONE, |_, _| f32::INFINITY);
+        let frame = Frame::from_normal(Vec3::Y);
+        let c = rc.project(
+            &samples,
+            &log,
+            &frame,
+            Some(TranslationGradient::WardHeckbert),
+        );
+        assert_eq!(c.len(), rc.stride());
+        let e = c[0] * (4.0 * PI).sqrt();
+        assert!((e - Vec3::splat(PI)).abs().max_element() < 64.0 * 6e-8 * PI);
+        assert!(c[rc.count()..].iter().all(|g| *g == Vec3::ZERO));
+    }
+
+    /// Y₀ is constant, so the zeroth coefficient and its gradient are the irradiance's times
+    /// Y₀ = 1/√(4π): the same walls and differences, each cell's value scaled by Y₀ before
+    /// the sums rather than after. Each of the ≤ 2MN terms carries one more f32 rounding (2⁻²⁴
+    /// relative), so the two agree within 2MN·2⁻²⁴ of the sum of the terms' magnitudes, which
+    /// is bounded here by Σ|ΔL|/r over the walls ≤ 2MN·max L/min r.
+    #[test]
+    fn the_zeroth_gradient_is_the_irradiance_gradient() {
+        let rc = caching(2);
+        let strata = HemisphereStrata::new(6, 20).unwrap_or_else(|e| panic!("{e}"));
+        let radiance = |j: u32, k: u32| Vec3::new(1.0 + (k % 5) as f32, 0.5 * j as f32, 2.0);
+        let distance = |j: u32, k: u32| 0.5 + ((j * 7 + k * 3) % 11) as f32 / 4.0;
+        let (samples, log) = gather(strata, radiance, distance);
+        let frame = Frame::from_normal(Vec3::new(0.2, 0.9, 0.1).normalize());
+        let c = rc.project(
+            &samples,
+            &log,
+            &frame,
+            Some(TranslationGradient::WardHeckbert),
+        );
+        let g = rotate_to_world(
+            &samples.translation_gradient(TranslationGradient::WardHeckbert),
+            &frame,
+        );
+        let y0 = 1.0 / (4.0 * PI).sqrt();
+        let walls = 2.0 * strata.len() as f32;
+        let tol = walls * 6e-8 * walls * 5.0 / 0.5;
+        for axis in 0..3 {
+            let got = c[(1 + axis) * rc.count()];
+            assert!(
+                (got - g[axis] * y0).abs().max_element() <= tol,
+                "{axis}: {got} vs {}",
+                g[axis] * y0
+            );
+        }
+        let e = samples.irradiance() * y0;
+        assert!((c[0] - e).abs().max_element() <= strata.len() as f32 * 6e-8 * 6.0 * PI);
+    }
+
+    /// Turning a record into the frame of its own normal adds it unchanged; turned into
+    /// another frame, its function evaluated along any direction is unchanged (the rotation is
+    /// exact up to f32 rounding of order-n sums: n² terms, 16·2⁻²⁴ per entry, asserted at 1e-4
+    /// for entries ≲ 1); a gradient extrapolates the coefficients to the offset.
+    #[test]
+    fn accumulate_extrapolates_and_rotates_between_frames() {
         let rc = caching(4);
         let count = rc.count();
-        let stored: Vec<Vec3> = (0..count)
+        let mut stored: Vec<Vec3> = (0..count)
             .map(|k| Vec3::splat(((k * 3 % 7) as f32 - 3.0) / 4.0))
             .collect();
+        stored.resize(rc.stride(), Vec3::ZERO);
         let n = Vec3::new(0.3, 0.2, 0.9).normalize();
         let frame = Frame::from_normal(n);
-        let (mut sum, mut turned) = (vec![Vec3::ZERO; count], vec![Vec3::ZERO; count]);
-        rc.accumulate((&stored, n), &frame, 2.0, &mut sum, &mut turned);
+        let mut sum = vec![Vec3::ZERO; count];
+        let (mut moved, mut turned) = (vec![Vec3::ZERO; count], vec![Vec3::ZERO; count]);
+        let offset = Vec3::new(0.5, -0.25, 2.0);
+        rc.accumulate(
+            (&stored, n, offset),
+            &frame,
+            2.0,
+            &mut sum,
+            (&mut moved, &mut turned),
+        );
         for (s, c) in sum.iter().zip(&stored) {
             assert_eq!(*s, *c * 2.0);
         }
-        // A record on a tilted normal: its coefficients evaluated along a direction d equal
-        // the turned ones evaluated along d in the query's frame.
+        // Gradients 1 along x, 2 along y, 4 along z for every coefficient: + 0.5 − 0.5 + 8.
+        let mut graded = stored.clone();
+        for (axis, g) in [1.0f32, 2.0, 4.0].iter().enumerate() {
+            graded[(1 + axis) * count..(2 + axis) * count].fill(Vec3::splat(*g));
+        }
+        sum.fill(Vec3::ZERO);
+        rc.accumulate(
+            (&graded, n, offset),
+            &frame,
+            1.0,
+            &mut sum,
+            (&mut moved, &mut turned),
+        );
+        for (s, c) in sum.iter().zip(&stored) {
+            assert_eq!(*s, *c + Vec3::splat(8.0));
+        }
         let m = Vec3::new(0.1, 0.3, 0.95).normalize();
         let record = Frame::from_normal(m);
         sum.fill(Vec3::ZERO);
-        rc.accumulate((&stored, m), &frame, 1.0, &mut sum, &mut turned);
+        rc.accumulate(
+            (&stored, m, Vec3::ZERO),
+            &frame,
+            1.0,
+            &mut sum,
+            (&mut moved, &mut turned),
+        );
         for d in [Vec3::new(0.2, 0.1, 0.97), Vec3::new(-0.5, 0.4, 0.77)] {
             let d = d.normalize();
             let a = rc
                 .basis
-                .reconstruct(&stored, record.to_local(d))
+                .reconstruct(&stored[..count], record.to_local(d))
                 .unwrap_or_else(|e| panic!("{e}"));
             let b = rc
                 .basis
