@@ -17,6 +17,8 @@ Run from anywhere with `python3 assets/generate.py`; it rewrites, next to itself
 - glossy-room.gltf + glossy-room.bin: the Cornell box with glTF metallic-roughness materials
   (rough gold and glossy plastic blocks, a rough dielectric floor, the textured room's poster on
   the back wall). External buffer; the poster is textured-room-back-wall.png.
+- metal-floor-room.gltf + metal-floor-room.bin: the glossy room with a rough metal floor
+  (roughness 0.8), whose lobe low-order spherical harmonics hold (radiance caching).
 - detail-room.gltf + detail-room.bin + detail-room-{floor-normal,lattice}.png: the glossy room
   with surface detail: a normal texture of bevelled tiles on the floor (normalTexture, tangents
   left to the renderer) and a wooden lattice standing in front of the back wall, cut out by its
@@ -900,6 +902,19 @@ def glossy_room():
     write_scene(b, "glossy-room", "Cornell box with glTF metallic-roughness materials, metres")
 
 
+# The glossy room with a rough metal floor (roughness 0.8): a glossy lobe wide enough for
+# low-order spherical harmonics over a large part of the image, where radiance caching applies.
+METAL_FLOOR = (0.95, 0.93, 0.88)
+
+
+def metal_floor_room():
+    b = Builder()
+    floor = b.glossy_material("floor, rough metal", METAL_FLOOR, 1.0, 0.8)
+    add_cornell_surfaces(b, glossy_room_surfaces(b, floor))
+    cornell_camera(b)
+    write_scene(b, "metal-floor-room", "the glossy room with a rough metal floor, metres")
+
+
 # ---------------------------------------------------------------------------------------------
 # The detail room: the glossy room with a normal-mapped floor and a cut-out lattice
 # ---------------------------------------------------------------------------------------------
@@ -1244,6 +1259,7 @@ if __name__ == "__main__":
     indirect_room()
     textured_room()
     glossy_room()
+    metal_floor_room()
     detail_room()
     furnace()
     disk_light()

@@ -415,3 +415,32 @@ fn parseval_error_matches_the_direct_reconstruction() {
         }
     }
 }
+
+/// The criterion radiance caching uses: [`ResidualTable::reconstruction_error`] (the
+/// cosine-weighted lobe's Parseval error in real SH) for orders 4 to 10, roughness 0.2 to 1 and
+/// cos θo = 0.2 / 0.5 / 0.8 / 1.0 (residual.rs's module docs).
+#[test]
+#[ignore = "measurement; run in release with --ignored --nocapture"]
+fn sh_reconstruction_error_table() {
+    let cosines = [0.2f32, 0.5, 0.8, 1.0];
+    let orders = [4usize, 6, 8, 10];
+    let tables: Vec<ResidualTable> = orders
+        .iter()
+        .map(|&n| ResidualTable::sh(n).unwrap_or_else(|e| panic!("{e}")))
+        .collect();
+    println!("| roughness | n = 4 | n = 6 | n = 8 | n = 10 |");
+    println!("|---|---|---|---|---|");
+    for r in [0.2f32, 0.4, 0.6, 0.8, 1.0] {
+        let cells: Vec<String> = tables
+            .iter()
+            .map(|t| {
+                cosines
+                    .iter()
+                    .map(|&c| format!("{:.2}", t.reconstruction_error(r, c)))
+                    .collect::<Vec<_>>()
+                    .join(" / ")
+            })
+            .collect();
+        println!("| {r} | {} |", cells.join(" | "));
+    }
+}

@@ -86,13 +86,16 @@ impl<V: IcValue> Core<V> {
             // level above never looks either up.
             return None;
         }
-        if level == 0
-            && V::READ_THROUGH_REFLECTANCE
-            && Bsdf::at(scene, &x).diffuse_reflectance() == Vec3::ZERO
-        {
+        if level == 0 && V::READ_THROUGH_REFLECTANCE {
+            let bsdf = Bsdf::at(scene, &x);
             // Irradiance multiplies x₀'s diffuse reflectance: a metal or a black surface, seen
-            // from the camera, never reads a record.
-            return None;
+            // from the camera, never reads a record, unless its lobe is reflected from the
+            // radiance records (module `radiance`).
+            if bsdf.diffuse_reflectance() == Vec3::ZERO
+                && !self.radiance.as_ref().is_some_and(|r| r.covers(&bsdf))
+            {
+                return None;
+            }
         }
         let mut guard = 0;
         let covered = self.covers(scene, li, &Query::from(&x), &mut guard);
