@@ -9,11 +9,12 @@ use clap::{Args, ValueEnum};
 use irr_render::{
     AmbientOcclusion, AoSettings, Aov, BounceMode, CacheBuilder, CachedAmbientOcclusion, Camera,
     DENOISER, DENOISER_AOVS, ExrMetadata, GradientMode, IcSettings, Integrator,
-    IrradianceCacheIntegrator, LeakGuard, LoadOptions, MetricKind, NO_DENOISER, PathSettings,
-    PathTracer, RadiusStatistic, RenderSettings, build_cache, build_light_cache, check_exposure,
-    check_output, check_output_file, denoise, fingerprint, load_scene_with, mark_records,
-    mean_of_samples, pixel_samples, read_cache_file, remove_partial_outputs_on_signals,
-    render_with_aovs, write_cache_file, write_exr_and_png, write_render,
+    IrradianceCacheIntegrator, LeakGuard, LoadOptions, LoadedScene, MetricKind, NO_DENOISER,
+    PathSettings, PathTracer, RadiusStatistic, RenderSettings, build_cache, build_light_cache,
+    check_exposure, check_output, check_output_file, denoise, fingerprint, load_scene_with,
+    mark_records, mean_of_samples, pixel_samples, read_cache_file,
+    remove_partial_outputs_on_signals, render_with_aovs, write_cache_file, write_exr_and_png,
+    write_render,
 };
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -315,9 +316,85 @@ pub struct RenderArgs {
     /// nothing
     #[arg(long, value_name = "X,Y", value_parser = parse_pixel, allow_hyphen_values = true)]
     pub debug_pixel: Option<(u32, u32)>,
+    /// Render frames A..B of the camera's animation (B excluded; A..=B includes it), frame f at
+    /// f / --fps seconds, each to the output named with its #### (any run of #) replaced by the
+    /// zero-padded frame number, or with .NNNN before the extension if it has none
+    #[arg(long, value_name = "A..B", value_parser = parse_frames, conflicts_with = "frame")]
+    pub frames: Option<(u32, u32)>,
+    /// Render one frame of the camera's animation, at N / --fps seconds, to the output as named
+    #[arg(long, value_name = "N")]
+    pub frame: Option<u32>,
+    /// Frames per second of --frames and --frame (finite, > 0)
+    #[arg(long, default_value_t = DEFAULT_FPS, allow_negative_numbers = true)]
+    pub fps: f64,
     /// The irradiance cache's options
     #[command(flatten)]
     pub ic: IcArgs,
+}
+
+/// Frames per second of an animation by default (film's rate).
+pub const DEFAULT_FPS: f64 = 24.0;
+
+/// The most frames one `--frames` range may hold.
+pub const MAX_FRAMES: u32 = 1_000_000;
+
+/// `A..B` (B excluded) or `A..=B` as the first frame and one past the last.
+fn parse_frames(text: &str) -> Result<(u32, u32), String> {
+    let (a, b, inclusive) = if let Some((a, b)) = text.split_once("..=") {
+        (a, b, true)
+    } else if let Some((a, b)) = text.split_once("..") {
+        (a, b, false)
+    } else {
+        return Err(format!("expected A..B or A..=B, e.g. 0..120, got '{text}'"));
+    };
+    let parse = |s: &str| {
+        s.trim()
+            .parse::<u32>()
+            .map_err(|e| format!("'{s}' in '{text}': {e}"))
+    };
+    let (a, b) = (parse(a)?, parse(b)?);
+    let end = if inclusive { b.checked_add(1) } else { Some(b) }
+        .ok_or_else(|| format!("'{text}': the last frame is too large"))?;
+    if end <= a {
+        return Err(format!("'{text}' holds no frame"));
+    }
+    if end - a > MAX_FRAMES {
+        return Err(format!(
+            "'{text}' holds {} frames; at most {MAX_FRAMES}",
+            end - a
+        ));
+    }
+    Ok((a, end))
+}
+
+/// Frame `frame`'s output: `out` with its first run of `#` replaced by the frame number
+/// zero-padded to the run's length, or with `.NNNN` before the extension if it has no `#`.
+pub fn frame_output(out: &Path, frame: u32) -> PathBuf {
+    let name = out
+        .file_name()
+        .map_or_else(|| "render.exr".into(), |n| n.to_string_lossy().into_owned());
+    let named = match name.find('#') {
+        Some(start) => {
+            let run = name[start..].chars().take_while(|&c| c == '#').count();
+            format!(
+                "{}{frame:0run$}{}",
+                &name[..start],
+                &name[start + run..],
+                run = run
+            )
+        }
+        None => {
+            let path = Path::new(&name);
+            let stem = path
+                .file_stem()
+                .map_or_else(|| "render".into(), |s| s.to_string_lossy().into_owned());
+            match path.extension() {
+                Some(ext) => format!("{stem}.{frame:04}.{}", ext.to_string_lossy()),
+                None => format!("{stem}.{frame:04}"),
+            }
+        }
+    };
+    out.with_file_name(named)
 }
 
 /// The default samples per pixel of `choice`.
@@ -430,6 +507,21 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
     RenderSettings::from_options(width.into(), height.into(), spp, args.seed, args.threads)
         .map_err(|e| e.to_string())?;
     check_exposure(args.exposure).map_err(|e| e.to_string())?;
+    if !(args.fps.is_finite() && args.fps > 0.0) {
+        return Err(format!("--fps: must be finite and > 0, got {}", args.fps));
+    }
+    if args.frames.is_some() {
+        if args.debug_pixel.is_some() {
+            return Err("--debug-pixel: pick one frame with --frame N, not --frames".into());
+        }
+        // A cache file is fingerprinted to one camera: each frame would overwrite it.
+        if args.ic.cache.is_some() {
+            return Err(
+                "--cache: a cache file belongs to one camera; with --frames each frame builds its own cache"
+                    .into(),
+            );
+        }
+    }
     if args.denoise {
         if DENOISER.is_none() {
             return Err(format!("--denoise: {NO_DENOISER}"));
@@ -454,12 +546,23 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
         );
     }
     let scene_path = scene_path.to_path_buf();
-    let out = out.to_path_buf();
+    // Each frame's output (one entry, `out` itself, without --frames) and its time.
+    let views: Vec<(PathBuf, Option<f64>)> = match args.frames {
+        Some((a, b)) => (a..b)
+            .map(|f| (frame_output(out, f), Some(f64::from(f) / args.fps)))
+            .collect(),
+        None => vec![(
+            out.to_path_buf(),
+            args.frame.map(|f| f64::from(f) / args.fps),
+        )],
+    };
     if args.debug_pixel.is_none() {
         // Before spending minutes: is there somewhere to put every result?
-        check_output(&out).map_err(|e| e.to_string())?;
-        if args.ic.show_records {
-            check_output(&records_output(&out)).map_err(|e| e.to_string())?;
+        for (out, _) in &views {
+            check_output(out).map_err(|e| e.to_string())?;
+            if args.ic.show_records {
+                check_output(&records_output(out)).map_err(|e| e.to_string())?;
+            }
         }
         if let Some(path) = &args.ic.cache {
             check_output_file(path).map_err(|e| format!("--cache: {e}"))?;
@@ -496,8 +599,44 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
     for w in &loaded.warnings {
         eprintln!("warning: {w}");
     }
+    if views.iter().any(|(_, t)| t.is_some()) {
+        match loaded.camera_path(args.camera) {
+            Some(path) => {
+                let (start, end) = path.span();
+                eprintln!(
+                    "note: the camera's animation runs from {start} s to {end} s (frames {} to {} at {} fps)",
+                    (f64::from(start) * args.fps).floor(),
+                    (f64::from(end) * args.fps).ceil(),
+                    args.fps
+                );
+            }
+            None => eprintln!(
+                "warning: {}: no animation moves the camera: every frame shows the same view",
+                scene_path.display()
+            ),
+        }
+    }
+    if args.debug_pixel.is_none() {
+        // From here on temporary output files may exist: delete them if the user interrupts.
+        remove_partial_outputs_on_signals()?;
+    }
+    for (out, time) in &views {
+        render_view(&args, &loaded, (&scene_path, out, *time), spp, ic_settings)?;
+    }
+    Ok(())
+}
+
+/// Renders one view of the loaded scene: through the chosen camera at `time` seconds of its
+/// animation (`None`: the rest pose), to `out`.
+fn render_view(
+    args: &RenderArgs,
+    loaded: &LoadedScene,
+    (scene_path, out, time): (&Path, &Path, Option<f64>),
+    spp: i64,
+    ic_settings: Option<IcSettings>,
+) -> Result<(), String> {
     let file_camera = loaded
-        .choose_camera(args.camera)
+        .choose_camera_at(args.camera, time)
         .map_err(|e| e.to_string())?;
     let (width, height) = RenderSettings::image_size(
         args.width,
@@ -649,8 +788,6 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
         return Ok(());
     }
 
-    // From here on temporary output files may exist: delete them if the user interrupts.
-    remove_partial_outputs_on_signals()?;
     let mut aovs = args.aov.clone();
     if args.denoise {
         aovs.extend(DENOISER_AOVS);
@@ -719,12 +856,12 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
         render_seconds,
         camera,
     };
-    let (exr, png) = write_render(&output.image, &output.aovs, &metadata, &out, args.exposure)
+    let (exr, png) = write_render(&output.image, &output.aovs, &metadata, out, args.exposure)
         .map_err(|e| e.to_string())?;
     println!("wrote {} and {}", exr.display(), png.display());
     if let (true, Some(b)) = (args.ic.show_records, builder) {
         let view = mark_records(&output.image, &camera, &b.records_for_display());
-        let (exr, png) = write_exr_and_png(&view, &records_output(&out), args.exposure)
+        let (exr, png) = write_exr_and_png(&view, &records_output(out), args.exposure)
             .map_err(|e| e.to_string())?;
         println!(
             "wrote {} and {} (records marked)",

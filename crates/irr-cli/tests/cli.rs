@@ -647,3 +647,133 @@ fn denoise_removes_most_of_the_noise_and_keeps_the_raw_colour() {
         "raw relMSE {before:.3e}, denoised {after:.3e}"
     );
 }
+
+/// The test plane seen from a camera (node 1, looking down −z, yfov 0.5) whose translation an
+/// animation moves from z = 2 to z = 5 between 0 and 1 s (LINEAR), in `dir/walk.gltf`; with
+/// `times` other than (0, 1) for the bad-input cases.
+fn animated_plane(dir: &Path, times: [f32; 2]) -> PathBuf {
+    let h = 100.0f32;
+    let positions = [[-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0], [-h, h, 0.0]];
+    let indices = [0u32, 1, 2, 0, 2, 3];
+    let translations = [[0.0f32, 0.0, 2.0], [0.0, 0.0, 5.0]];
+    let mut bin: Vec<u8> = positions
+        .iter()
+        .flat_map(|p| p.iter().flat_map(|c| c.to_le_bytes()))
+        .collect();
+    bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+    bin.extend(times.iter().flat_map(|t| t.to_le_bytes()));
+    bin.extend(
+        translations
+            .iter()
+            .flat_map(|p| p.iter().flat_map(|c| c.to_le_bytes())),
+    );
+    std::fs::write(dir.join("walk.bin"), &bin).unwrap_or_else(|e| panic!("{e}"));
+    let [r, g, b] = ALBEDO;
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0,1]}}],
+        "nodes":[{{"mesh":0}},{{"name":"walker","camera":0,"translation":[0,0,2]}}],
+        "cameras":[{{"type":"perspective","perspective":{{"yfov":0.5,"znear":0.01}}}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1,"material":0}}]}}],
+        "materials":[{{"pbrMetallicRoughness":{{"baseColorFactor":[{r},{g},{b},1],"metallicFactor":0}}}}],
+        "animations":[{{"channels":[{{"sampler":0,"target":{{"node":1,"path":"translation"}}}}],
+          "samplers":[{{"input":2,"output":3,"interpolation":"LINEAR"}}]}}],
+        "buffers":[{{"byteLength":{},"uri":"walk.bin"}}],
+        "bufferViews":[{{"buffer":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":24}},
+          {{"buffer":0,"byteOffset":72,"byteLength":8}},{{"buffer":0,"byteOffset":80,"byteLength":24}}],
+        "accessors":[
+          {{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-{h},-{h},0],"max":[{h},{h},0]}},
+          {{"bufferView":1,"componentType":5125,"count":6,"type":"SCALAR"}},
+          {{"bufferView":2,"componentType":5126,"count":2,"type":"SCALAR","min":[{}],"max":[{}]}},
+          {{"bufferView":3,"componentType":5126,"count":2,"type":"VEC3"}}]}}"#,
+        bin.len(),
+        times[0],
+        times[1]
+    );
+    let path = dir.join("walk.gltf");
+    std::fs::write(&path, json).unwrap_or_else(|e| panic!("{e}"));
+    path
+}
+
+/// `--frames 0..3 --fps 2` renders frames 0, 1, 2 at 0, 0.5 and 1 s to `walk.0000.exr` … (the
+/// `####` of `-o`): the camera moves from 2 m to 3.5 m and 5 m above the plane, so each pixel's
+/// depth (along the same camera-space ray, as the camera only translates) scales by 1.75 and
+/// 2.5, up to the f32 rounding of the hit distance (a few ulps: asserted at 8·2⁻²⁴ relative).
+/// `--frame 1` alone renders frame 1's image bit for bit; without `####` the frame number goes
+/// before the extension. Bad ranges, rates and combinations are refused up front.
+#[test]
+fn frames_follow_the_camera_animation() {
+    let dir = temp();
+    let scene = animated_plane(dir.path(), [0.0, 1.0]);
+    let scene = scene.to_string_lossy().into_owned();
+    let common = [
+        "--integrator",
+        "path",
+        "--spp",
+        "1",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--aov",
+        "depth",
+        "--fps",
+        "2",
+    ];
+    let mut args = vec![scene.as_str(), "--frames", "0..3", "-o", "walk.####.exr"];
+    args.extend(common);
+    irr_ok(dir.path(), &args);
+    let frames: Vec<Exr> = (0..3)
+        .map(|f| Exr::read(&dir.path().join(format!("walk.{f:04}.exr"))))
+        .collect();
+    let depth = |e: &Exr| e.channel("depth.Z").to_vec();
+    for (f, ratio) in [(1, 1.75f32), (2, 2.5)] {
+        for (a, b) in depth(&frames[0]).iter().zip(depth(&frames[f])) {
+            assert!(
+                (b / a - ratio).abs() <= 8.0 * U * ratio,
+                "frame {f}: {b} / {a}"
+            );
+        }
+    }
+    let mut args = vec![scene.as_str(), "--frame", "1", "-o", "one.exr"];
+    args.extend(common);
+    irr_ok(dir.path(), &args);
+    let one = Exr::read(&dir.path().join("one.exr"));
+    for name in ["R", "G", "B", "depth.Z"] {
+        assert_eq!(one.channel(name), frames[1].channel(name), "{name}");
+    }
+    let mut args = vec![scene.as_str(), "--frames", "4..=4", "-o", "plain.exr"];
+    args.extend(common);
+    irr_ok(dir.path(), &args);
+    assert!(dir.path().join("plain.0004.exr").exists());
+    assert!(dir.path().join("plain.0004.png").exists());
+    for (bad, says) in [
+        (vec!["--frames", "3..3"], "--frames"),
+        (vec!["--frames", "0..2", "--fps", "0"], "--fps"),
+        (vec!["--frames", "0..2", "--cache", "c.bin"], "--cache"),
+        (
+            vec!["--frames", "0..2", "--debug-pixel", "1,1"],
+            "--debug-pixel",
+        ),
+        (vec!["--frames", "0..2", "--frame", "1"], "--frame"),
+    ] {
+        let mut args = vec![scene.as_str()];
+        args.extend(bad.iter().copied());
+        let out = irr(dir.path(), &args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains(says),
+            "{bad:?}: {err}"
+        );
+    }
+    // Key times that do not increase: an error naming the animation's channel.
+    let bad = temp();
+    let scene = animated_plane(bad.path(), [1.0, 1.0]);
+    let out = irr(bad.path(), &[&scene.to_string_lossy(), "--frame", "0"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains("walk.gltf") && err.contains("animation 0 channel 0"),
+        "{err}"
+    );
+    assert!(err.contains("increase strictly"), "{err}");
+}

@@ -243,6 +243,21 @@ pub(crate) fn read_vec4(
     read_floats(what, accessor, Dimensions::Vec4, buffers, budget)
 }
 
+/// Reads a `SCALAR` accessor of `FLOAT` (animation key times).
+pub(crate) fn read_scalars(
+    what: &str,
+    accessor: &gltf::Accessor<'_>,
+    buffers: &Buffers,
+    budget: &mut Budget,
+) -> Result<Vec<f32>, String> {
+    Ok(
+        read_floats::<1>(what, accessor, Dimensions::Scalar, buffers, budget)?
+            .into_iter()
+            .map(|[x]| x)
+            .collect(),
+    )
+}
+
 /// Reads an accessor of `N` `FLOAT` components, whose dimensions must be `dims`.
 fn read_floats<const N: usize>(
     what: &str,

@@ -18,6 +18,7 @@
 //! the right of the image, +y up and +z along the view direction; NDC has (0, 0) at the image's
 //! top-left corner and (1, 1) at its bottom-right, reached after the homogeneous divide.
 
+use crate::animation::CameraPath;
 use glam::{DMat4, DVec4, Mat4, Vec2, Vec3};
 
 /// A pinhole camera in world space (metres).
@@ -62,8 +63,10 @@ pub struct NamedCamera {
     pub node: usize,
     /// The node's `name`, if it has one (as the file spells it: escape it before printing).
     pub name: Option<String>,
-    /// The camera, placed by the node's world transform.
+    /// The camera, placed by the node's world transform (its rest pose).
     pub camera: Camera,
+    /// Where an animation moves the camera's node or a node above it: its path over time.
+    pub path: Option<CameraPath>,
 }
 
 impl NamedCamera {

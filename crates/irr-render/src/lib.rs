@@ -60,6 +60,7 @@
 //! ```
 
 mod accessor;
+pub mod animation;
 mod aov;
 mod cachefile;
 mod camera;
@@ -183,6 +184,34 @@ impl LoadedScene {
             option: "--camera",
             problem: format!("there is no camera {i}: {problem}"),
         })
+    }
+
+    /// [`LoadedScene::choose_camera`] at `time` seconds of its animation (`None`: the rest
+    /// pose): a camera whose node or a node above it is animated is placed by its path at that
+    /// time; any other keeps its place.
+    pub fn choose_camera_at(
+        &self,
+        index: Option<usize>,
+        time: Option<f64>,
+    ) -> Result<Option<Camera>, RenderError> {
+        let rest = self.choose_camera(index)?;
+        let (Some(t), Some(path)) = (time, self.camera_path(index)) else {
+            return Ok(rest);
+        };
+        path.camera_at(t as f32)
+            .map(Some)
+            .ok_or_else(|| RenderError::Setting {
+                option: "--frame",
+                problem: format!(
+                    "at {t} s the camera's animation collapses its view direction ({})",
+                    self.path.display()
+                ),
+            })
+    }
+
+    /// The path of camera `index` (the first when `None`), if an animation moves it.
+    pub fn camera_path(&self, index: Option<usize>) -> Option<&animation::CameraPath> {
+        self.cameras.get(index.unwrap_or(0))?.path.as_ref()
     }
 
     /// A note when `camera` (one of the file's) gives an `aspectRatio` that differs from the

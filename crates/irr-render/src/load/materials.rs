@@ -40,12 +40,6 @@ impl Loader<'_> {
 
     pub(super) fn count_document_features(&mut self) {
         let d = self.document;
-        self.warnings.add("animations", d.animations().len(), |n| {
-            format!(
-                "{} ignored (irr renders the rest pose)",
-                plural(n, "animation", "animations")
-            )
-        });
         self.warnings.add("skins", d.skins().len(), |n| {
             format!(
                 "{} ignored (irr renders the unskinned positions)",

@@ -45,7 +45,9 @@
 //! already shadows: counted twice), `KHR_materials_specular`'s colour and textures, textures and
 //! images no base-colour, emissive, metallic-roughness or normal texture uses, `minFilter` (no mip maps: every lookup uses
 //! `magFilter`), vertex colours past
-//! `COLOR_0`, morph targets, skins, animations, points and lines, orthographic cameras, other
+//! `COLOR_0`, morph targets, skins, animation channels that move no camera (module
+//! `animation`: those that move a camera's node or a node above it are read), points and lines,
+//! orthographic cameras, other
 //! scenes, a light's `range` (a non-physical cut-off), lights no node of the scene places, and
 //! every extension except `KHR_materials_emissive_strength`, `KHR_materials_specular`,
 //! `KHR_texture_transform` and `KHR_lights_punctual` (transmission, …). A textured material on a
@@ -62,6 +64,7 @@
 //! emission, lights with a non-finite or negative intensity or colour, spot cone angles outside
 //! 0 ≤ inner ≤ outer ≤ π/2 (outer > 0), and required extensions it does not support.
 
+mod animation;
 mod buffers;
 mod json;
 mod lights;
@@ -368,6 +371,7 @@ impl<'a> Loader<'a> {
                         node: node.index(),
                         name: node.name().map(str::to_string),
                         camera: self.camera(&node, world, &p)?,
+                        path: None,
                     }),
                     gltf::camera::Projection::Orthographic(_) => {
                         self.warnings.add("orthographic", 1, |n| {
@@ -421,6 +425,10 @@ impl<'a> Loader<'a> {
                     plural(n, "primitive has", "primitives have")
                 )
             });
+        }
+        let paths = self.camera_paths(&buffers, &cameras)?;
+        for (camera, path) in cameras.iter_mut().zip(paths) {
+            camera.path = path;
         }
         if self.document.cameras().len() > 0 && cameras.is_empty() {
             self.warnings.add("unplaced-camera", 1, |_| {

@@ -60,7 +60,7 @@ impl<'a> Loader<'a> {
         Ok(out)
     }
 
-    fn local_transform(&self, node: &gltf::Node<'_>) -> Result<Mat4, RenderError> {
+    pub(super) fn local_transform(&self, node: &gltf::Node<'_>) -> Result<Mat4, RenderError> {
         let m = match node.transform() {
             gltf::scene::Transform::Matrix { matrix } => Mat4::from_cols_array_2d(&matrix),
             gltf::scene::Transform::Decomposed {

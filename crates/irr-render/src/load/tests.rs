@@ -444,3 +444,85 @@ fn vertex_colours_multiply_the_base_colour() {
     assert_eq!(s.alpha(0, 1.0, 0.0), 1.0);
     assert_eq!(s.alpha(1, 0.3, 0.3), 1.0);
 }
+
+/// Animations: a channel that moves a node above a camera (rotation, CUBICSPLINE, with zero
+/// tangents) gives that camera a path whose chain is the moving parent then the fixed camera
+/// node; a channel that moves a mesh, and one that drives the same parent's rotation again,
+/// are counted in warnings; a camera no channel reaches has no path. At a key the spline is
+/// the key's value (h00(0) = 1): at 1 s the parent's quarter turn about y turns the camera's
+/// view from −z to −x and carries its rest translation (0, 0, 1) to (1, 0, 0).
+#[test]
+fn animations_move_cameras_and_warn_about_the_rest() {
+    let d = dir();
+    let mut g = Gltf::default();
+    let p = g.vec3(&TRIANGLE);
+    let times: Vec<u8> = [0.0f32, 1.0].iter().flat_map(|t| t.to_le_bytes()).collect();
+    let input = g.accessor(
+        &times,
+        r#""componentType":5126,"count":2,"type":"SCALAR","min":[0],"max":[1]"#,
+    );
+    let quarter = glam::Quat::from_rotation_y(std::f32::consts::FRAC_PI_2);
+    let zero = [0.0f32; 4];
+    let keys = [
+        zero,
+        [0.0, 0.0, 0.0, 1.0],
+        zero,
+        zero,
+        quarter.to_array(),
+        zero,
+    ];
+    let rotations: Vec<u8> = keys
+        .iter()
+        .flat_map(|q| q.iter().flat_map(|c| c.to_le_bytes()))
+        .collect();
+    let output = g.accessor(
+        &rotations,
+        r#""componentType":5126,"count":6,"type":"VEC4""#,
+    );
+    let shift = g.vec3(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]);
+    let json = g.json(&format!(
+        r#""scene":0,"scenes":[{{"nodes":[0,1,3]}}],
+        "nodes":[{{"mesh":0}},{{"children":[2]}},{{"camera":0,"translation":[0,0,1]}},{{"camera":0}}],
+        "cameras":[{{"type":"perspective","perspective":{{"yfov":0.5,"znear":0.01}}}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p}}}}}]}}],
+        "materials":[],
+        "animations":[{{"channels":[
+            {{"sampler":0,"target":{{"node":1,"path":"rotation"}}}},
+            {{"sampler":1,"target":{{"node":0,"path":"translation"}}}},
+            {{"sampler":0,"target":{{"node":1,"path":"rotation"}}}}],
+          "samplers":[{{"input":{input},"output":{output},"interpolation":"CUBICSPLINE"}},
+                      {{"input":{input},"output":{shift},"interpolation":"LINEAR"}}]}}]"#
+    ));
+    let s = load(&write(d.path(), "a.gltf", json));
+    let got: Vec<(&str, usize)> = s
+        .warnings
+        .iter()
+        .map(|w| (w.feature.as_str(), w.count))
+        .collect();
+    assert!(got.contains(&("animations", 1)), "{got:?}");
+    assert!(got.contains(&("animation-duplicates", 1)), "{got:?}");
+    assert_eq!(s.cameras.len(), 2);
+    assert!(s.cameras[1].path.is_none());
+    let path = s.cameras[0]
+        .path
+        .as_ref()
+        .unwrap_or_else(|| panic!("no path"));
+    assert_eq!(path.chain.len(), 2);
+    assert!(matches!(path.chain[0], crate::animation::Link::Moving(_)));
+    assert!(matches!(path.chain[1], crate::animation::Link::Fixed(_)));
+    assert_eq!(path.span(), (0.0, 1.0));
+    let start = path.camera_at(0.0).unwrap_or_else(|| panic!("no camera"));
+    assert_eq!(start.position, Vec3::new(0.0, 0.0, 1.0));
+    let end = path.camera_at(1.0).unwrap_or_else(|| panic!("no camera"));
+    // A quarter turn in f32 (sin and cos of π/4 rounded): within a few ulps of the exact point.
+    assert!(
+        (end.position - Vec3::X).abs().max_element() < 1e-6,
+        "{}",
+        end.position
+    );
+    assert!(
+        (end.forward - -Vec3::X).abs().max_element() < 1e-6,
+        "{}",
+        end.forward
+    );
+}
