@@ -16,3 +16,4 @@ mod sampling;
 mod signals;
 mod support;
 mod textures;
+mod walkthrough;

@@ -11,8 +11,8 @@ use irr_render::{
     DENOISER, DENOISER_AOVS, ExrMetadata, GradientMode, IcSettings, Integrator,
     IrradianceCacheIntegrator, LeakGuard, LoadOptions, LoadedScene, MetricKind, NO_DENOISER,
     PathSettings, PathTracer, RadiusStatistic, RenderSettings, build_cache, build_light_cache,
-    check_exposure, check_output, check_output_file, denoise, fingerprint, load_scene_with,
-    mark_records, mean_of_samples, pixel_samples, read_cache_file,
+    build_shared_cache, check_exposure, check_output, check_output_file, denoise, fingerprint,
+    load_scene_with, mark_records, mean_of_samples, pixel_samples, read_cache_file,
     remove_partial_outputs_on_signals, render_with_aovs, write_cache_file, write_exr_and_png,
     write_render,
 };
@@ -327,6 +327,14 @@ pub struct RenderArgs {
     /// Frames per second of --frames and --frame (finite, > 0)
     #[arg(long, default_value_t = DEFAULT_FPS, allow_negative_numbers = true)]
     pub fps: f64,
+    /// With --frames and --integrator ic: one cache for the whole sequence, built from the
+    /// views of every --cache-every-th frame and the last, then read by every frame without
+    /// adding records, so the indirect light does not flicker from frame to frame
+    #[arg(long)]
+    pub shared_cache: bool,
+    /// With --shared-cache: the spacing of the frames whose views build the cache (≥ 1)
+    #[arg(long, value_name = "K", default_value_t = DEFAULT_CACHE_EVERY)]
+    pub cache_every: u32,
     /// The irradiance cache's options
     #[command(flatten)]
     pub ic: IcArgs,
@@ -334,6 +342,9 @@ pub struct RenderArgs {
 
 /// Frames per second of an animation by default (film's rate).
 pub const DEFAULT_FPS: f64 = 24.0;
+
+/// The spacing of a shared cache's key frames by default.
+pub const DEFAULT_CACHE_EVERY: u32 = 10;
 
 /// The most frames one `--frames` range may hold.
 pub const MAX_FRAMES: u32 = 1_000_000;
@@ -510,6 +521,17 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
     if !(args.fps.is_finite() && args.fps > 0.0) {
         return Err(format!("--fps: must be finite and > 0, got {}", args.fps));
     }
+    if args.shared_cache {
+        if args.frames.is_none() {
+            return Err("--shared-cache: a cache shared by frames needs --frames A..B".into());
+        }
+        if args.integrator != IntegratorChoice::Ic {
+            return Err("--shared-cache: works with --integrator ic only".into());
+        }
+        if args.cache_every == 0 {
+            return Err("--cache-every: must be at least 1".into());
+        }
+    }
     if args.frames.is_some() {
         if args.debug_pixel.is_some() {
             return Err("--debug-pixel: pick one frame with --frame N, not --frames".into());
@@ -620,10 +642,83 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
         // From here on temporary output files may exist: delete them if the user interrupts.
         remove_partial_outputs_on_signals()?;
     }
+    let shared = match (args.shared_cache, args.frames, ic_settings) {
+        (true, Some((a, b)), Some(s)) => Some(shared_cache(&args, &loaded, (a, b), spp, s)?),
+        _ => None,
+    };
     for (out, time) in &views {
-        render_view(&args, &loaded, (&scene_path, out, *time), spp, ic_settings)?;
+        render_view(
+            &args,
+            &loaded,
+            (&scene_path, out, *time),
+            (spp, ic_settings),
+            shared.as_ref(),
+        )?;
     }
     Ok(())
+}
+
+/// The cache of `--shared-cache` for frames `a..b`: built from the views of every
+/// `--cache-every`-th frame and the last (irr-render's `build_shared_cache`).
+fn shared_cache(
+    args: &RenderArgs,
+    loaded: &LoadedScene,
+    (a, b): (u32, u32),
+    spp: i64,
+    s: IcSettings,
+) -> Result<IrradianceCacheIntegrator, String> {
+    let mut keys: Vec<u32> = (a..b).step_by(args.cache_every as usize).collect();
+    if keys.last() != Some(&(b - 1)) {
+        keys.push(b - 1);
+    }
+    let mut views = Vec::with_capacity(keys.len());
+    for &f in &keys {
+        let camera = loaded
+            .choose_camera_at(args.camera, Some(f64::from(f) / args.fps))
+            .map_err(|e| e.to_string())?;
+        views.push(camera);
+    }
+    let rest = views.first().copied().flatten();
+    let (width, height) = RenderSettings::image_size(
+        args.width,
+        args.height,
+        rest.and_then(|c| c.aspect_ratio_in_file),
+    )
+    .map_err(|e| e.to_string())?;
+    let settings =
+        RenderSettings::from_options(width.into(), height.into(), spp, args.seed, args.threads)
+            .map_err(|e| e.to_string())?;
+    let cameras: Vec<Camera> = views
+        .into_iter()
+        .map(|c| {
+            c.unwrap_or_else(|| {
+                Camera::framing(
+                    loaded.bounds.0,
+                    loaded.bounds.1,
+                    width as f32 / height as f32,
+                )
+            })
+        })
+        .collect();
+    let mut ic = IrradianceCacheIntegrator::new(s).map_err(|e| e.to_string())?;
+    ic.preprocess(&loaded.scene);
+    let stats = build_shared_cache(
+        &loaded.scene,
+        &cameras,
+        &mut ic,
+        &settings,
+        s.fill_samples,
+        true,
+    )
+    .map_err(|e| e.to_string())?;
+    let listed: Vec<String> = keys.iter().map(u32::to_string).collect();
+    eprintln!(
+        "shared cache from {} key frames ({}): {}",
+        keys.len(),
+        listed.join(", "),
+        stats.summary()
+    );
+    Ok(ic)
 }
 
 /// Renders one view of the loaded scene: through the chosen camera at `time` seconds of its
@@ -632,8 +727,8 @@ fn render_view(
     args: &RenderArgs,
     loaded: &LoadedScene,
     (scene_path, out, time): (&Path, &Path, Option<f64>),
-    spp: i64,
-    ic_settings: Option<IcSettings>,
+    (spp, ic_settings): (i64, Option<IcSettings>),
+    shared: Option<&IrradianceCacheIntegrator>,
 ) -> Result<(), String> {
     let file_camera = loaded
         .choose_camera_at(args.camera, time)
@@ -697,8 +792,8 @@ fn render_view(
     // A cache read from a file with the same fingerprint is what the same construction built,
     // every level of it: the passes are not run again.
     let mut cache_read = false;
-    let mut ic_integrator = match (args.integrator, ic_settings) {
-        (IntegratorChoice::Ic, Some(s)) => {
+    let mut ic_integrator = match (args.integrator, ic_settings, shared) {
+        (IntegratorChoice::Ic, Some(s), None) => {
             let mut ic = IrradianceCacheIntegrator::new(s).map_err(|e| e.to_string())?;
             if let (Some(path), Some(fp)) = (&args.ic.cache, cache_fingerprint)
                 && std::fs::symlink_metadata(path).is_ok()
@@ -718,7 +813,7 @@ fn render_view(
         _ => None,
     };
     let mut ao_integrator = match (args.integrator, ic_settings) {
-        (IntegratorChoice::IcAo, Some(s)) => Some(
+        (IntegratorChoice::IcAo, Some(s)) if shared.is_none() => Some(
             CachedAmbientOcclusion::new(s, AoSettings::default().max_distance)
                 .map_err(|e| e.to_string())?,
         ),
@@ -768,7 +863,10 @@ fn render_view(
         .map_err(|e| e.to_string())?;
         eprintln!("{}", stats.summary());
     }
-    let builder: Option<&dyn CacheBuilder> = builder.map(|b| &*b);
+    // A shared cache was built for every frame: this frame only reads it.
+    let builder: Option<&dyn CacheBuilder> = builder
+        .map(|b| &*b)
+        .or(shared.map(|s| s as &dyn CacheBuilder));
     let integrator: &dyn Integrator = match builder {
         Some(b) => b,
         None => &*plain,
@@ -808,7 +906,8 @@ fn render_view(
     let render_seconds = started.elapsed().as_secs_f64();
     let mean = output.image.mean();
     eprintln!("image mean radiance: {} {} {}", mean.x, mean.y, mean.z);
-    if let Some(b) = builder {
+    // (A shared cache's counts add up over the frames: printed per frame they would mislead.)
+    if let Some(b) = builder.filter(|_| shared.is_none()) {
         let misses = b.final_pass_misses();
         let samples =
             u64::from(settings.width) * u64::from(settings.height) * u64::from(settings.spp);

@@ -765,6 +765,57 @@ fn frames_follow_the_camera_animation() {
             "{bad:?}: {err}"
         );
     }
+    // One cache for the sequence, from frames 0 and 2's views (every 2nd and the last).
+    let shared = irr(
+        dir.path(),
+        &[
+            &scene,
+            "--frames",
+            "0..3",
+            "--shared-cache",
+            "--cache-every",
+            "2",
+            "--spp",
+            "1",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--background",
+            "1,1,1",
+            "-o",
+            "shared.exr",
+        ],
+    );
+    let err = String::from_utf8_lossy(&shared.stderr);
+    assert!(shared.status.success(), "{err}");
+    assert!(
+        err.contains("shared cache from 2 key frames (0, 2)"),
+        "{err}"
+    );
+    for f in 0..3 {
+        assert!(dir.path().join(format!("shared.{f:04}.exr")).exists());
+    }
+    for (bad, says) in [
+        (vec!["--shared-cache"], "--shared-cache"),
+        (
+            vec!["--frames", "0..2", "--shared-cache", "--integrator", "path"],
+            "--shared-cache",
+        ),
+        (
+            vec!["--frames", "0..2", "--shared-cache", "--cache-every", "0"],
+            "--cache-every",
+        ),
+    ] {
+        let mut args = vec![scene.as_str()];
+        args.extend(bad.iter().copied());
+        let out = irr(dir.path(), &args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains(says),
+            "{bad:?}: {err}"
+        );
+    }
     // Key times that do not increase: an error naming the animation's channel.
     let bad = temp();
     let scene = animated_plane(bad.path(), [1.0, 1.0]);

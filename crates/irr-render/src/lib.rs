@@ -97,8 +97,8 @@ pub use output::{
     write_render,
 };
 pub use passes::{
-    CacheBuildStats, LightCacheStats, PassStats, build_cache, build_light_cache, mark_records,
-    pixel_spread,
+    CacheBuildStats, LightCacheStats, PassStats, build_cache, build_light_cache,
+    build_shared_cache, mark_records, pixel_spread,
 };
 pub use render::{
     DEFAULT_ASPECT_RATIO, MAX_DIMENSION, MAX_THREADS, RenderOutput, RenderSettings, RenderStats,

@@ -442,10 +442,39 @@ pub fn build_cache(
     fill_samples: bool,
     progress: bool,
 ) -> Result<CacheBuildStats, RenderError> {
+    build_shared_cache(
+        scene,
+        std::slice::from_ref(camera),
+        builder,
+        settings,
+        fill_samples,
+        progress,
+    )
+}
+
+/// [`build_cache`] for several views of one static scene, a walkthrough's key frames: the light
+/// cache from the first view's camera paths, then each view's construction passes in turn,
+/// each adding records only where the cache so far does not cover its points (a record keeps
+/// the pixel limits of the view whose pass made it). The frames then render from the cache
+/// without adding to it, so each frame's image depends on the views given and on itself, not
+/// on which frames are rendered or in what order. Refused without a view.
+pub fn build_shared_cache(
+    scene: &Scene,
+    cameras: &[Camera],
+    builder: &mut dyn CacheBuilder,
+    settings: &RenderSettings,
+    fill_samples: bool,
+    progress: bool,
+) -> Result<CacheBuildStats, RenderError> {
     settings.validate()?;
+    let Some(first) = cameras.first() else {
+        return Err(RenderError::Setting {
+            option: "--frames",
+            problem: "a shared cache needs at least one view".into(),
+        });
+    };
     let start = Instant::now();
     let mut stats = CacheBuildStats::default();
-    let levels = builder.levels();
     let bar = if progress {
         let bar = indicatif::ProgressBar::new_spinner();
         bar.set_message("building the irradiance cache");
@@ -454,13 +483,48 @@ pub fn build_cache(
     } else {
         indicatif::ProgressBar::hidden()
     };
-    let (w, h) = (settings.width, settings.height);
     crate::render::with_threads(settings.threads, || {
         let paths = builder.light_paths();
         if paths > 0 {
             bar.set_message(format!("building the light cache: {paths} paths"));
-            stats.light = Some(trace_light_cache(scene, camera, builder, settings, paths));
+            stats.light = Some(trace_light_cache(scene, first, builder, settings, paths));
         }
+        for camera in cameras {
+            view_passes(
+                scene,
+                camera,
+                builder,
+                settings,
+                fill_samples,
+                &bar,
+                &mut stats,
+            );
+        }
+    })?;
+    bar.finish_and_clear();
+    stats.seconds = start.elapsed().as_secs_f64();
+    stats.records = builder.record_counts();
+    stats.radiance = builder.radiance_records();
+    stats.noise = (0..stats.records.len())
+        .map(|l| median_and_p90(builder.record_noise(l)))
+        .collect();
+    Ok(stats)
+}
+
+/// One view's construction passes (module docs): the deeper levels from its walks, level 0 from
+/// its pixels, coarse to fine, the camera samples with `fill_samples`, and the repair passes.
+fn view_passes(
+    scene: &Scene,
+    camera: &Camera,
+    builder: &mut dyn CacheBuilder,
+    settings: &RenderSettings,
+    fill_samples: bool,
+    bar: &indicatif::ProgressBar,
+    stats: &mut CacheBuildStats,
+) {
+    let levels = builder.levels();
+    let (w, h) = (settings.width, settings.height);
+    {
         let centre_jobs = |level: u32, pixels: &[(u32, u32)]| -> Vec<(Ray, f32, SampleKey)> {
             pixels
                 .iter()
@@ -563,15 +627,7 @@ pub fn build_cache(
                 break;
             }
         }
-    })?;
-    bar.finish_and_clear();
-    stats.seconds = start.elapsed().as_secs_f64();
-    stats.records = builder.record_counts();
-    stats.radiance = builder.radiance_records();
-    stats.noise = (0..stats.records.len())
-        .map(|l| median_and_p90(builder.record_noise(l)))
-        .collect();
-    Ok(stats)
+    }
 }
 
 /// The median and the 90th percentile of `values` (nearest rank; 0 for none).
