@@ -17,6 +17,8 @@ Run from anywhere with `python3 assets/generate.py`; it rewrites, next to itself
 - glossy-room.gltf + glossy-room.bin: the Cornell box with glTF metallic-roughness materials
   (rough gold and glossy plastic blocks, a rough dielectric floor, the textured room's poster on
   the back wall). External buffer; the poster is textured-room-back-wall.png.
+- cornell-dolly.gltf + cornell-dolly.bin: the Cornell box whose camera an animation dollies
+  10 cm to the right over 1 s (a LINEAR translation channel), for walkthroughs.
 - metal-floor-room.gltf + metal-floor-room.bin: the glossy room with a rough metal floor
   (roughness 0.8), whose lobe low-order spherical harmonics hold (radiance caching).
 - detail-room.gltf + detail-room.bin + detail-room-{floor-normal,lattice}.png: the glossy room
@@ -64,6 +66,7 @@ class Builder:
         self.images = []
         self.samplers = []
         self.textures = []
+        self.animations = []
         self.extensions_used = set()
 
     def _align(self, n):
@@ -235,6 +238,30 @@ class Builder:
         )
         return len(self.nodes) - 1
 
+    def animate_translation(self, node, times, translations):
+        """A LINEAR animation of `node`'s translation through `translations` at `times` (s)."""
+        inputs = b"".join(struct.pack("<f", t) for t in times)
+        view = self._view(inputs, None)
+        self.views[view].pop("target")
+        stored = [struct.unpack("<f", struct.pack("<f", t))[0] for t in times]
+        self.accessors.append(
+            {"bufferView": view, "componentType": 5126, "count": len(times), "type": "SCALAR",
+             "min": [min(stored)], "max": [max(stored)]}
+        )
+        outputs = b"".join(struct.pack("<3f", *p) for p in translations)
+        view = self._view(outputs, None)
+        self.views[view].pop("target")
+        self.accessors.append(
+            {"bufferView": view, "componentType": 5126, "count": len(translations), "type": "VEC3"}
+        )
+        n = len(self.accessors)
+        self.animations.append(
+            {
+                "channels": [{"sampler": 0, "target": {"node": node, "path": "translation"}}],
+                "samplers": [{"input": n - 2, "output": n - 1, "interpolation": "LINEAR"}],
+            }
+        )
+
     def document(self, generator_note, buffer_uri):
         self._align(4)
         buffer = {"byteLength": len(self.data)}
@@ -259,6 +286,8 @@ class Builder:
             doc["textures"] = self.textures
         if self.extensions_used:
             doc["extensionsUsed"] = sorted(self.extensions_used)
+        if self.animations:
+            doc["animations"] = self.animations
         return doc
 
 
@@ -425,7 +454,7 @@ def cornell_camera(b):
     # glTF cameras look down their local -Z with +Y up; the Cornell camera looks down world +Z
     # with +Y up: a half turn about Y, the unit quaternion (x, y, z, w) = (0, 1, 0, 0). Its right
     # (local +X) is then world -X, so the red wall (x = 0.55 m) is on the left, as in the photos.
-    b.camera(
+    return b.camera(
         "cornell camera",
         CAMERA_YFOV,
         1.0,
@@ -471,6 +500,23 @@ def cornell_box():
     add_cornell_surfaces(b, room_surfaces(white, red, green) + [("light", light)])
     cornell_camera(b)
     write_scene(b, "cornell-box", "Cornell Box Data (Cornell University PCG), metres")
+
+
+# The Cornell box with its camera dollied 10 cm to the right (world -X: the camera's right is
+# world -X, see cornell_camera) over 1 s: a walkthrough for --frames and --shared-cache.
+DOLLY_M = 0.1
+
+
+def cornell_dolly():
+    b = Builder()
+    white, red, green = cornell_colours(b)
+    light = b.material("light", LIGHT_ALBEDO, emission=LIGHT_RADIANCE, double_sided=False)
+    add_cornell_surfaces(b, room_surfaces(white, red, green) + [("light", light)])
+    camera = cornell_camera(b)
+    start = [c / 1000.0 for c in CAMERA_POSITION_MM]
+    end = [start[0] - DOLLY_M, start[1], start[2]]
+    b.animate_translation(camera, [0.0, 1.0], [start, end])
+    write_scene(b, "cornell-dolly", "the Cornell box, its camera dollied 10 cm right over 1 s")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1260,6 +1306,7 @@ if __name__ == "__main__":
     textured_room()
     glossy_room()
     metal_floor_room()
+    cornell_dolly()
     detail_room()
     furnace()
     disk_light()
