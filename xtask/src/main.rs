@@ -6,6 +6,9 @@
 //!   lists the options.
 //! - `cargo xtask compare`: the irradiance cache against the path tracer (speed and error) on a
 //!   scene; the report goes to target/compare/<scene>/.
+//! - `cargo xtask walkthrough`: a camera path rendered with a shared cache, a cache per frame
+//!   and the path tracer, each frame's error and the error between frames (flicker); the report
+//!   goes to target/walkthrough/<scene>/.
 //! - `cargo xtask tidy`: checks the codebase's own rules (also run by `cargo test` through the
 //!   `#[test]`s in `tidy.rs`).
 //!
@@ -22,6 +25,7 @@ use std::process::ExitCode;
 mod compare;
 mod render;
 mod tidy;
+mod walkthrough;
 
 /// irr's developer commands.
 #[derive(Parser)]
@@ -39,6 +43,9 @@ enum Command {
     Compare(compare::CompareArgs),
     /// Check the codebase's own rules: crate docs, and the one-way dependency table.
     Tidy,
+    /// Render a camera path with a shared cache, a cache per frame and the path tracer, and
+    /// measure each frame's error and the change between frames (flicker).
+    Walkthrough(walkthrough::WalkthroughArgs),
 }
 
 /// The workspace root, found at run time (see the crate docs): the first folder at or above
@@ -75,6 +82,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render::run(*args, &root),
         Command::Compare(args) => compare::run(args, &root),
         Command::Tidy => tidy::run(&root),
+        Command::Walkthrough(args) => walkthrough::run(args, &root),
     });
     match result {
         Ok(()) => ExitCode::SUCCESS,
