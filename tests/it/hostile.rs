@@ -343,6 +343,16 @@ fn inputs_that_panicked_inside_the_gltf_crate_are_refused() {
         &LoadOptions::default(),
         &["accessor 7 does not exist"],
     );
+    // An animation channel aimed at a node that does not exist (gltf's `Target::node` unwraps).
+    let path = cornell_json(dir.path(), |j| {
+        j["animations"] = json!([{"channels": [{"sampler": 0, "target": {"node": 99, "path": "translation"}}],
+            "samplers": [{"input": 0, "output": 0}]}]);
+    });
+    load_error(
+        &path,
+        &LoadOptions::default(),
+        &["animation 0 channel 0", "target node 99 does not exist"],
+    );
 }
 
 /// A camera under a parent translated by 3·10⁶ m and turned 17° renders the scene

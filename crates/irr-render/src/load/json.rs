@@ -84,7 +84,8 @@ pub(super) fn count_extensions(json: &[u8]) -> Result<BTreeMap<String, usize>, S
 }
 
 /// Checks what `gltf`'s own validation does not, and without which it or its accessors panic:
-/// each camera has the object its `type` names (`Camera::projection` unwraps it), and each
+/// each camera has the object its `type` names (`Camera::projection` unwraps it), each
+/// animation channel's target node exists (`Target::node` unwraps it), and each
 /// primitive's attribute accessors exist (the schema check indexes `accessors` with `POSITION`'s
 /// before it checks the index). (Sparse indices of a non-integer type, an `unreachable!()` in
 /// `Indices::index_type`, are already refused when the JSON is deserialized.)
@@ -109,6 +110,22 @@ pub(super) fn prevalidate(path: &Path, root: &gltf::json::Root) -> Result<(), Re
                     describe(i, camera.name.as_deref())
                 ),
             ));
+        }
+    }
+    // `animation::Target::node` unwraps the node; the schema check does not cover it.
+    for (a, animation) in root.animations.iter().enumerate() {
+        for (c, channel) in animation.channels.iter().enumerate() {
+            let node = channel.target.node.value();
+            if node >= root.nodes.len() {
+                return Err(RenderError::parse(
+                    path,
+                    format!(
+                        "animation {} channel {c}: target node {node} does not exist (the file has {})",
+                        describe(a, animation.name.as_deref()),
+                        root.nodes.len()
+                    ),
+                ));
+            }
         }
     }
     for (m, mesh) in root.meshes.iter().enumerate() {
