@@ -27,13 +27,13 @@
 //! event estimation alone (no BSDF sample to weigh it against).
 //!
 //! **When.** Only where the lobe's relative reconstruction error at the point's roughness and
-//! view angle is at most [`IcSettings::radiance_error`] (the table's Parseval error, measured
-//! per node); elsewhere (sharp lobes, grazing views), and where no record with coefficients
+//! view angle is at most [`IcSettings::radiance_error`] (the cosine-weighted lobe's error in
+//! the basis by Parseval's identity, computed per table node); elsewhere (sharp lobes, grazing views), and where no record with coefficients
 //! covers the point, the lobe is path-traced as without radiance caching. The choice depends
 //! only on the point, so it is deterministic.
 //!
 //! # Gradients
-//! Each coefficient has its translation gradient (Křivánek et al. 2005, §4.2): the gather's
+//! Each coefficient has its translation gradient (as Křivánek et al. 2005 give one): the gather's
 //! walls move with the point as for the irradiance, and a wall between two cells changes
 //! c_k by the difference of their values L·Y_k, so irr-gradients' estimator of the records'
 //! translation gradient (`--gradients`), given each cell's mean of L·Y_k in place of its
