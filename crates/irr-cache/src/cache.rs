@@ -164,17 +164,9 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         n: Vec3,
         mut f: impl FnMut(RecordId, &Record<V>, f64),
     ) {
-        let Some(nd) = unit_query_normal(n) else {
-            return;
-        };
-        if !p.is_finite() {
-            return;
+        if let Some((pd, nd)) = query(p, n) {
+            self.weighted(pd, nd, |index, record, _, w| f(index, record, w));
         }
-        let pd = p.as_dvec3();
-        self.weighted(pd, nd, |index, record, candidate, w| {
-            let _ = candidate;
-            f(index, record, w);
-        });
     }
 
     /// `record`'s candidate for a query whose offset from it is `offset` (squared length `d2`)
@@ -316,26 +308,36 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         n: Vec3,
         mut accept: impl FnMut(RecordId, &Record<V>) -> bool,
     ) -> Option<Interpolation<V>> {
-        let nd = unit_query_normal(n)?;
-        if !p.is_finite() {
-            return None;
-        }
-        let pd = p.as_dvec3();
+        let (pd, nd) = query(p, n)?;
         let mut mean = WeightedMean::<V>::new();
+        self.weighted_among(nearby, pd, nd, |id, record, candidate, w| {
+            if accept(id, record) {
+                mean.add(record, candidate, w);
+            }
+        });
+        mean.finish()
+    }
+
+    /// Calls `f` for every record of `nearby` whose sphere contains `p` and whose weight at
+    /// (`p`, unit `n`) is positive, in `nearby`'s order.
+    fn weighted_among(
+        &self,
+        nearby: &[NearbyRecord],
+        p: DVec3,
+        n: DVec3,
+        mut f: impl FnMut(RecordId, &Record<V>, &Candidate, f64),
+    ) {
         for near in nearby {
-            let Some((offset, d2)) = contains_offset(near.center, near.influence, pd) else {
+            let Some((offset, d2)) = contains_offset(near.center, near.influence, p) else {
                 continue;
             };
             let Some(record) = self.records.get(near.id as usize) else {
                 continue;
             };
-            if let Some((candidate, w)) = self.weigh(record, offset, d2, nd)
-                && accept(near.id, record)
-            {
-                mean.add(record, &candidate, w);
+            if let Some((candidate, w)) = self.weigh(record, offset, d2, n) {
+                f(near.id, record, &candidate, w);
             }
         }
-        mean.finish()
     }
 
     /// Calls `f` with every record of `nearby` (as [`IrradianceCache::records_meeting_box`]
@@ -350,23 +352,8 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         n: Vec3,
         mut f: impl FnMut(RecordId, &Record<V>, f64),
     ) {
-        let Some(nd) = unit_query_normal(n) else {
-            return;
-        };
-        if !p.is_finite() {
-            return;
-        }
-        let pd = p.as_dvec3();
-        for near in nearby {
-            let Some((offset, d2)) = contains_offset(near.center, near.influence, pd) else {
-                continue;
-            };
-            let Some(record) = self.records.get(near.id as usize) else {
-                continue;
-            };
-            if let Some((_, w)) = self.weigh(record, offset, d2, nd) {
-                f(near.id, record, w);
-            }
+        if let Some((pd, nd)) = query(p, n) {
+            self.weighted_among(nearby, pd, nd, |id, record, _, w| f(id, record, w));
         }
     }
 
@@ -766,4 +753,11 @@ fn gradient_limits<V: CacheValue>(record: &Record<V>, normal: Vec3) -> [f32; MAX
 #[inline]
 pub fn within_influence(center: Vec3, influence_radius: f32, p: Vec3) -> bool {
     p.is_finite() && contains(center, influence_radius, p.as_dvec3())
+}
+
+/// A query's point and unit normal in f64, or `None` when `p` is not finite or `n` is not a
+/// usable normal (`unit_query_normal`).
+fn query(p: Vec3, n: Vec3) -> Option<(DVec3, DVec3)> {
+    let nd = unit_query_normal(n)?;
+    p.is_finite().then(|| (p.as_dvec3(), nd))
 }
