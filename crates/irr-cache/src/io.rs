@@ -201,30 +201,7 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
     /// Writes the cache's records (see the module docs for the format). Writes in blocks, so an
     /// unbuffered `File` is fine; writing to a temporary file and renaming it is the caller's.
     pub fn write_to<W: Write>(&self, writer: W) -> Result<(), CacheFileError> {
-        let mut w = HashWriter {
-            inner: writer,
-            hash: Fnv::new(),
-        };
-        let mut header = Vec::with_capacity(HEADER_BYTES);
-        header.extend_from_slice(&MAGIC);
-        header.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
-        header.extend_from_slice(&V::TAG.to_le_bytes());
-        header.extend_from_slice(&(V::CHANNELS as u32).to_le_bytes());
-        header.extend_from_slice(&(self.len() as u64).to_le_bytes());
-        w.write(&header)?;
-        let mut block = Vec::with_capacity(64 * 1024);
-        for r in self.records() {
-            encode_record(r, &mut block);
-            if block.len() >= 60 * 1024 {
-                w.write(&block)?;
-                block.clear();
-            }
-        }
-        w.write(&block)?;
-        let hash = w.hash.0;
-        w.inner.write_all(&hash.to_le_bytes())?;
-        w.inner.flush()?;
-        Ok(())
+        write_records(self.records(), writer)
     }
 
     /// Reads a cache written by [`IrradianceCache::write_to`], filing its records with `metric`.
@@ -232,62 +209,111 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
     /// type, corrupt (checksum), or that holds an invalid record. Bytes after the checksum are not
     /// read.
     pub fn read_from<R: Read>(reader: R, metric: M) -> Result<Self, CacheFileError> {
-        let mut r = HashReader {
-            inner: reader,
-            hash: Fnv::new(),
-        };
-        let mut magic = [0; 8];
-        r.read(&mut magic)?;
-        if magic != MAGIC {
-            return Err(CacheFileError::NotACacheFile);
-        }
-        let version = r.u32()?;
-        if version != FORMAT_VERSION {
-            return Err(CacheFileError::Version {
-                found: version,
-                supported: FORMAT_VERSION,
-            });
-        }
-        let (tag, channels) = (r.u32()?, r.u32()?);
-        if tag != V::TAG || channels as usize != V::CHANNELS {
-            return Err(CacheFileError::ValueType {
-                found_tag: tag,
-                found_channels: channels,
-                expected_tag: V::TAG,
-                expected_channels: V::CHANNELS as u32,
-            });
-        }
-        let mut count = [0; 8];
-        r.read(&mut count)?;
-        let count = u64::from_le_bytes(count);
-
-        // Read every record before checking any, so a corrupt count or payload is reported as
-        // a checksum (or truncation) error, not as whatever garbage it decodes to. The count is
-        // not trusted for allocation: memory grows with what is actually read.
-        let record_bytes = 4 * floats_per_record::<V>();
-        let mut payload = Vec::new();
-        let mut buf = vec![0u8; record_bytes * 1024];
-        let mut left = count;
-        while left > 0 {
-            let n = left.min(1024) as usize;
-            let chunk = &mut buf[..n * record_bytes];
-            r.read(chunk)?;
-            payload.extend_from_slice(chunk);
-            left -= n as u64;
-        }
-        let mut stored = [0; 8];
-        read_exact(&mut r.inner, &mut stored)?;
-        if u64::from_le_bytes(stored) != r.hash.0 {
-            return Err(CacheFileError::Checksum);
-        }
-
+        let records = read_records::<V, R>(reader)?;
         let mut cache = Self::new(metric);
-        cache
-            .extend(payload.chunks_exact(record_bytes).map(decode_record::<V>))
-            .map_err(|e| CacheFileError::Record {
-                index: e.index as u64,
-                source: e.source,
-            })?;
+        cache.extend(records).map_err(|e| CacheFileError::Record {
+            index: e.index as u64,
+            source: e.source,
+        })?;
         Ok(cache)
     }
+}
+
+/// Writes `records` in the cache file format (module docs): what [`IrradianceCache::write_to`]
+/// writes for a cache holding them in this order. For tools that join or filter the records of
+/// several caches without filing them (no metric is needed).
+pub fn write_records<V: CacheValue, W: Write>(
+    records: &[Record<V>],
+    writer: W,
+) -> Result<(), CacheFileError> {
+    let mut w = HashWriter {
+        inner: writer,
+        hash: Fnv::new(),
+    };
+    let mut header = Vec::with_capacity(HEADER_BYTES);
+    header.extend_from_slice(&MAGIC);
+    header.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    header.extend_from_slice(&V::TAG.to_le_bytes());
+    header.extend_from_slice(&(V::CHANNELS as u32).to_le_bytes());
+    header.extend_from_slice(&(records.len() as u64).to_le_bytes());
+    w.write(&header)?;
+    let mut block = Vec::with_capacity(64 * 1024);
+    for r in records {
+        encode_record(r, &mut block);
+        if block.len() >= 60 * 1024 {
+            w.write(&block)?;
+            block.clear();
+        }
+    }
+    w.write(&block)?;
+    let hash = w.hash.0;
+    w.inner.write_all(&hash.to_le_bytes())?;
+    w.inner.flush()?;
+    Ok(())
+}
+
+/// Reads the records of a cache file, in file order, each checked as
+/// [`IrradianceCache::insert`] checks it ([`Record::validated`]); refuses what
+/// [`IrradianceCache::read_from`] refuses, except a radius the reader's metric could not file.
+pub fn read_records<V: CacheValue, R: Read>(reader: R) -> Result<Vec<Record<V>>, CacheFileError> {
+    let mut r = HashReader {
+        inner: reader,
+        hash: Fnv::new(),
+    };
+    let mut magic = [0; 8];
+    r.read(&mut magic)?;
+    if magic != MAGIC {
+        return Err(CacheFileError::NotACacheFile);
+    }
+    let version = r.u32()?;
+    if version != FORMAT_VERSION {
+        return Err(CacheFileError::Version {
+            found: version,
+            supported: FORMAT_VERSION,
+        });
+    }
+    let (tag, channels) = (r.u32()?, r.u32()?);
+    if tag != V::TAG || channels as usize != V::CHANNELS {
+        return Err(CacheFileError::ValueType {
+            found_tag: tag,
+            found_channels: channels,
+            expected_tag: V::TAG,
+            expected_channels: V::CHANNELS as u32,
+        });
+    }
+    let mut count = [0; 8];
+    r.read(&mut count)?;
+    let count = u64::from_le_bytes(count);
+
+    // Read every record before checking any, so a corrupt count or payload is reported as
+    // a checksum (or truncation) error, not as whatever garbage it decodes to. The count is
+    // not trusted for allocation: memory grows with what is actually read.
+    let record_bytes = 4 * floats_per_record::<V>();
+    let mut payload = Vec::new();
+    let mut buf = vec![0u8; record_bytes * 1024];
+    let mut left = count;
+    while left > 0 {
+        let n = left.min(1024) as usize;
+        let chunk = &mut buf[..n * record_bytes];
+        r.read(chunk)?;
+        payload.extend_from_slice(chunk);
+        left -= n as u64;
+    }
+    let mut stored = [0; 8];
+    read_exact(&mut r.inner, &mut stored)?;
+    if u64::from_le_bytes(stored) != r.hash.0 {
+        return Err(CacheFileError::Checksum);
+    }
+    payload
+        .chunks_exact(record_bytes)
+        .enumerate()
+        .map(|(index, bytes)| {
+            decode_record::<V>(bytes)
+                .validated()
+                .map_err(|source| CacheFileError::Record {
+                    index: index as u64,
+                    source,
+                })
+        })
+        .collect()
 }

@@ -23,7 +23,8 @@
 //! - [`IrradianceCache`]: insertion (`insert`, all-or-nothing `extend`), the exact range query,
 //!   [`IrradianceCache::interpolate`] (returning the value, the total weight and the record count,
 //!   or `None` on a miss), neighbour clamping, and [`IrradianceCache::write_to`] /
-//!   [`IrradianceCache::read_from`] (format in [`io`]).
+//!   [`IrradianceCache::read_from`] (format in [`io`]); [`io::read_records`] and
+//!   [`io::write_records`] for tools that join or filter caches' records without filing them.
 //!
 //! # What it must not know
 //! **Rays, scenes, sampling.** It takes positions, normals, radii and values as plain numbers;
