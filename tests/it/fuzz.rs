@@ -809,17 +809,21 @@ fn fnv1a(bytes: &[u8]) -> u64 {
     })
 }
 
-/// Where irr-cache's part of the first level lies in a cache file (after the 24-byte header,
+/// Where a view's cache file keeps its level count (after the magic, the fingerprint, the
+/// origin, the shard index and count, the camera and the key frame count, 0).
+const LEVELS_AT: usize = 56;
+
+/// Where irr-cache's part of the first level lies in a cache file (after the 64-byte header,
 /// the level's record count, `ENTRY_BYTES` per record and the part's length), if the counts still
 /// fit.
 fn inner_part(bytes: &[u8]) -> Option<std::ops::Range<usize>> {
     let word = |at: usize| -> Option<u64> {
         Some(u64::from_le_bytes(bytes.get(at..at + 8)?.try_into().ok()?))
     };
-    let n = word(24)?;
+    let n = word(LEVELS_AT + 8)?;
     let size_at = usize::try_from(
         n.checked_mul(irr_render::ENTRY_BYTES as u64)?
-            .checked_add(32)?,
+            .checked_add(LEVELS_AT as u64 + 16)?,
     )
     .ok()?;
     let start = size_at.checked_add(8)?;
@@ -833,13 +837,16 @@ fn cache_case(seeds: &[Vec<u8>], seed: u64, k: u64) -> Vec<u8> {
     for _ in 0..rng.below(4) + 1 {
         let inner = inner_part(&bytes);
         let choice = rng.below(4);
-        if choice == 0 && bytes.len() >= 32 {
-            // A count: of the file's levels (bytes 16..24), of the first level's records
-            // (24..32) or of irr-cache's part: a huge, zero or off-by-one value.
-            let at = match (&inner, rng.below(3)) {
+        if choice == 0 && bytes.len() >= LEVELS_AT + 16 {
+            // A count: of the file's levels, of the first level's records, of irr-cache's
+            // part, of the key frames or of the shards (or the origin): a huge, zero or
+            // off-by-one value.
+            let at = match (&inner, rng.below(5)) {
                 (Some(r), 0) => r.start + 20,
-                (_, 1) => 24,
-                _ => 16,
+                (_, 1) => LEVELS_AT + 8,
+                (_, 2) => 48,
+                (_, 3) => 16 + 8 * rng.below(3),
+                _ => LEVELS_AT,
             };
             let count = u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap_or([0; 8]));
             let v = *rng.pick(&[
@@ -852,9 +859,9 @@ fn cache_case(seeds: &[Vec<u8>], seed: u64, k: u64) -> Vec<u8> {
                 1 << 20,
             ]);
             bytes[at..at + 8].copy_from_slice(&v.to_le_bytes());
-        } else if choice == 1 && bytes.len() > 40 {
+        } else if choice == 1 && bytes.len() > LEVELS_AT + 16 {
             // A float of a leak-guard entry or a record: NaN, infinity, negative, huge, zero.
-            let at = 24 + 4 * rng.below((bytes.len() - 40) / 4);
+            let at = LEVELS_AT + 8 + 4 * rng.below((bytes.len() - LEVELS_AT - 16) / 4);
             let v: f32 = *rng.pick(&[f32::NAN, f32::INFINITY, -1.0, 0.0, 1e38, -1e-40, f32::MAX]);
             bytes[at..at + 4].copy_from_slice(&v.to_le_bytes());
         } else {

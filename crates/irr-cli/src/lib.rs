@@ -13,6 +13,9 @@
 //!   `-o` says otherwise) and by `cargo xtask render` (the workspace's default scene, output in
 //!   out/).
 //!
+//! - [`sequence`]: a walkthrough's shared cache (`--shared-cache`, its shards and its file) and
+//!   `irr cache merge`, which joins shard files built by other processes.
+//!
 //! # What it must not know
 //! How anything is rendered: it turns options into irr-render's and irr-integrator's settings
 //! and calls their functions. No estimator, no file format lives here.
@@ -37,5 +40,6 @@
 //! ```
 
 pub mod render;
+pub mod sequence;
 
 pub use render::{IcArgs, IntegratorChoice, RenderArgs, default_output, default_spp, run};

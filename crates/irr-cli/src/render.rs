@@ -5,14 +5,16 @@
 //! rendering), load the scene and print its warnings, render with a progress bar, print the
 //! summary, write EXR + PNG (temporary files renamed into place).
 
+use crate::sequence::{Shared, shared_cache};
 use clap::{Args, ValueEnum};
+use irr_render::MAX_SHARDS;
 use irr_render::{
     AmbientOcclusion, AoSettings, Aov, BounceMode, CacheBuilder, CachedAmbientOcclusion, Camera,
     DENOISER, DENOISER_AOVS, ExrMetadata, GradientMode, IcSettings, Integrator,
     IrradianceCacheIntegrator, LeakGuard, LoadOptions, LoadedScene, MetricKind, NO_DENOISER,
     PathSettings, PathTracer, RadiusStatistic, RenderSettings, build_cache, build_light_cache,
-    build_shared_cache, check_exposure, check_output, check_output_file, denoise, fingerprint,
-    load_scene_with, mark_records, mean_of_samples, pixel_samples, read_cache_file,
+    check_exposure, check_output, check_output_file, denoise, fingerprint, load_scene_with,
+    mark_records, mean_of_samples, pixel_samples, read_cache_file,
     remove_partial_outputs_on_signals, render_with_aovs, write_cache_file, write_exr_and_png,
     write_render,
 };
@@ -335,6 +337,16 @@ pub struct RenderArgs {
     /// With --shared-cache: the spacing of the frames whose views build the cache (≥ 1)
     #[arg(long, value_name = "K", default_value_t = DEFAULT_CACHE_EVERY)]
     pub cache_every: u32,
+    /// With --shared-cache: build the cache in S shards, each from a contiguous run of the key
+    /// frames into an empty cache, joined in order (what a farm does with --shard and `irr
+    /// cache merge`; the same bits). More shards: more records where runs overlap
+    #[arg(long, value_name = "S", default_value_t = 1)]
+    pub shards: u32,
+    /// With --shared-cache, --shards S and --cache FILE: build only shard I (0 to S − 1) and
+    /// write it to FILE, rendering nothing; `irr cache merge` joins the shard files into the
+    /// sequence's cache, which --cache then reads for any of the frames
+    #[arg(long, value_name = "I")]
+    pub shard: Option<u32>,
     /// The irradiance cache's options
     #[command(flatten)]
     pub ic: IcArgs,
@@ -531,15 +543,39 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
         if args.cache_every == 0 {
             return Err("--cache-every: must be at least 1".into());
         }
+        // The shared cache travels in irr's cache file format (between shards, and to the
+        // frames), which holds irradiance records only.
+        if args.ic.radiance_order > 0 {
+            return Err("--shared-cache: a shared cache holds irradiance records only; use --radiance-order 0".into());
+        }
+    } else if args.shards != 1 || args.shard.is_some() {
+        return Err("--shards, --shard: split the construction of a --shared-cache".into());
+    }
+    if !(1..=MAX_SHARDS).contains(&args.shards) {
+        return Err(format!(
+            "--shards: must be 1 to {MAX_SHARDS}, got {}",
+            args.shards
+        ));
+    }
+    if let Some(i) = args.shard
+        && i >= args.shards
+    {
+        return Err(format!(
+            "--shard: {i} is not below --shards {}",
+            args.shards
+        ));
+    }
+    if args.shard.is_some() && args.ic.cache.is_none() {
+        return Err("--shard: name the shard's file with --cache FILE".into());
     }
     if args.frames.is_some() {
         if args.debug_pixel.is_some() {
             return Err("--debug-pixel: pick one frame with --frame N, not --frames".into());
         }
-        // A cache file is fingerprinted to one camera: each frame would overwrite it.
-        if args.ic.cache.is_some() {
+        // A view's cache file is fingerprinted to one camera: each frame would overwrite it.
+        if args.ic.cache.is_some() && !args.shared_cache {
             return Err(
-                "--cache: a cache file belongs to one camera; with --frames each frame builds its own cache"
+                "--cache: a view's cache file belongs to one camera; with --frames, add --shared-cache for one cache file for every frame"
                     .into(),
             );
         }
@@ -643,82 +679,23 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
         remove_partial_outputs_on_signals()?;
     }
     let shared = match (args.shared_cache, args.frames, ic_settings) {
-        (true, Some((a, b)), Some(s)) => Some(shared_cache(&args, &loaded, (a, b), spp, s)?),
+        (true, Some(frames), Some(s)) => match shared_cache(&args, &loaded, frames, spp, s)? {
+            Shared::Frames(ic) => Some(ic),
+            Shared::ShardOnly => return Ok(()),
+        },
         _ => None,
     };
+    let shared = shared.as_deref();
     for (out, time) in &views {
         render_view(
             &args,
             &loaded,
             (&scene_path, out, *time),
             (spp, ic_settings),
-            shared.as_ref(),
+            shared,
         )?;
     }
     Ok(())
-}
-
-/// The cache of `--shared-cache` for frames `a..b`: built from the views of every
-/// `--cache-every`-th frame and the last (irr-render's `build_shared_cache`).
-fn shared_cache(
-    args: &RenderArgs,
-    loaded: &LoadedScene,
-    (a, b): (u32, u32),
-    spp: i64,
-    s: IcSettings,
-) -> Result<IrradianceCacheIntegrator, String> {
-    let mut keys: Vec<u32> = (a..b).step_by(args.cache_every as usize).collect();
-    if keys.last() != Some(&(b - 1)) {
-        keys.push(b - 1);
-    }
-    let mut views = Vec::with_capacity(keys.len());
-    for &f in &keys {
-        let camera = loaded
-            .choose_camera_at(args.camera, Some(f64::from(f) / args.fps))
-            .map_err(|e| e.to_string())?;
-        views.push(camera);
-    }
-    let rest = views.first().copied().flatten();
-    let (width, height) = RenderSettings::image_size(
-        args.width,
-        args.height,
-        rest.and_then(|c| c.aspect_ratio_in_file),
-    )
-    .map_err(|e| e.to_string())?;
-    let settings =
-        RenderSettings::from_options(width.into(), height.into(), spp, args.seed, args.threads)
-            .map_err(|e| e.to_string())?;
-    let cameras: Vec<Camera> = views
-        .into_iter()
-        .map(|c| {
-            c.unwrap_or_else(|| {
-                Camera::framing(
-                    loaded.bounds.0,
-                    loaded.bounds.1,
-                    width as f32 / height as f32,
-                )
-            })
-        })
-        .collect();
-    let mut ic = IrradianceCacheIntegrator::new(s).map_err(|e| e.to_string())?;
-    ic.preprocess(&loaded.scene);
-    let stats = build_shared_cache(
-        &loaded.scene,
-        &cameras,
-        &mut ic,
-        &settings,
-        s.fill_samples,
-        true,
-    )
-    .map_err(|e| e.to_string())?;
-    let listed: Vec<String> = keys.iter().map(u32::to_string).collect();
-    eprintln!(
-        "shared cache from {} key frames ({}): {}",
-        keys.len(),
-        listed.join(", "),
-        stats.summary()
-    );
-    Ok(ic)
 }
 
 /// Renders one view of the loaded scene: through the chosen camera at `time` seconds of its
@@ -779,8 +756,9 @@ fn render_view(
             )
         }
     };
+    // (A shared cache's file is the sequence's, read and written before the frames.)
     let cache_fingerprint = match (&args.ic.cache, ic_settings) {
-        (Some(_), Some(s)) => Some(cache_fingerprint(
+        (Some(_), Some(s)) if shared.is_none() => Some(cache_fingerprint(
             loaded.digest,
             &camera,
             &settings,

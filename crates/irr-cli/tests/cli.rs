@@ -817,3 +817,157 @@ fn frames_follow_the_camera_animation() {
     );
     assert!(err.contains("increase strictly"), "{err}");
 }
+
+/// A farm's route to a walkthrough gives one process's frames bit for bit: the shared cache's
+/// shards built by separate processes (`--shard I`, in any order), joined by `irr cache merge`
+/// (named in any order), read by a process that renders some of the frames on another thread
+/// count. Files of the wrong kind or for other settings are refused with what to do.
+#[test]
+fn shards_merged_give_the_single_process_frames() {
+    let dir = temp();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/cornell-dolly.gltf");
+    let scene = scene.to_string_lossy().into_owned();
+    let common = [
+        scene.as_str(),
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--spp",
+        "1",
+        "--strata",
+        "4x16",
+        "--light-cache-paths",
+        "4096",
+        "--shared-cache",
+        "--cache-every",
+        "1",
+    ];
+    let run = |extra: &[&str]| {
+        let mut args = common.to_vec();
+        args.extend(extra);
+        irr(dir.path(), &args)
+    };
+    let ok = |extra: &[&str]| {
+        let out = run(extra);
+        assert!(
+            out.status.success(),
+            "{extra:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    let fails = |extra: &[&str], says: &str| {
+        let out = run(extra);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains(says),
+            "{extra:?}: {err}"
+        );
+    };
+    ok(&[
+        "--frames",
+        "0..4",
+        "--shards",
+        "2",
+        "-o",
+        "one/w.####.exr",
+        "--threads",
+        "2",
+    ]);
+    for i in ["1", "0"] {
+        let file = format!("s{i}.irrc");
+        ok(&[
+            "--frames", "0..4", "--shards", "2", "--shard", i, "--cache", &file,
+        ]);
+    }
+    assert!(
+        !dir.path().join("w.0000.exr").exists(),
+        "--shard rendered a frame"
+    );
+    let merge = |shards: &[&str]| {
+        let mut args = vec!["cache", "merge"];
+        args.extend(shards);
+        args.extend(["-o", "walk.irrc"]);
+        irr(dir.path(), &args)
+    };
+    let out = merge(&["s1.irrc", "s0.irrc"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    ok(&[
+        "--frames",
+        "1..3",
+        "--cache",
+        "walk.irrc",
+        "-o",
+        "farm/w.####.exr",
+        "--threads",
+        "1",
+    ]);
+    for f in [1, 2] {
+        let name = format!("w.{f:04}.exr");
+        let (a, b) = (
+            Exr::read(&dir.path().join("one").join(&name)),
+            Exr::read(&dir.path().join("farm").join(&name)),
+        );
+        for c in ["R", "G", "B"] {
+            let bits = |e: &Exr| e.channel(c).iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&a), bits(&b), "frame {f}, channel {c}");
+        }
+    }
+    let out = merge(&["s0.irrc"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("shards 1 of 2 are missing"),
+        "{err}"
+    );
+    fails(
+        &["--frames", "0..4", "--cache", "s0.irrc"],
+        "irr cache merge",
+    );
+    fails(
+        &["--frames", "0..4", "--cache", "walk.irrc", "--seed", "9"],
+        "another scene",
+    );
+    fails(
+        &["--frames", "0..4", "--shards", "2", "--shard", "0"],
+        "--cache FILE",
+    );
+    fails(
+        &[
+            "--frames", "0..4", "--shards", "2", "--shard", "2", "--cache", "x.irrc",
+        ],
+        "--shard",
+    );
+    fails(&["--frames", "0..4", "--shards", "5"], "only 4 key frames");
+    fails(
+        &["--frames", "0..4", "--radiance-order", "2"],
+        "--radiance-order 0",
+    );
+    // A view's cache is not a sequence's.
+    let mut view = vec![
+        scene.as_str(),
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--spp",
+        "1",
+    ];
+    view.extend([
+        "--strata",
+        "4x16",
+        "--light-cache-paths",
+        "4096",
+        "--cache",
+        "view.irrc",
+    ]);
+    view.extend(["-o", "view.exr"]);
+    irr_ok(dir.path(), &view);
+    fails(
+        &["--frames", "0..4", "--cache", "view.irrc"],
+        "one view's cache",
+    );
+}

@@ -79,7 +79,10 @@ mod testutil;
 mod uri;
 
 pub use aov::{Aov, AovImages, normalise_aovs};
-pub use cachefile::{ENTRY_BYTES, fingerprint, read_cache_file, write_cache_file};
+pub use cachefile::{
+    CacheContents, CacheOrigin, ENTRY_BYTES, KeyFrames, LevelRecords, MAX_KEY_FRAMES, MAX_SHARDS,
+    MergeReport, check_fingerprint, fingerprint, merge_shards, read_cache_file, write_cache_file,
+};
 pub use camera::{Camera, CameraRay, NamedCamera, Projection};
 pub use denoise::{DENOISER, DENOISER_AOVS, NO_DENOISER, denoise};
 pub use error::RenderError;
@@ -97,7 +100,7 @@ pub use output::{
     write_render,
 };
 pub use passes::{
-    CacheBuildStats, LightCacheStats, PassStats, build_cache, build_light_cache,
+    CacheBuildStats, LightCacheStats, PassStats, build_cache, build_cache_shard, build_light_cache,
     build_shared_cache, mark_records, pixel_spread,
 };
 pub use render::{

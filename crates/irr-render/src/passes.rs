@@ -466,11 +466,46 @@ pub fn build_shared_cache(
     fill_samples: bool,
     progress: bool,
 ) -> Result<CacheBuildStats, RenderError> {
+    build_cache_shard(
+        scene,
+        cameras,
+        0..cameras.len(),
+        builder,
+        settings,
+        fill_samples,
+        progress,
+    )
+}
+
+/// One shard of a shared cache: [`build_shared_cache`]'s passes for the views `shard` of
+/// `cameras` only, into `builder`'s (empty) cache, with the light cache still from the first
+/// of all `cameras` (so every shard's gathers see the same light cache, wherever it runs).
+/// Shards built independently and joined by irr-render's `merge_shards` make a sequence's
+/// cache that no machine had to build whole. Refused without a view or with a range outside
+/// `cameras`.
+pub fn build_cache_shard(
+    scene: &Scene,
+    cameras: &[Camera],
+    shard: std::ops::Range<usize>,
+    builder: &mut dyn CacheBuilder,
+    settings: &RenderSettings,
+    fill_samples: bool,
+    progress: bool,
+) -> Result<CacheBuildStats, RenderError> {
     settings.validate()?;
     let Some(first) = cameras.first() else {
         return Err(RenderError::Setting {
             option: "--frames",
             problem: "a shared cache needs at least one view".into(),
+        });
+    };
+    let Some(views) = cameras.get(shard.clone()).filter(|v| !v.is_empty()) else {
+        return Err(RenderError::Setting {
+            option: "--shards",
+            problem: format!(
+                "shard {shard:?} is empty or outside the {} key frames",
+                cameras.len()
+            ),
         });
     };
     let start = Instant::now();
@@ -489,7 +524,7 @@ pub fn build_shared_cache(
             bar.set_message(format!("building the light cache: {paths} paths"));
             stats.light = Some(trace_light_cache(scene, first, builder, settings, paths));
         }
-        for camera in cameras {
+        for camera in views {
             view_passes(
                 scene,
                 camera,
