@@ -16,9 +16,10 @@
 use clap::Args;
 use glam::Vec3;
 use irr_render::{
-    Aov, Camera, DENOISER, DENOISER_AOVS, IcSettings, Image, Integrator, IrradianceCacheIntegrator,
-    LoadedScene, PathSettings, PathTracer, RenderSettings, build_cache, build_shared_cache,
-    denoise, load_scene, render_with_aovs,
+    Aov, CacheContents, CacheOrigin, Camera, DENOISER, DENOISER_AOVS, IcSettings, Image,
+    Integrator, IrradianceCacheIntegrator, KeyFrames, LoadedScene, PathSettings, PathTracer,
+    RenderSettings, build_cache, build_cache_shard, build_light_cache, build_shared_cache, denoise,
+    load_scene, merge_shards, render_with_aovs,
 };
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -46,6 +47,10 @@ pub struct WalkthroughArgs {
     /// The shared cache's key frames: every K-th and the last
     #[arg(long, default_value_t = 4)]
     pub cache_every: u32,
+    /// Also the shared cache built in S shards, each into an empty cache, joined (a farm's
+    /// construction, here on one machine); 1 or 0: not
+    #[arg(long, default_value_t = 2)]
+    pub shards: u32,
     /// Worker threads; 0 means one per core
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
@@ -162,11 +167,24 @@ pub fn run(args: WalkthroughArgs, root: &Path) -> Result<(), String> {
     let (frames, indirect) =
         render_frames(&loaded, &cameras, &shared, &settings(spp, RUN_SEED), false)?;
     runs.push(Run {
-        name: format!("ic, shared cache (key frames every {})", args.cache_every),
+        name: format!(
+            "ic, shared cache (key frames every {}; {} records, {built:.2} s of construction)",
+            args.cache_every,
+            shared.cache(0).map_or(0, |c| c.len())
+        ),
         frames,
         indirect,
         seconds: start.elapsed().as_secs_f64(),
     });
+    if args.shards > 1 {
+        runs.push(sharded(
+            &loaded,
+            &cameras,
+            &key_cameras,
+            args.shards,
+            &settings(spp, RUN_SEED),
+        )?);
+    }
     // The same cache, its frames denoised (at compare's denoised camera samples).
     if DENOISER.is_some() {
         let start = Instant::now();
@@ -283,6 +301,74 @@ pub fn run(args: WalkthroughArgs, root: &Path) -> Result<(), String> {
     println!("{report}");
     println!("wrote {}", path.display());
     Ok(())
+}
+
+/// The shared cache built as a farm builds it: each of `shards` contiguous runs of the key views
+/// into an empty cache (one after the other here), joined by `merge_shards`, read into a fresh
+/// integrator with the light cache rebuilt from the first key view; then every frame.
+fn sharded(
+    loaded: &LoadedScene,
+    cameras: &[Camera],
+    key_cameras: &[Camera],
+    shards: u32,
+    settings: &RenderSettings,
+) -> Result<Run, String> {
+    if shards as usize > key_cameras.len() {
+        return Err(format!(
+            "--shards {shards}: only {} key frames",
+            key_cameras.len()
+        ));
+    }
+    let start = Instant::now();
+    let ic_settings = IcSettings::default();
+    let keys = KeyFrames {
+        camera: None,
+        times: (0..key_cameras.len()).map(|k| k as f64).collect(),
+    };
+    let mut built = Vec::new();
+    for index in 0..shards {
+        let mut ic = IrradianceCacheIntegrator::new(ic_settings).map_err(|e| e.to_string())?;
+        ic.preprocess(&loaded.scene);
+        build_cache_shard(
+            &loaded.scene,
+            key_cameras,
+            keys.shard(index, shards),
+            &mut ic,
+            settings,
+            false,
+            false,
+        )
+        .map_err(|e| e.to_string())?;
+        let origin = CacheOrigin::Shard {
+            index,
+            shards,
+            keys: keys.clone(),
+        };
+        built.push((
+            PathBuf::from(format!("shard {index}")),
+            CacheContents::of(&ic, 0, origin)?,
+        ));
+    }
+    let (merged, report) = merge_shards(built).map_err(|e| e.to_string())?;
+    let records = merged.record_count();
+    let mut ic = IrradianceCacheIntegrator::new(ic_settings).map_err(|e| e.to_string())?;
+    ic.preprocess(&loaded.scene);
+    ic.load_levels(merged.file(&ic_settings)?)
+        .map_err(|e| e.to_string())?;
+    build_light_cache(&loaded.scene, &key_cameras[0], &mut ic, settings)
+        .map_err(|e| e.to_string())?;
+    let construction = start.elapsed().as_secs_f64();
+    let (frames, indirect) = render_frames(loaded, cameras, &ic, settings, false)?;
+    let per_shard: Vec<String> = report.shard_records.iter().map(usize::to_string).collect();
+    Ok(Run {
+        name: format!(
+            "ic, shared cache in {shards} shards ({records} = {} records, {construction:.2} s of construction on one machine)",
+            per_shard.join(" + ")
+        ),
+        frames,
+        indirect,
+        seconds: start.elapsed().as_secs_f64(),
+    })
 }
 
 /// Each camera's image by `integrator`, denoised by OIDN with `denoised`, and its indirect part

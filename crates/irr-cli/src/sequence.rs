@@ -130,6 +130,15 @@ pub fn shared_cache(
     spp: i64,
     s: IcSettings,
 ) -> Result<Shared, String> {
+    // One cache serves every frame only if nothing but the camera moves; irr renders meshes
+    // and lights in their rest pose, so a moving one would be wrong in every frame.
+    if loaded.animated_content > 0 {
+        return Err(format!(
+            "--shared-cache: {}: {} animation channel(s) move meshes or lights (irr renders them in their rest pose); a shared cache needs a scene where only cameras move",
+            loaded.path.display(),
+            loaded.animated_content
+        ));
+    }
     let (numbers, keys) = key_frames(args, frames)?;
     let path = args.ic.cache.as_deref();
     // A sequence's cache file serves any of its frames, whatever --frames and --shards say now.

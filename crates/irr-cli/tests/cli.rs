@@ -805,6 +805,26 @@ fn frames_follow_the_camera_animation() {
     for f in 0..3 {
         assert!(dir.path().join(format!("shared.{f:04}.exr")).exists());
     }
+    // The same animation on the plane's node instead: the scene is not static, and a shared
+    // cache is refused (the frames alone render, with the plane in its rest pose).
+    let moving = temp();
+    let file = animated_plane(moving.path(), [0.0, 1.0]);
+    let json = std::fs::read_to_string(&file).unwrap_or_else(|e| panic!("{e}"));
+    std::fs::write(
+        &file,
+        json.replace(r#""target":{"node":1"#, r#""target":{"node":0"#),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let file = file.to_string_lossy().into_owned();
+    let out = irr(
+        moving.path(),
+        &[&file, "--frames", "0..2", "--shared-cache", "--spp", "1"],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("move meshes or lights"),
+        "{err}"
+    );
     // Key times that do not increase: an error naming the animation's channel.
     let bad = temp();
     let scene = animated_plane(bad.path(), [1.0, 1.0]);

@@ -133,6 +133,8 @@ pub struct LoadedScene {
     pub bounds: (Vec3, Vec3),
     /// The digest of every byte the scene was read from ([`SceneData::digest`]).
     pub digest: u64,
+    /// The animation channels that move meshes or lights ([`SceneData::animated_content`]).
+    pub animated_content: usize,
 }
 
 impl LoadedScene {
@@ -255,6 +257,7 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
         lights,
         mut warnings,
         digest,
+        animated_content,
         ..
     } = load_gltf_with(path, options)?;
     // Texture coordinates by geometry id, before the meshes are consumed (degenerate triangles
@@ -303,5 +306,6 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
         warnings,
         bounds,
         digest,
+        animated_content,
     })
 }

@@ -20,16 +20,18 @@ struct Tracks {
 }
 
 impl Loader<'_> {
-    /// Each camera's path (`None` where no channel moves it), by `cameras`' order.
+    /// Each camera's path (`None` where no channel moves it), by `cameras`' order, and the
+    /// number of channels that move a mesh or a light (a node that places one, or a node above
+    /// it, or a mesh's morph weights): irr renders those in their rest pose.
     pub(super) fn camera_paths(
         &mut self,
         buffers: &Buffers,
         cameras: &[NamedCamera],
-    ) -> Result<Vec<Option<CameraPath>>, RenderError> {
+    ) -> Result<(Vec<Option<CameraPath>>, usize), RenderError> {
         let d = self.document;
         let nodes = d.nodes().len();
         if d.animations().len() == 0 {
-            return Ok(vec![None; cameras.len()]);
+            return Ok((vec![None; cameras.len()], 0));
         }
         // Parents (the hierarchy was checked to be a forest when the nodes were walked).
         let mut parent = vec![None; nodes];
@@ -58,16 +60,27 @@ impl Loader<'_> {
         for &n in chains.iter().flatten() {
             moves_camera[n] = true;
         }
+        // Nodes that carry a mesh or a light, or sit above one.
+        let mut carries = vec![false; nodes];
+        for n in d.nodes() {
+            if n.mesh().is_some() || super::lights::light_index(d, &n).is_some() {
+                for m in chain_of(n.index()) {
+                    carries[m] = true;
+                }
+            }
+        }
         let mut tracks: Vec<Option<Tracks>> = (0..nodes).map(|_| None).collect();
-        let (mut ignored, mut duplicate) = (0usize, 0usize);
+        let (mut ignored, mut duplicate, mut moves_content, mut together) = (0, 0, 0, 0);
         for animation in d.animations() {
             for (ci, channel) in animation.channels().enumerate() {
                 let node = channel.target().node().index();
                 let property = channel.target().property();
+                moves_content += usize::from(carries[node]);
                 if !moves_camera[node] || property == Property::MorphTargetWeights {
                     ignored += 1;
                     continue;
                 }
+                together += usize::from(carries[node]);
                 let what = format!(
                     "animation {} channel {ci} (node {})",
                     describe(animation.index(), animation.name()),
@@ -135,6 +148,12 @@ impl Loader<'_> {
                 "{} ignored: {} no camera (irr renders the rest pose of meshes and lights, and animates cameras only)",
                 plural(n, "animation channel", "animation channels"),
                 if n == 1 { "it moves" } else { "they move" }
+            )
+        });
+        self.warnings.add("animation-content", together, |n| {
+            format!(
+                "{} a camera together with meshes or lights below the same node: the camera moves, the meshes and lights keep their rest pose",
+                plural(n, "animation channel moves", "animation channels move")
             )
         });
         self.warnings.add("animation-duplicates", duplicate, |n| {
@@ -213,6 +232,6 @@ impl Loader<'_> {
             }
             paths.push(Some(path));
         }
-        Ok(paths)
+        Ok((paths, moves_content))
     }
 }

@@ -169,6 +169,9 @@ pub struct SceneData {
     /// buffer and image file it names, in the order read. Two loads of the same files give the
     /// same digest; a changed byte in any of them gives another.
     pub digest: u64,
+    /// The animation channels that move a mesh or a light (its node or a node above it, or its
+    /// morph weights): irr renders them in their rest pose, so the scene is not static.
+    pub animated_content: usize,
 }
 
 /// Writes a warning's line from its final count.
@@ -426,7 +429,7 @@ impl<'a> Loader<'a> {
                 )
             });
         }
-        let paths = self.camera_paths(&buffers, &cameras)?;
+        let (paths, animated_content) = self.camera_paths(&buffers, &cameras)?;
         for (camera, path) in cameras.iter_mut().zip(paths) {
             camera.path = path;
         }
@@ -479,6 +482,7 @@ impl<'a> Loader<'a> {
             emissive_triangles,
             bounds,
             digest: self.confinement.digest(),
+            animated_content,
         })
     }
 }

@@ -501,6 +501,12 @@ fn animations_move_cameras_and_warn_about_the_rest() {
         .collect();
     assert!(got.contains(&("animations", 1)), "{got:?}");
     assert!(got.contains(&("animation-duplicates", 1)), "{got:?}");
+    // The mesh's channel makes the scene non-static; the camera's parent carries no mesh.
+    assert_eq!(s.animated_content, 1);
+    assert!(
+        !got.iter().any(|(f, _)| *f == "animation-content"),
+        "{got:?}"
+    );
     assert_eq!(s.cameras.len(), 2);
     assert!(s.cameras[1].path.is_none());
     let path = s.cameras[0]
