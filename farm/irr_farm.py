@@ -93,8 +93,9 @@ def walkthrough(client, irr: str, scene: str, frames: tuple[int, int], out: str,
     shard files and the sequence's cache (`sequence.irrc`) when given."""
     irr, scene = os.path.abspath(irr), os.path.abspath(scene)
     out_path = Path(out).resolve()
-    shard_futures = [client.submit(build_shard, irr, scene, frames, shards, i, options,
-                                   pure=False, key=f"irr-shard-{i}-of-{shards}")
+    # pure=False: Dask gives every task a key of its own, so runs on a long-lived cluster never
+    # share results.
+    shard_futures = [client.submit(build_shard, irr, scene, frames, shards, i, options, pure=False)
                      for i in range(shards)]
     shard_bytes = client.gather(shard_futures)
     with tempfile.TemporaryDirectory(prefix="irr-merge-") as tmp:
@@ -111,7 +112,7 @@ def walkthrough(client, irr: str, scene: str, frames: tuple[int, int], out: str,
     cache_future = client.scatter(cache, broadcast=True)
     chunks = [(a, min(a + chunk, frames[1])) for a in range(frames[0], frames[1], chunk)]
     frame_futures = [client.submit(render_chunk, irr, scene, c, cache_future, out_path.name,
-                                   options, pure=False, key=f"irr-frames-{c[0]}-{c[1]}")
+                                   options, pure=False)
                      for c in chunks]
     written = []
     for files in client.gather(frame_futures):

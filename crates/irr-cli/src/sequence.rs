@@ -272,7 +272,11 @@ fn read_back(
             );
             Ok(Shared::ShardOnly)
         }
-        (CacheOrigin::Shard { index, .. }, _) => Err(bad(format!(
+        (CacheOrigin::Shard { index, .. }, Some(i)) => Err(bad(format!(
+            "this file holds shard {index} of {shards} of a sequence's cache, not shard {i} of {} of these frames; give each shard a file of its own",
+            args.shards
+        ))),
+        (CacheOrigin::Shard { index, .. }, None) => Err(bad(format!(
             "this file holds shard {index} of {shards} of a sequence's cache; join the shards with `irr cache merge` and read the joined file"
         ))),
         (_, Some(_)) => Err(bad(

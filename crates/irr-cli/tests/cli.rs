@@ -948,6 +948,12 @@ fn shards_merged_give_the_single_process_frames() {
         "irr cache merge",
     );
     fails(
+        &[
+            "--frames", "0..4", "--shards", "2", "--shard", "1", "--cache", "s0.irrc",
+        ],
+        "a file of its own",
+    );
+    fails(
         &["--frames", "0..4", "--cache", "walk.irrc", "--seed", "9"],
         "another scene",
     );
