@@ -19,6 +19,8 @@ Run from anywhere with `python3 assets/generate.py`; it rewrites, next to itself
   the back wall). External buffer; the poster is textured-room-back-wall.png.
 - cornell-dolly.gltf + cornell-dolly.bin: the Cornell box whose camera an animation dollies
   10 cm to the right over 1 s (a LINEAR translation channel), for walkthroughs.
+- cornell-push.gltf + cornell-push.bin: the same box, its camera pushed 60 cm in towards the
+  back wall over 1 s (a walkthrough whose last frames need finer records than its first).
 - metal-floor-room.gltf + metal-floor-room.bin: the glossy room with a rough metal floor
   (roughness 0.8), whose lobe low-order spherical harmonics hold (radiance caching).
 - detail-room.gltf + detail-room.bin + detail-room-{floor-normal,lattice}.png: the glossy room
@@ -517,6 +519,24 @@ def cornell_dolly():
     end = [start[0] - DOLLY_M, start[1], start[2]]
     b.animate_translation(camera, [0.0, 1.0], [start, end])
     write_scene(b, "cornell-dolly", "the Cornell box, its camera dollied 10 cm right over 1 s")
+
+
+# The push-in: the camera moves PUSH_M towards the back wall over 1 s, so the last frames see the
+# wall and the blocks at about half the first frame's distance (a shared cache's records must
+# then be as fine as the nearest key frame needs).
+PUSH_M = 0.6
+
+
+def cornell_push():
+    b = Builder()
+    white, red, green = cornell_colours(b)
+    light = b.material("light", LIGHT_ALBEDO, emission=LIGHT_RADIANCE, double_sided=False)
+    add_cornell_surfaces(b, room_surfaces(white, red, green) + [("light", light)])
+    camera = cornell_camera(b)
+    start = [c / 1000.0 for c in CAMERA_POSITION_MM]
+    end = [start[0], start[1], start[2] + PUSH_M]
+    b.animate_translation(camera, [0.0, 1.0], [start, end])
+    write_scene(b, "cornell-push", "the Cornell box, its camera pushed 60 cm in over 1 s")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1307,6 +1327,7 @@ if __name__ == "__main__":
     glossy_room()
     metal_floor_room()
     cornell_dolly()
+    cornell_push()
     detail_room()
     furnace()
     disk_light()

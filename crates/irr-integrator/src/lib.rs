@@ -76,7 +76,7 @@ pub use ic::{
     BounceMode, CacheBuilder, CachedAmbientOcclusion, CachedLevel, Candidate, CommitStats,
     DisplayRecord, GradientMode, GuardRecord, IcMetric, IcSettings, IcSettingsError,
     IrradianceCacheIntegrator, LeakGuard, LightCacheCounts, LightDeposit, MetricKind, Probe,
-    RadiusStatistic,
+    RadiusStatistic, surface_spacing,
 };
 pub use integrator::{Batching, FirstHit, Integrator, PIXEL_BATCH, RayCounter, first_hit};
 pub use light::{LightSample, LightSampler};

@@ -37,7 +37,7 @@ use glam::Vec2;
 use irr_geometry::Ray;
 use irr_integrator::{
     CacheBuilder, Candidate, CommitStats, DisplayRecord, LightCacheCounts, LightDeposit, Probe,
-    RayCounter, Scene,
+    RayCounter, Scene, surface_spacing,
 };
 use irr_sampling::SampleKey;
 use rayon::prelude::*;
@@ -374,12 +374,71 @@ fn camera_ray(camera: &Camera, settings: &RenderSettings, raster: Vec2) -> Ray {
 
 /// Runs one pass: probes in parallel, the ordered selection, the selected probes' full gathers
 /// in parallel, then the ordered commit.
+/// The key views of a shared cache, for sizing each first-level record by the view that needs
+/// it smallest (one view: nothing to do).
+struct Views<'a> {
+    cameras: &'a [Camera],
+    width: u32,
+    height: u32,
+}
+
+impl Views<'_> {
+    /// `spread`, the pixel's size per unit distance along the camera ray `ray`, scaled so that
+    /// the point the ray hits takes the smallest pixel footprint on its surface
+    /// (`surface_spacing`) that any of the views has there, among those that see it: from the
+    /// same side of its surface as `ray`, inside their image and depth range, and unoccluded. So
+    /// a record's pixel limits are those of whichever key frame needs the smaller radius, not
+    /// only those of the view whose pass made it. Unchanged with one view, for a miss, and where
+    /// no other view sees the point smaller. One closest-hit ray, and a shadow ray for each view
+    /// that would see it smaller, in order of footprint, until one sees it.
+    fn spread(&self, scene: &Scene, ray: &Ray, spread: f32, rays: &mut RayCounter) -> f32 {
+        if self.cameras.len() < 2 {
+            return spread;
+        }
+        rays.closest += 1;
+        let Some(hit) = scene.intersect(ray) else {
+            return spread;
+        };
+        let surface = scene.geometry().surface(ray, &hit);
+        let (p, ng) = (surface.position, surface.geometric_normal);
+        let own = surface_spacing(spread * hit.t, ray.direction, ng);
+        let side = ng.dot(ray.origin - p);
+        let per_depth = |c: &Camera| 2.0 * (0.5 * c.yfov).tan() / self.height.max(1) as f32;
+        let aspect = self.width as f32 / self.height.max(1) as f32;
+        let mut smaller: Vec<(f32, &Camera)> = self
+            .cameras
+            .iter()
+            .filter_map(|c| {
+                let d = p - c.position;
+                let z = d.dot(c.forward);
+                let tan_half = (0.5 * c.yfov).tan();
+                let inside = z > c.znear
+                    && c.zfar.is_none_or(|f| z < f)
+                    && d.dot(c.right).abs() <= z * tan_half * aspect
+                    && d.dot(c.up).abs() <= z * tan_half;
+                let same_side = ng.dot(-d) * side > 0.0;
+                let spacing = surface_spacing(per_depth(c) * z, d, ng);
+                (inside && same_side && spacing < own).then_some((spacing, c))
+            })
+            .collect();
+        smaller.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for (spacing, c) in smaller {
+            let back = (c.position - p).normalize_or_zero();
+            rays.shadow += 1;
+            if !scene.occluded(&Ray::spawn_to(p, ng, c.position, back)) {
+                return spread * (spacing / own);
+            }
+        }
+        spread
+    }
+}
+
 fn run_pass(
     scene: &Scene,
     builder: &mut dyn CacheBuilder,
-    level: u32,
-    stride: u32,
+    (level, stride): (u32, u32),
     jobs: &[(Ray, f32, SampleKey)],
+    views: &Views<'_>,
 ) -> PassStats {
     let start = Instant::now();
     let shared: &dyn CacheBuilder = builder;
@@ -391,7 +450,12 @@ fn run_pass(
             let found = chunk
                 .iter()
                 .filter_map(|(ray, spread, key)| {
-                    shared.probe(scene, level, ray, *spread, *key, &mut rays)
+                    let spread = if level == 0 {
+                        views.spread(scene, ray, *spread, &mut rays)
+                    } else {
+                        *spread
+                    };
+                    shared.probe(scene, level, ray, spread, *key, &mut rays)
                 })
                 .collect();
             (found, rays)
@@ -454,8 +518,10 @@ pub fn build_cache(
 
 /// [`build_cache`] for several views of one static scene, a walkthrough's key frames: the light
 /// cache from the first view's camera paths, then each view's construction passes in turn,
-/// each adding records only where the cache so far does not cover its points (a record keeps
-/// the pixel limits of the view whose pass made it). The frames then render from the cache
+/// each adding records only where the cache so far does not cover its points. A first-level
+/// record's pixel limits are those of whichever view sees its point smallest (among the views
+/// that see it), not only of the view whose pass made it, so a frame close to a surface finds
+/// records as fine as its own cache would have. The frames then render from the cache
 /// without adding to it, so each frame's image depends on the views given and on itself, not
 /// on which frames are rendered or in what order. Refused without a view.
 pub fn build_shared_cache(
@@ -527,7 +593,7 @@ pub fn build_cache_shard(
         for camera in views {
             view_passes(
                 scene,
-                camera,
+                (camera, cameras),
                 builder,
                 settings,
                 fill_samples,
@@ -550,7 +616,7 @@ pub fn build_cache_shard(
 /// its pixels, coarse to fine, the camera samples with `fill_samples`, and the repair passes.
 fn view_passes(
     scene: &Scene,
-    camera: &Camera,
+    (camera, views): (&Camera, &[Camera]),
     builder: &mut dyn CacheBuilder,
     settings: &RenderSettings,
     fill_samples: bool,
@@ -559,6 +625,16 @@ fn view_passes(
 ) {
     let levels = builder.levels();
     let (w, h) = (settings.width, settings.height);
+    let views = Views {
+        cameras: views,
+        width: w,
+        height: h,
+    };
+    let one = Views {
+        cameras: &[],
+        width: w,
+        height: h,
+    };
     {
         let centre_jobs = |level: u32, pixels: &[(u32, u32)]| -> Vec<(Ray, f32, SampleKey)> {
             pixels
@@ -591,7 +667,7 @@ fn view_passes(
                     ));
                     stats
                         .passes
-                        .push(run_pass(scene, builder, level, stride, &jobs));
+                        .push(run_pass(scene, builder, (level, stride), &jobs, &one));
                 }
                 stride /= 2;
             }
@@ -603,7 +679,7 @@ fn view_passes(
                 bar.set_message(format!(
                     "building the irradiance cache: level {level}, repair"
                 ));
-                let pass = run_pass(scene, builder, level, 1, &jobs);
+                let pass = run_pass(scene, builder, (level, 1), &jobs, &one);
                 let done = (pass.probes as f64) < DEEP_UNCOVERED * jobs.len() as f64;
                 stats.passes.push(pass);
                 if done {
@@ -621,7 +697,7 @@ fn view_passes(
                 ));
                 stats
                     .passes
-                    .push(run_pass(scene, builder, 0, stride, &jobs));
+                    .push(run_pass(scene, builder, (0, stride), &jobs, &views));
             }
             stride /= 2;
         }
@@ -643,7 +719,9 @@ fn view_passes(
                     }
                 }
                 bar.set_message(format!("building the irradiance cache: camera samples {i}"));
-                stats.passes.push(run_pass(scene, builder, 0, 0, &jobs));
+                stats
+                    .passes
+                    .push(run_pass(scene, builder, (0, 0), &jobs, &views));
             }
         }
         // Neighbour clamping shrinks earlier records as later ones arrive, which can uncover
@@ -655,7 +733,7 @@ fn view_passes(
         let lattice = repair_lattice(camera, settings, k);
         for _ in 0..MAX_REPAIR_PASSES {
             bar.set_message("building the irradiance cache: repair pass");
-            let pass = run_pass(scene, builder, 0, 1, &lattice);
+            let pass = run_pass(scene, builder, (0, 1), &lattice, &views);
             let done = pass.probes == 0;
             stats.passes.push(pass);
             if done {
@@ -749,6 +827,72 @@ pub fn noise_colour(noise: f32) -> glam::Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A shared cache's views size a point by the view that sees it smallest: the Cornell box's
+    /// camera and the same camera moved 40 % of the way to the back wall both look straight at
+    /// the wall's centre, so the near view's footprint there is the far one's times z_near/t
+    /// (the same cosine; t the far ray's hit distance), and the far view's spread shrinks by
+    /// that ratio, to f32 rounding
+    /// (a few ulps of the divisions: 1e-5 relative). A view turned away, one behind the wall
+    /// (the other side of its surface) or one alone leaves the spread as it is.
+    #[test]
+    fn a_point_takes_the_footprint_of_the_view_that_sees_it_smallest() {
+        let loaded = crate::load_scene(&crate::testutil::assets().join("cornell-box.gltf"))
+            .unwrap_or_else(|e| panic!("{e}"));
+        let (w, h) = (64u32, 64u32);
+        let settings = RenderSettings {
+            width: w,
+            height: h,
+            spp: 1,
+            seed: 1,
+            threads: 1,
+        };
+        let far = loaded.camera_for(w, h);
+        let ray = camera_ray(&far, &settings, Vec2::new(32.0, 32.0));
+        let spread = pixel_spread(&far, h, ray.direction);
+        let hit = loaded
+            .scene
+            .intersect(&ray)
+            .unwrap_or_else(|| panic!("the centre ray hits the back wall"));
+        let wall = ray.at(hit.t);
+        let z_far = (wall - far.position).dot(far.forward);
+        let near = Camera {
+            position: far.position + far.forward * (0.4 * z_far),
+            ..far
+        };
+        let z_near = (wall - near.position).dot(near.forward);
+        let views = |cameras: &[Camera]| {
+            let v = Views {
+                cameras,
+                width: w,
+                height: h,
+            };
+            v.spread(&loaded.scene, &ray, spread, &mut RayCounter::default())
+        };
+        let shrunk = views(&[far, near]);
+        // The probe sizes the far view's footprint as spread·t, t measured from the ray's
+        // origin on the near plane (as the walk measures it); the near view's is its per-depth
+        // size times z_near, which equals `spread` on the centre ray.
+        let expected = spread * z_near / hit.t;
+        assert!(
+            (shrunk / expected - 1.0).abs() < 1e-5,
+            "{shrunk} against {expected}"
+        );
+        let away = Camera {
+            forward: -near.forward,
+            right: -near.right,
+            ..near
+        };
+        let behind = Camera {
+            position: wall + far.forward * 0.5,
+            forward: -far.forward,
+            right: -far.right,
+            ..far
+        };
+        assert_eq!(views(&[far, away]), spread);
+        assert_eq!(views(&[far, behind]), spread);
+        assert_eq!(views(&[near]), spread);
+    }
 
     /// The passes visit every pixel exactly once, coarse grid first.
     #[test]

@@ -81,7 +81,7 @@ pub use builder::{
 };
 pub use guard::GuardRecord;
 pub use light_cache::{LightCache, LightCacheCounts, LightDeposit, MIN_DEPOSITS};
-pub use radius::HORIZON_CUT_COS;
+pub use radius::{HORIZON_CUT_COS, surface_spacing};
 pub use settings::{
     BounceMode, GradientMode, IcMetric, IcSettings, IcSettingsError, LeakGuard, MAX_RADIANCE_ORDER,
     MetricKind, RadiusStatistic,

@@ -171,7 +171,7 @@ const MIN_FOOTPRINT_COS: f32 = 1.0 / 64.0;
 /// `perpendicular`²/cos θ of a surface seen at θ from its normal `ng`. So a record of radius
 /// k·spacing covers the same screen area (πk² pixels) on a grazing floor as on a wall facing the
 /// camera: along the slant its projection shrinks by cos θ, across it grows by 1/√cos θ.
-pub(super) fn surface_spacing(perpendicular: f32, view: Vec3, ng: Vec3) -> f32 {
+pub fn surface_spacing(perpendicular: f32, view: Vec3, ng: Vec3) -> f32 {
     let cos = (view.normalize_or_zero().dot(ng.normalize_or_zero())).abs();
     perpendicular / cos.max(MIN_FOOTPRINT_COS).sqrt()
 }
