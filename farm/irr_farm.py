@@ -14,7 +14,8 @@ scheduler places on whichever worker is free:
 
 Every task runs in a temporary folder of its worker and hands its files back through Dask, so
 the workers need the `irr` binary and the scene (with the buffers and images it names) at the
-same paths as the client, and nothing else shared. Same seed, same frames, bit for bit, as one
+same paths as the client, and nothing else shared (paths among the options after `--`, such as
+`--asset-root`, must be absolute: the tasks do not run in the client's folder). Same seed, same frames, bit for bit, as one
 `irr --frames A..B --shared-cache --shards S` process: the test beside this file checks it.
 """
 
@@ -23,6 +24,7 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -74,16 +76,33 @@ def render_chunk(irr: str, scene: str, chunk: tuple[int, int], cache: bytes, pat
 
 
 def write_atomically(path: Path, data: bytes) -> None:
-    """Writes `data` to `path` through a temporary file renamed into place (no half files)."""
+    """Writes `data` to `path` through a temporary file, synced and renamed into place (no half
+    files, an earlier file kept until the new one is whole)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
-        os.unlink(tmp)
+        try:
+            os.close(fd)
+        except OSError:
+            pass
+        if os.path.exists(tmp):
+            os.unlink(tmp)
         raise
+
+
+def find_irr(irr: str) -> str:
+    """The irr binary's absolute path: a bare name is looked up on PATH (as a shell would), a
+    path made absolute; an error says which was not found."""
+    found = shutil.which(irr) if os.sep not in irr else (irr if os.path.isfile(irr) else None)
+    if found is None:
+        raise RuntimeError(f"--irr: no irr binary at '{irr}' (install it, or name its path)")
+    return os.path.abspath(found)
 
 
 def walkthrough(client, irr: str, scene: str, frames: tuple[int, int], out: str, shards: int,
@@ -91,7 +110,7 @@ def walkthrough(client, irr: str, scene: str, frames: tuple[int, int], out: str,
     """Renders frames `frames` of `scene` on `client`'s cluster to the pattern `out` (irr's
     `-o`, with `####` for the frame number); the files written, in order. `work` keeps the
     shard files and the sequence's cache (`sequence.irrc`) when given."""
-    irr, scene = os.path.abspath(irr), os.path.abspath(scene)
+    irr, scene = find_irr(irr), os.path.abspath(scene)
     out_path = Path(out).resolve()
     # pure=False: Dask gives every task a key of its own, so runs on a long-lived cluster never
     # share results.
@@ -99,7 +118,7 @@ def walkthrough(client, irr: str, scene: str, frames: tuple[int, int], out: str,
                      for i in range(shards)]
     shard_bytes = client.gather(shard_futures)
     with tempfile.TemporaryDirectory(prefix="irr-merge-") as tmp:
-        keep = Path(work) if work else Path(tmp)
+        keep = Path(work).resolve() if work else Path(tmp)
         keep.mkdir(parents=True, exist_ok=True)
         names = []
         for i, data in enumerate(shard_bytes):
@@ -126,6 +145,7 @@ def walkthrough(client, irr: str, scene: str, frames: tuple[int, int], out: str,
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         description="Render a walkthrough with one shared irradiance cache on a Dask cluster.",
+        usage="%(prog)s SCENE --frames A..B -o OUT [options] [-- irr options]",
         epilog="Options after `--` go to every irr command, e.g. -- --width 640 --spp 36 --cache-every 10",
     )
     parser.add_argument("scene", help="the glTF scene, at the same path on every worker")
@@ -141,10 +161,11 @@ def main(argv: list[str] | None = None) -> int:
                         help="shards of the cache's construction (irr's --shards; part of the result)")
     parser.add_argument("--chunk", type=int, default=8, help="frames per render task (default 8)")
     parser.add_argument("--work", help="keep the shard files and sequence.irrc in this folder")
-    parser.add_argument("options", nargs=argparse.REMAINDER,
-                        help="after --: options for every irr command")
-    args = parser.parse_args(argv)
-    options = args.options[1:] if args.options[:1] == ["--"] else args.options
+    argv = sys.argv[1:] if argv is None else argv
+    # Everything after the first `--` goes to irr as it is.
+    split = argv.index("--") if "--" in argv else len(argv)
+    args = parser.parse_args(argv[:split])
+    options = argv[split + 1:]
     if args.shards < 1 or args.chunk < 1:
         parser.error("--shards and --chunk must be at least 1")
 
@@ -160,7 +181,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         written = walkthrough(client, args.irr, args.scene, args.frames, args.out, args.shards,
                               args.chunk, options, args.work)
-    except RuntimeError as e:
+    except (RuntimeError, OSError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
     finally:

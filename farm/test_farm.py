@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import OpenEXR
 
-from irr_farm import walkthrough
+from irr_farm import main, walkthrough
 
 ROOT = Path(__file__).resolve().parent.parent
 IRR = os.environ.get("IRR", str(ROOT / "target" / "debug" / "irr"))
@@ -66,6 +66,25 @@ class FarmTest(unittest.TestCase):
             # The sequence's cache joins both shards' records.
             self.assertTrue(Path(tmp, "work", "sequence.irrc").stat().st_size
                             > Path(tmp, "work", "shard-0-of-2.irrc").stat().st_size)
+
+    def test_the_command_line_takes_relative_paths_and_irr_options(self):
+        """The command as the README gives it: relative output and work folders, irr's options
+        after `--`; a missing binary is an error message and exit status 1, not a traceback."""
+        with tempfile.TemporaryDirectory() as tmp:
+            here = os.getcwd()
+            os.chdir(tmp)
+            try:
+                status = main([SCENE, "--frames", "0..=2", "-o", "out/w.####.exr", "--irr", IRR,
+                               "--work", "work", "--shards", "2", "--chunk", "2", "--", *OPTIONS])
+                missing = main([SCENE, "--frames", "0..2", "-o", "x.exr", "--irr", "./no-irr-here"])
+            finally:
+                os.chdir(here)
+            self.assertEqual(status, 0)
+            self.assertEqual(missing, 1)
+            for f in range(3):
+                self.assertTrue(Path(tmp, "out", f"w.{f:04d}.exr").exists(), f)
+                self.assertTrue(Path(tmp, "out", f"w.{f:04d}.png").exists(), f)
+            self.assertTrue(Path(tmp, "work", "sequence.irrc").exists())
 
 
 if __name__ == "__main__":

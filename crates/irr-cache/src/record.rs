@@ -126,12 +126,19 @@ impl<V: CacheValue> Record<V> {
             return Err(InsertError::Aspect(self.aspect));
         }
         // The minor axis made perpendicular to the normal and unit (Gram–Schmidt in f64); an
-        // isotropic record keeps whatever it has, an ellipse needs a usable axis.
+        // isotropic record keeps whatever it has, an ellipse needs a usable axis. An axis
+        // already unit and perpendicular to float precision (as this step leaves it: each
+        // component rounded to f32 moves t·n by at most ~3·2⁻²⁴) is kept as it is, so validating
+        // twice gives the same bits, as for the normal.
+        let (t, n) = (self.tangent.as_dvec3(), normal.as_dvec3());
         let tangent = if self.aspect == 1.0 && self.tangent == Vec3::ZERO {
             Vec3::ZERO
+        } else if (t.length() - 1.0).abs() <= UNIT_TOLERANCE && t.dot(n).abs() <= UNIT_TOLERANCE {
+            self.tangent
         } else {
-            let (t, n) = (self.tangent.as_dvec3(), normal.as_dvec3());
-            let t = t - n * t.dot(n);
+            // Projected with n·n, not 1: the normal is unit only to f32 precision, and the
+            // error (t·n)(1 − n·n) would be amplified by 1/|t| for an axis nearly along n.
+            let t = t - n * (t.dot(n) / n.length_squared());
             let len = t.length();
             if !(len.is_finite() && len > 1e-6 * self.tangent.as_dvec3().length()) {
                 return Err(InsertError::Tangent);

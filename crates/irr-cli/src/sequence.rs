@@ -206,7 +206,9 @@ pub fn shared_cache(
     }
     if args.shard.is_some() {
         let (path, shard) = built.pop().ok_or("--shard: no shard was built")?;
-        shard.write(&path).map_err(|e| e.to_string())?;
+        shard
+            .write(&path, MAX_CACHE_FILE_BYTES)
+            .map_err(|e| e.to_string())?;
         eprintln!(
             "wrote shard {} of {} ({} records) to {}; join the shards with `irr cache merge`",
             args.shard.unwrap_or(0),
@@ -226,7 +228,9 @@ pub fn shared_cache(
         );
     }
     if let Some(path) = path {
-        merged.write(path).map_err(|e| e.to_string())?;
+        merged
+            .write(path, MAX_CACHE_FILE_BYTES)
+            .map_err(|e| e.to_string())?;
         eprintln!(
             "wrote the sequence's cache ({} records) to {}",
             merged.record_count(),
@@ -252,7 +256,17 @@ fn read_back(
     let (file_keys, shards) = contents.origin.sequence().ok_or_else(|| {
         bad("this file holds one view's cache; --shared-cache needs a sequence's (delete it or choose another file)".into())
     })?;
-    let (_, settings) = key_views(args, loaded, file_keys, spp)?;
+    // The records were placed and sized along that camera's path, and the frames' light cache
+    // is rebuilt from its first key frame: another camera's frames would not find them.
+    if file_keys.camera.unwrap_or(0) != keys.camera.unwrap_or(0) {
+        let name = |c: Option<u32>| format!("camera {}", c.unwrap_or(0));
+        return Err(bad(format!(
+            "--camera: this cache was built along {}'s path, not {}'s",
+            name(file_keys.camera),
+            name(keys.camera)
+        )));
+    }
+    let (_, settings) = key_views(args, loaded, file_keys, spp).map_err(bad)?;
     let expected = sequence_fingerprint(
         loaded.digest,
         &settings,
@@ -291,6 +305,7 @@ fn read_back(
             );
             frames_integrator(args, loaded, contents, spp, s)
                 .map(|ic| Shared::Frames(Box::new(ic)))
+                .map_err(bad)
         }
     }
 }
@@ -339,7 +354,9 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<String, String> {
         read.push((path.clone(), contents));
     }
     let (merged, report) = merge_shards(read).map_err(|e| e.to_string())?;
-    merged.write(out).map_err(|e| e.to_string())?;
+    merged
+        .write(out, MAX_CACHE_FILE_BYTES)
+        .map_err(|e| e.to_string())?;
     let per_shard: Vec<String> = report.shard_records.iter().map(usize::to_string).collect();
     Ok(format!(
         "wrote {} records to {} (shards' records {}; {} duplicates dropped)",

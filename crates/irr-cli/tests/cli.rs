@@ -969,6 +969,10 @@ fn shards_merged_give_the_single_process_frames() {
     );
     fails(&["--frames", "0..4", "--shards", "5"], "only 4 key frames");
     fails(
+        &["--frames", "0..4", "--cache", "walk.irrc", "--camera", "1"],
+        "camera 0's path",
+    );
+    fails(
         &["--frames", "0..4", "--radiance-order", "2"],
         "--radiance-order 0",
     );

@@ -41,7 +41,7 @@ fn ceiling(h: f64) -> Option<(DVec3, DVec3)> {
     Some((DVec3::new(0.0, 0.0, h), DVec3::Z))
 }
 
-/// The four placements of the issue, each an emitter of size 1 and radiance 1 under a
+/// The four placements, each an emitter of size 1 and radiance 1 under a
 /// non-emitting ceiling (which gives the background a finite distance, so that the choice of the
 /// nearer hit per wall matters). None is symmetric about the normal, so no gradient is zero.
 pub fn placements() -> Vec<Placement> {

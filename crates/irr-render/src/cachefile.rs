@@ -9,7 +9,8 @@
 //!   [`merge_shards`] (`irr cache merge`);
 //! - **a sequence's cache**: every shard's records joined, which every frame of the walkthrough
 //!   reads without adding records. Its fingerprint holds the scene, the settings, the seed, the
-//!   image size, the camera's index and the key frames' times, not one camera.
+//!   image size, the camera's index, the key frames' times and the shard count, not one
+//!   camera.
 //!
 //! Layout (little-endian):
 //!
@@ -466,9 +467,20 @@ impl CacheContents {
         Self::decode(&bytes).map_err(bad)
     }
 
-    /// Writes the file at `path`, atomically (a temporary file renamed into place).
-    pub fn write(&self, path: &Path) -> Result<(), RenderError> {
+    /// Writes the file at `path`, atomically (a temporary file renamed into place); refused if
+    /// it would exceed `max_bytes`, the most a reader takes, so that no file is written that
+    /// the frames would refuse.
+    pub fn write(&self, path: &Path, max_bytes: u64) -> Result<(), RenderError> {
         let bytes = self.encode().map_err(|e| RenderError::write(path, e))?;
+        if bytes.len() as u64 > max_bytes {
+            return Err(RenderError::write(
+                path,
+                format!(
+                    "the cache would take {} bytes, more than irr reads ({max_bytes})",
+                    bytes.len()
+                ),
+            ));
+        }
         write_file_atomically(path, &bytes)
     }
 }
@@ -481,7 +493,7 @@ pub fn write_cache_file(
 ) -> Result<(), RenderError> {
     CacheContents::of(integrator, fingerprint, CacheOrigin::View)
         .map_err(|e| RenderError::write(path, e))?
-        .write(path)
+        .write(path, u64::MAX)
 }
 
 /// Reads one view's cache written by [`write_cache_file`] for `fingerprint`, filing each level's
@@ -585,7 +597,12 @@ pub fn merge_shards(
                 ),
             ));
         }
-        let slot = &mut by_index[*index as usize];
+        let Some(slot) = by_index.get_mut(*index as usize) else {
+            return Err(bad(
+                &path,
+                format!("shard index {index} is not below {count}"),
+            ));
+        };
         if let Some((earlier, _)) = slot {
             return Err(bad(
                 &path,

@@ -372,8 +372,6 @@ fn camera_ray(camera: &Camera, settings: &RenderSettings, raster: Vec2) -> Ray {
     }
 }
 
-/// Runs one pass: probes in parallel, the ordered selection, the selected probes' full gathers
-/// in parallel, then the ordered commit.
 /// The key views of a shared cache, for sizing each first-level record by the view that needs
 /// it smallest (one view: nothing to do).
 struct Views<'a> {
@@ -433,6 +431,8 @@ impl Views<'_> {
     }
 }
 
+/// Runs one pass: probes in parallel, the ordered selection, the selected probes' full gathers
+/// in parallel, then the ordered commit.
 fn run_pass(
     scene: &Scene,
     builder: &mut dyn CacheBuilder,
