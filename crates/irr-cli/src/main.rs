@@ -27,7 +27,7 @@ struct Cli {
 
 /// Work on cache files.
 #[derive(Parser)]
-#[command(name = "irr cache", version)]
+#[command(name = "irr cache", bin_name = "irr cache", version)]
 struct CacheCli {
     #[command(subcommand)]
     command: CacheCommand,
