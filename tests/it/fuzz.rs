@@ -813,6 +813,20 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 /// origin, the shard index and count, the camera and the key frame count, 0).
 const LEVELS_AT: usize = 56;
 
+/// Where `bytes` keep their level count: after the header and its key frames' times (a key
+/// frame count that does not fit the file counts as none).
+fn levels_at(bytes: &[u8]) -> usize {
+    let k = bytes
+        .get(48..56)
+        .and_then(|b| b.try_into().ok())
+        .map_or(0, u64::from_le_bytes);
+    usize::try_from(k)
+        .ok()
+        .and_then(|k| k.checked_mul(8))
+        .filter(|&t| t <= bytes.len())
+        .map_or(LEVELS_AT, |t| LEVELS_AT + t)
+}
+
 /// Where irr-cache's part of the first level lies in a cache file (after the 64-byte header,
 /// the level's record count, `ENTRY_BYTES` per record and the part's length), if the counts still
 /// fit.
@@ -820,10 +834,11 @@ fn inner_part(bytes: &[u8]) -> Option<std::ops::Range<usize>> {
     let word = |at: usize| -> Option<u64> {
         Some(u64::from_le_bytes(bytes.get(at..at + 8)?.try_into().ok()?))
     };
-    let n = word(LEVELS_AT + 8)?;
+    let at = levels_at(bytes);
+    let n = word(at + 8)?;
     let size_at = usize::try_from(
         n.checked_mul(irr_render::ENTRY_BYTES as u64)?
-            .checked_add(LEVELS_AT as u64 + 16)?,
+            .checked_add(at as u64 + 16)?,
     )
     .ok()?;
     let start = size_at.checked_add(8)?;
@@ -836,17 +851,18 @@ fn cache_case(seeds: &[Vec<u8>], seed: u64, k: u64) -> Vec<u8> {
     let mut bytes = rng.pick(seeds).clone();
     for _ in 0..rng.below(4) + 1 {
         let inner = inner_part(&bytes);
+        let levels = levels_at(&bytes);
         let choice = rng.below(4);
-        if choice == 0 && bytes.len() >= LEVELS_AT + 16 {
+        if choice == 0 && bytes.len() >= levels + 16 {
             // A count: of the file's levels, of the first level's records, of irr-cache's
             // part, of the key frames or of the shards (or the origin): a huge, zero or
             // off-by-one value.
             let at = match (&inner, rng.below(5)) {
                 (Some(r), 0) => r.start + 20,
-                (_, 1) => LEVELS_AT + 8,
+                (_, 1) => levels + 8,
                 (_, 2) => 48,
-                (_, 3) => 16 + 8 * rng.below(3),
-                _ => LEVELS_AT,
+                (_, 3) => 16 + 8 * rng.below(4),
+                _ => levels,
             };
             let count = u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap_or([0; 8]));
             let v = *rng.pick(&[
@@ -860,8 +876,9 @@ fn cache_case(seeds: &[Vec<u8>], seed: u64, k: u64) -> Vec<u8> {
             ]);
             bytes[at..at + 8].copy_from_slice(&v.to_le_bytes());
         } else if choice == 1 && bytes.len() > LEVELS_AT + 16 {
-            // A float of a leak-guard entry or a record: NaN, infinity, negative, huge, zero.
-            let at = LEVELS_AT + 8 + 4 * rng.below((bytes.len() - LEVELS_AT - 16) / 4);
+            // A float of a key frame's time, a leak-guard entry or a record: NaN, infinity,
+            // negative, huge, zero.
+            let at = LEVELS_AT + 4 * rng.below((bytes.len() - LEVELS_AT - 8) / 4);
             let v: f32 = *rng.pick(&[f32::NAN, f32::INFINITY, -1.0, 0.0, 1e38, -1e-40, f32::MAX]);
             bytes[at..at + 4].copy_from_slice(&v.to_le_bytes());
         } else {
@@ -968,6 +985,125 @@ fn cache_reader_survives_mutated_files() {
         "cache fuzzer: {iters} executions (seed {seed}), {accepted} accepted, {} failing, {:.1} s",
         failures.len(),
         started.elapsed().as_secs_f64()
+    );
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Shard files as `irr --shards 2 --shard I` writes them: the Cornell box's records from two
+/// key views (the camera and the camera moved 10 cm), a shard each.
+fn shard_seeds(cornell: &irr_render::LoadedScene) -> Vec<Vec<u8>> {
+    let settings = RenderSettings {
+        width: 6,
+        height: 6,
+        ..TINY
+    };
+    let rest = cornell.camera_for(settings.width, settings.height);
+    let moved = irr_render::Camera {
+        position: rest.position + rest.right * 0.1,
+        ..rest
+    };
+    let views = [rest, moved];
+    let keys = irr_render::KeyFrames {
+        camera: None,
+        times: vec![0.0, 1.0],
+    };
+    (0..2)
+        .map(|index| {
+            let mut ic =
+                IrradianceCacheIntegrator::new(tiny_cache()).unwrap_or_else(|e| panic!("{e}"));
+            irr_render::Integrator::preprocess(&mut ic, &cornell.scene);
+            irr_render::build_cache_shard(
+                &cornell.scene,
+                &views,
+                keys.shard(index, 2),
+                &mut ic,
+                &settings,
+                false,
+                false,
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
+            let origin = irr_render::CacheOrigin::Shard {
+                index,
+                shards: 2,
+                keys: keys.clone(),
+            };
+            irr_render::CacheContents::of(&ic, FINGERPRINT, origin)
+                .and_then(|c| c.encode())
+                .unwrap_or_else(|e| panic!("{e}"))
+        })
+        .collect()
+}
+
+/// `irr cache merge` on two shard files, one of them mutated (`cache_case`'s mutations, the
+/// checksums usually recomputed), then the merged file read back as the frames read it: no
+/// panic, no case slower than `SLOW`, and the unmutated pair merges and files.
+#[test]
+fn shard_merge_survives_mutated_files() {
+    let cornell = cornell();
+    let seeds = shard_seeds(&cornell);
+    let merge = |a: &[u8], b: &[u8]| -> bool {
+        let (Ok(a), Ok(b)) = (
+            irr_render::CacheContents::decode(a),
+            irr_render::CacheContents::decode(b),
+        ) else {
+            return false;
+        };
+        let Ok((merged, _)) =
+            irr_render::merge_shards(vec![("a.irrc".into(), a), ("b.irrc".into(), b)])
+        else {
+            return false;
+        };
+        let Ok(bytes) = merged.encode() else {
+            return false;
+        };
+        irr_render::CacheContents::decode(&bytes)
+            .map_err(|e| e.to_string())
+            .and_then(|c| c.file(&tiny_cache()))
+            .is_ok()
+    };
+    assert!(
+        merge(&seeds[0], &seeds[1]),
+        "the shards as written do not merge"
+    );
+    let (seed, iters) = (base_seed(), 2 * iterations());
+    let mut failures = Vec::new();
+    let mut accepted = 0u64;
+    for k in 0..iters {
+        let which = (k % 2) as usize;
+        let bytes = cache_case(&seeds[which..=which], seed ^ 0x5_4A2D, k);
+        let started = Instant::now();
+        let result = std::panic::catch_unwind(AssertUnwindSafe(|| {
+            if which == 0 {
+                merge(&bytes, &seeds[1])
+            } else {
+                merge(&seeds[0], &bytes)
+            }
+        }));
+        let took = started.elapsed();
+        match result {
+            Ok(ok) => accepted += u64::from(ok),
+            Err(p) => failures.push(keep(
+                "shard",
+                "irrc",
+                &bytes,
+                &format!("case {k} panicked: {}", panic_message(&*p)),
+            )),
+        }
+        if took > SLOW {
+            failures.push(keep(
+                "shard",
+                "irrc",
+                &bytes,
+                &format!("case {k} took {took:?}"),
+            ));
+        }
+        if failures.len() >= 10 {
+            break;
+        }
+    }
+    eprintln!(
+        "shard merge fuzzer: {iters} executions (seed {seed}), {accepted} accepted, {} failing",
+        failures.len()
     );
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
