@@ -509,16 +509,23 @@ def cornell_box():
 DOLLY_M = 0.1
 
 
-def cornell_dolly():
+def cornell_walk(name, description, shift):
+    # The Cornell box whose camera a LINEAR translation channel moves by `shift` (metres,
+    # world axes) over 1 s.
     b = Builder()
     white, red, green = cornell_colours(b)
     light = b.material("light", LIGHT_ALBEDO, emission=LIGHT_RADIANCE, double_sided=False)
     add_cornell_surfaces(b, room_surfaces(white, red, green) + [("light", light)])
     camera = cornell_camera(b)
     start = [c / 1000.0 for c in CAMERA_POSITION_MM]
-    end = [start[0] - DOLLY_M, start[1], start[2]]
+    end = [s + d for s, d in zip(start, shift)]
     b.animate_translation(camera, [0.0, 1.0], [start, end])
-    write_scene(b, "cornell-dolly", "the Cornell box, its camera dollied 10 cm right over 1 s")
+    write_scene(b, name, description)
+
+
+def cornell_dolly():
+    cornell_walk("cornell-dolly", "the Cornell box, its camera dollied 10 cm right over 1 s",
+                 [-DOLLY_M, 0.0, 0.0])
 
 
 # The push-in: the camera moves PUSH_M towards the back wall over 1 s, so the last frames see the
@@ -528,15 +535,8 @@ PUSH_M = 0.6
 
 
 def cornell_push():
-    b = Builder()
-    white, red, green = cornell_colours(b)
-    light = b.material("light", LIGHT_ALBEDO, emission=LIGHT_RADIANCE, double_sided=False)
-    add_cornell_surfaces(b, room_surfaces(white, red, green) + [("light", light)])
-    camera = cornell_camera(b)
-    start = [c / 1000.0 for c in CAMERA_POSITION_MM]
-    end = [start[0], start[1], start[2] + PUSH_M]
-    b.animate_translation(camera, [0.0, 1.0], [start, end])
-    write_scene(b, "cornell-push", "the Cornell box, its camera pushed 60 cm in over 1 s")
+    cornell_walk("cornell-push", "the Cornell box, its camera pushed 60 cm in over 1 s",
+                 [0.0, 0.0, PUSH_M])
 
 
 # ---------------------------------------------------------------------------------------------

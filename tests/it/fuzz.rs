@@ -962,22 +962,7 @@ fn cache_reader_survives_mutated_files() {
         let bytes = cache_case(&seeds, seed, k);
         let (panic, ok, took) = run_cache(&cornell, dir.path(), &bytes);
         accepted += u64::from(ok);
-        if let Some(p) = panic {
-            failures.push(keep(
-                "cache",
-                "irrc",
-                &bytes,
-                &format!("case {k} panicked: {p}"),
-            ));
-        } else if took > SLOW {
-            failures.push(keep(
-                "cache",
-                "irrc",
-                &bytes,
-                &format!("case {k} took {took:?}"),
-            ));
-        }
-        if failures.len() >= 10 {
+        if record_failure("cache", k, &bytes, (panic, took), &mut failures) {
             break;
         }
     }
@@ -987,6 +972,33 @@ fn cache_reader_survives_mutated_files() {
         started.elapsed().as_secs_f64()
     );
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Keeps case `k` of a cache-file fuzzer (`kind`: its corpus folder) if it panicked or took
+/// longer than `SLOW`; whether the run should stop (ten failures are enough to debug).
+fn record_failure(
+    kind: &str,
+    k: u64,
+    bytes: &[u8],
+    (panic, took): (Option<String>, Duration),
+    failures: &mut Vec<String>,
+) -> bool {
+    if let Some(p) = panic {
+        failures.push(keep(
+            kind,
+            "irrc",
+            bytes,
+            &format!("case {k} panicked: {p}"),
+        ));
+    } else if took > SLOW {
+        failures.push(keep(
+            kind,
+            "irrc",
+            bytes,
+            &format!("case {k} took {took:?}"),
+        ));
+    }
+    failures.len() >= 10
 }
 
 /// Shard files as `irr --shards 2 --shard I` writes them: the Cornell box's records from two
@@ -1080,24 +1092,14 @@ fn shard_merge_survives_mutated_files() {
             }
         }));
         let took = started.elapsed();
-        match result {
-            Ok(ok) => accepted += u64::from(ok),
-            Err(p) => failures.push(keep(
-                "shard",
-                "irrc",
-                &bytes,
-                &format!("case {k} panicked: {}", panic_message(&*p)),
-            )),
-        }
-        if took > SLOW {
-            failures.push(keep(
-                "shard",
-                "irrc",
-                &bytes,
-                &format!("case {k} took {took:?}"),
-            ));
-        }
-        if failures.len() >= 10 {
+        let panic = match result {
+            Ok(ok) => {
+                accepted += u64::from(ok);
+                None
+            }
+            Err(p) => Some(panic_message(&*p)),
+        };
+        if record_failure("shard", k, &bytes, (panic, took), &mut failures) {
             break;
         }
     }

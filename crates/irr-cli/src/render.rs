@@ -698,6 +698,23 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
     Ok(())
 }
 
+/// The render settings of a view through `camera` (the file's, if it has one): the options'
+/// size, the missing side from the camera's aspect ratio, and `spp` samples.
+pub(crate) fn view_settings(
+    args: &RenderArgs,
+    camera: Option<&Camera>,
+    spp: i64,
+) -> Result<RenderSettings, String> {
+    let (width, height) = RenderSettings::image_size(
+        args.width,
+        args.height,
+        camera.and_then(|c| c.aspect_ratio_in_file),
+    )
+    .map_err(|e| e.to_string())?;
+    RenderSettings::from_options(width.into(), height.into(), spp, args.seed, args.threads)
+        .map_err(|e| e.to_string())
+}
+
 /// Renders one view of the loaded scene: through the chosen camera at `time` seconds of its
 /// animation (`None`: the rest pose), to `out`.
 fn render_view(
@@ -710,15 +727,8 @@ fn render_view(
     let file_camera = loaded
         .choose_camera_at(args.camera, time)
         .map_err(|e| e.to_string())?;
-    let (width, height) = RenderSettings::image_size(
-        args.width,
-        args.height,
-        file_camera.and_then(|c| c.aspect_ratio_in_file),
-    )
-    .map_err(|e| e.to_string())?;
-    let settings =
-        RenderSettings::from_options(width.into(), height.into(), spp, args.seed, args.threads)
-            .map_err(|e| e.to_string())?;
+    let settings = view_settings(args, file_camera.as_ref(), spp)?;
+    let (width, height) = (settings.width, settings.height);
     if let Some((x, y)) = args.debug_pixel
         && (x >= width || y >= height)
     {

@@ -9,7 +9,7 @@
 //! integrator and rebuilds the light cache from the first key frame's view, as a process that
 //! reads the file does.
 
-use crate::render::{MAX_CACHE_FILE_BYTES, RenderArgs};
+use crate::render::{MAX_CACHE_FILE_BYTES, RenderArgs, view_settings};
 use irr_render::{
     CacheContents, CacheOrigin, Camera, IcSettings, Integrator, IrradianceCacheIntegrator,
     KeyFrames, LoadedScene, RenderSettings, build_cache_shard, build_light_cache,
@@ -74,21 +74,12 @@ fn key_views(
                 .map_err(|e| e.to_string())?,
         );
     }
-    let first = views.first().copied().flatten();
-    let (width, height) = RenderSettings::image_size(
-        args.width,
-        args.height,
-        first.and_then(|c| c.aspect_ratio_in_file),
-    )
-    .map_err(|e| e.to_string())?;
-    let settings =
-        RenderSettings::from_options(width.into(), height.into(), spp, args.seed, args.threads)
-            .map_err(|e| e.to_string())?;
+    let settings = view_settings(args, views.first().and_then(Option::as_ref), spp)?;
     let framing = || {
         Camera::framing(
             loaded.bounds.0,
             loaded.bounds.1,
-            width as f32 / height as f32,
+            settings.width as f32 / settings.height as f32,
         )
     };
     Ok((

@@ -847,7 +847,7 @@ fn shards_merged_give_the_single_process_frames() {
     let dir = temp();
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/cornell-dolly.gltf");
     let scene = scene.to_string_lossy().into_owned();
-    let common = [
+    let tiny = [
         scene.as_str(),
         "--width",
         "16",
@@ -859,12 +859,11 @@ fn shards_merged_give_the_single_process_frames() {
         "4x16",
         "--light-cache-paths",
         "4096",
-        "--shared-cache",
-        "--cache-every",
-        "1",
     ];
+    let mut common = tiny.to_vec();
+    common.extend(["--shared-cache", "--cache-every", "1"]);
     let run = |extra: &[&str]| {
-        let mut args = common.to_vec();
+        let mut args = common.clone();
         args.extend(extra);
         irr(dir.path(), &args)
     };
@@ -977,24 +976,8 @@ fn shards_merged_give_the_single_process_frames() {
         "--radiance-order 0",
     );
     // A view's cache is not a sequence's.
-    let mut view = vec![
-        scene.as_str(),
-        "--width",
-        "16",
-        "--height",
-        "16",
-        "--spp",
-        "1",
-    ];
-    view.extend([
-        "--strata",
-        "4x16",
-        "--light-cache-paths",
-        "4096",
-        "--cache",
-        "view.irrc",
-    ]);
-    view.extend(["-o", "view.exr"]);
+    let mut view = tiny.to_vec();
+    view.extend(["--cache", "view.irrc", "-o", "view.exr"]);
     irr_ok(dir.path(), &view);
     fails(
         &["--frames", "0..4", "--cache", "view.irrc"],
