@@ -294,6 +294,11 @@ fn read_back(
                 path.display(),
                 file_keys.times.len()
             );
+            if file_keys != keys || shards != args.shards {
+                eprintln!(
+                    "note: the file's key frames and shards are used; --frames, --fps, --cache-every and --shards shape a cache only when it is built"
+                );
+            }
             frames_integrator(args, loaded, contents, spp, s)
                 .map(|ic| Shared::Frames(Box::new(ic)))
                 .map_err(bad)
