@@ -48,6 +48,9 @@ pub struct WalkthroughArgs {
     /// The shared cache's key frames: every K-th and the last
     #[arg(long, default_value_t = 4)]
     pub cache_every: u32,
+    /// Camera samples per pixel of the denoised shared-cache row (built with the denoiser)
+    #[arg(long, default_value_t = crate::compare::DENOISED_IC_SPP)]
+    pub denoised_ic_spp: u32,
     /// Also the shared cache built in S shards, each into an empty cache, joined (a farm's
     /// construction, here on one machine); 1 or 0: not
     #[arg(long, default_value_t = 2)]
@@ -191,7 +194,7 @@ pub fn run(args: WalkthroughArgs, root: &Path) -> Result<(), String> {
     // The same cache, its frames denoised (at compare's denoised camera samples).
     if DENOISER.is_some() {
         let start = Instant::now();
-        let denoised_spp = crate::compare::DENOISED_IC_SPP;
+        let denoised_spp = args.denoised_ic_spp.max(1);
         let (frames, _) = render_frames(
             &loaded,
             &cameras,
