@@ -401,7 +401,6 @@ impl Views<'_> {
         let (p, ng) = (surface.position, surface.geometric_normal);
         let own = surface_spacing(spread * hit.t, ray.direction, ng);
         let side = ng.dot(ray.origin - p);
-        let per_depth = |c: &Camera| 2.0 * (0.5 * c.yfov).tan() / self.height.max(1) as f32;
         let aspect = self.width as f32 / self.height.max(1) as f32;
         let mut smaller: Vec<(f32, &Camera)> = self
             .cameras
@@ -415,7 +414,9 @@ impl Views<'_> {
                     && d.dot(c.right).abs() <= z * tan_half * aspect
                     && d.dot(c.up).abs() <= z * tan_half;
                 let same_side = ng.dot(-d) * side > 0.0;
-                let spacing = surface_spacing(per_depth(c) * z, d, ng);
+                // A pixel spans 2·tan(yfov/2)·z/H across the view at depth z.
+                let per_depth = 2.0 * tan_half / self.height.max(1) as f32;
+                let spacing = surface_spacing(per_depth * z, d, ng);
                 (inside && same_side && spacing < own).then_some((spacing, c))
             })
             .collect();
