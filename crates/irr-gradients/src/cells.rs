@@ -160,37 +160,10 @@ pub fn plan_extra_samples<V: GatherValue>(
         .map(|i| if fixed[i] { 0.0 } else { spread(i).sqrt() })
         .collect();
     // Relative variance of E with kᵢ = max(1, λσᵢ) samples: W² Σ σᵢ²/kᵢ; the smallest λ that
-    // meets target², by bisection (the variance falls as λ grows), at most the cap's.
+    // meets target², or whose samples reach the cap.
     let w = f64::from(strata.cell_weight());
-    let variance = |lambda: f64| -> f64 {
-        sigma
-            .iter()
-            .map(|&s| s * s / (lambda * s).max(1.0))
-            .sum::<f64>()
-            * w
-            * w
-    };
-    let samples = |lambda: f64| -> f64 {
-        sigma
-            .iter()
-            .zip(fixed)
-            .map(|(&s, &f)| if f { 0.0 } else { (lambda * s).max(1.0) - 1.0 })
-            .sum()
-    };
-    let goal = f64::from(target) * f64::from(target);
-    let mut hi = 1.0f64;
-    while variance(hi) > goal && samples(hi) < f64::from(cap) && hi < 1e12 {
-        hi *= 2.0;
-    }
-    let mut lo = 0.0f64;
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if variance(mid) > goal && samples(mid) < f64::from(cap) {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
+    let goal = f64::from(target) * f64::from(target) / (w * w);
+    let hi = neyman_scale(&sigma, goal, f64::from(cap));
     // Whole samples: the floor of each cell's share, then the largest remainders (ties to the
     // lower cell index), within the cap.
     let wanted: Vec<f64> = sigma
@@ -227,6 +200,44 @@ pub fn plan_extra_samples<V: GatherValue>(
         given += 1;
     }
     extra
+}
+
+/// The smallest λ ≥ 0 at which the spreads σᵢ (any order, ≥ 0), given kᵢ = max(1, λσᵢ) samples
+/// each, have Σ σᵢ²/kᵢ ≤ `goal` or Σ (kᵢ − 1) ≥ `cap` (at most 10¹²). Both sums are monotone and
+/// continuous in λ, and with the σ sorted so that the first K have λσᵢ ≥ 1 they read
+/// P_K/λ + Q_K and λ·P_K − K (P_K the sum of those K spreads, Q_K the sum of the others'
+/// squares): each stretch of λ between two breakpoints 1/σᵢ is solved in closed form, the
+/// stretches in increasing λ, where a bisection would evaluate both sums over every cell at
+/// each of its steps.
+fn neyman_scale(sigma: &[f64], goal: f64, cap: f64) -> f64 {
+    const MAX: f64 = 1e12;
+    let mut s: Vec<f64> = sigma.iter().copied().filter(|&x| x > 0.0).collect();
+    s.sort_by(|a, b| b.total_cmp(a));
+    let mut q: f64 = s.iter().map(|x| x * x).sum();
+    let mut p = 0.0f64;
+    for k in 0..=s.len() {
+        // The stretch where exactly the first k spreads have λσ ≥ 1.
+        let lo = if k == 0 { 0.0 } else { 1.0 / s[k - 1] };
+        let hi = s.get(k).map_or(f64::INFINITY, |x| 1.0 / x);
+        let mut best = f64::INFINITY;
+        if q <= goal && (p == 0.0 || goal > q) {
+            let at = if p == 0.0 { lo } else { p / (goal - q) };
+            best = best.min(at.max(lo));
+        }
+        if p > 0.0 {
+            best = best.min(((cap + k as f64) / p).max(lo));
+        } else if cap <= 0.0 {
+            best = lo;
+        }
+        if best <= hi {
+            return best.min(MAX);
+        }
+        if let Some(&x) = s.get(k) {
+            p += x;
+            q = (q - x * x).max(0.0);
+        }
+    }
+    MAX
 }
 
 #[cfg(test)]
@@ -383,6 +394,57 @@ mod tests {
         let mut no_rays = vec![false; s.len()];
         no_rays[5] = true;
         assert_eq!(plan_extra_samples(&g, &no_rays, 0.01, 500)[5], 0);
+    }
+
+    /// The closed form against a bisection of the same two conditions (60 halvings of a bracket
+    /// at least 1 wide, so within 2⁻⁶⁰·max(1, λ) of the answer, and the sums in f64 over ≤ 64
+    /// terms: a few 1e-16 relative): the two agree to 1e-9 relative plus the bisection's
+    /// 2⁻⁵⁹·max(1, λ) whenever the answer is below the 10¹² ceiling.
+    #[test]
+    fn the_neyman_scale_solves_both_conditions() {
+        let bisect = |sigma: &[f64], goal: f64, cap: f64| {
+            let variance =
+                |l: f64| -> f64 { sigma.iter().map(|&s| s * s / (l * s).max(1.0)).sum() };
+            let samples = |l: f64| -> f64 { sigma.iter().map(|&s| (l * s).max(1.0) - 1.0).sum() };
+            let mut hi = 1.0f64;
+            while variance(hi) > goal && samples(hi) < cap && hi < 1e12 {
+                hi *= 2.0;
+            }
+            let mut lo = 0.0f64;
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if variance(mid) > goal && samples(mid) < cap {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            hi
+        };
+        for case in 0..2000u64 {
+            let key = SampleKey::new(case, 0, 0);
+            let n = 1 + (key.uniform(0) * 64.0) as usize;
+            let sigma: Vec<f64> = (0..n)
+                .map(|i| {
+                    let u = f64::from(SampleKey::new(case, i as u64 + 1, 0).uniform(0));
+                    // Zeros (fixed cells), and spreads over six decades.
+                    if u < 0.1 {
+                        0.0
+                    } else {
+                        10f64.powf(6.0 * u - 4.0)
+                    }
+                })
+                .collect();
+            let total: f64 = sigma.iter().map(|s| s * s).sum();
+            let goal = total * f64::from(key.uniform(1)).powi(3);
+            let cap = (f64::from(key.uniform(2)) * 4.0 * n as f64).floor();
+            let (a, b) = (neyman_scale(&sigma, goal, cap), bisect(&sigma, goal, cap));
+            assert!(
+                (a - b).abs() <= 1e-9 * b + 2f64.powi(-59) * b.max(1.0)
+                    || (a >= 1e12 && b >= 1e12 * 0.999),
+                "case {case}: {a} against {b} ({sigma:?}, goal {goal}, cap {cap})"
+            );
+        }
     }
 
     /// Unbiased: cells that are bright (value 1/p) with probability p and 0 otherwise (mean 1:
