@@ -87,6 +87,55 @@ fn radiance_cached_images_are_identical_for_any_thread_count() {
     assert_ne!(with, without, "radiance records left the image unchanged");
 }
 
+/// Adaptive camera samples through the cache's per-pixel batches: the same image and sample
+/// count for 1, 2 and 8 threads, some pixels stopped before `spp`, and `pixel_samples`
+/// replaying a pixel's rounds exactly (its batches follow the rounds, so the replay makes the
+/// same calls): the mean of its samples is the rendered pixel, bit for bit.
+#[test]
+fn adaptive_camera_samples_are_identical_for_any_thread_count_and_replay() {
+    let loaded = cornell();
+    let ic = IcSettings {
+        pixel_error: 0.2,
+        light_cache_paths: 40_000,
+        ..small()
+    };
+    let mut renders = Vec::new();
+    for threads in [1, 2, 8] {
+        let s = RenderSettings {
+            width: 20,
+            height: 20,
+            spp: 8,
+            seed: 11,
+            threads,
+        };
+        let camera = loaded.camera_for(20, 20);
+        let integrator = built(&loaded.scene, &camera, ic, &s);
+        let out = render(&loaded.scene, &camera, &integrator, &s, false)
+            .unwrap_or_else(|e| panic!("{e}"));
+        if threads == 2 {
+            for (x, y) in [(0, 0), (10, 10), (19, 5), (7, 13), (10, 1)] {
+                let samples =
+                    irr_render::pixel_samples(&loaded.scene, &camera, &integrator, &s, x, y)
+                        .unwrap_or_else(|e| panic!("{e}"));
+                assert_eq!(
+                    irr_render::mean_of_samples(&samples),
+                    out.image.get(x, y),
+                    "({x}, {y}): {} samples",
+                    samples.len()
+                );
+            }
+        }
+        renders.push((out.image, out.stats.samples));
+    }
+    assert_eq!(renders[0], renders[1], "1 vs 2 threads");
+    assert_eq!(renders[0], renders[2], "1 vs 8 threads");
+    let taken = renders[0].1;
+    assert!(
+        (20 * 20 * 2..20 * 20 * 8).contains(&taken),
+        "{taken} samples"
+    );
+}
+
 fn identical_for_any_thread_count(ic: IcSettings) {
     identical_images(&cornell(), ic);
 }

@@ -146,6 +146,11 @@ pub struct IcArgs {
     /// strata. Deeper levels loosen it as they loosen --error. 0: one ray per stratum
     #[arg(long, default_value_t = IcSettings::default().gather_error, allow_negative_numbers = true)]
     pub gather_error: f32,
+    /// Adaptive camera samples (ic): a pixel stops taking samples once the relative standard
+    /// error of its mean luminance, checked after a quarter, a half, … of --spp, is at most this
+    /// (e.g. 0.02). 0: every pixel takes --spp
+    #[arg(long, default_value_t = IcSettings::default().pixel_error, allow_negative_numbers = true)]
+    pub pixel_error: f32,
     /// With --gather-error: the most extra rays of a gather, as a multiple of its strata (0 to
     /// 64)
     #[arg(long, default_value_t = IcSettings::default().gather_budget, allow_negative_numbers = true)]
@@ -221,6 +226,7 @@ impl IcArgs {
             cached_bounces: self.bounces,
             direct_samples: self.direct_samples,
             gather_error: self.gather_error,
+            pixel_error: self.pixel_error,
             gather_budget: self.gather_budget,
             fill_samples: self.fill_samples,
             radiance_order: self.radiance_order,

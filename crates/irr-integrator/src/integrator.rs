@@ -88,6 +88,15 @@ pub trait Integrator: Sync {
         }
     }
 
+    /// Adaptive camera sampling: the relative standard error of a pixel's mean luminance at
+    /// which the renderer may stop giving it samples before its `spp` (checked after rounds of
+    /// doubling size from a quarter of `spp`, from the pixel's own samples), 0 for every pixel
+    /// taking all of them. The default: 0 (the path tracer stays the unbiased reference: a
+    /// rule that stops on a pixel's own samples biases it slightly).
+    fn pixel_error(&self) -> f32 {
+        0.0
+    }
+
     /// How the renderer should batch camera samples for [`Integrator::li_many`] and
     /// [`Integrator::li_split_many`]. The default: [`Batching::BySampleIndex`].
     fn batching(&self) -> Batching {

@@ -19,6 +19,18 @@
 //! pixels' samples of one index together, `Integrator::li_many`, whose answers are `li`'s bit
 //! for bit.) The AOVs ([`render_with_aovs`])
 //! are summed the same way, sample by sample beside the colour.
+//!
+//! # Adaptive sampling
+//! An integrator may ask for it ([`Integrator::pixel_error`]; the irradiance cache's
+//! `--pixel-error`). A pixel then takes its samples in rounds, a quarter of `spp`, then up to a
+//! half, then all ([`sample_rounds`]), and stops after a round when the relative standard error
+//! of its mean luminance, from its own samples, is under the target and the rays through its
+//! four corners meet one surface ([`corners_agree`]): a pixel that an outline crosses never
+//! stops early, since its first samples can all fall on one side of it and agree. Its value is
+//! the mean of the samples it took. The decision reads that pixel's samples and the scene
+//! alone, so the image is still the same for any thread count, and `--debug-pixel` replays it.
+//! The sample indices, and their positions in the pixel, are those of the full `spp`: a pixel
+//! that stops early has taken the first ones of its shuffled pattern.
 
 use crate::aov::{Aov, AovImages, normalise_aovs};
 use crate::camera::{Camera, Projection};
@@ -187,6 +199,9 @@ pub struct RenderStats {
     pub rays: RayCounter,
     /// Samples whose radiance was NaN or infinite; each counted as black.
     pub non_finite_samples: u64,
+    /// Camera samples taken: width·height·spp, or fewer with adaptive sampling
+    /// ([`Integrator::pixel_error`]).
+    pub samples: u64,
 }
 
 impl RenderStats {
@@ -196,13 +211,23 @@ impl RenderStats {
     }
 
     /// One line: `rendered 256×256 at 64 spp with path on 2 threads in 3.21 s: 41.9 M rays
-    /// (13.1 Mrays/s)`.
+    /// (13.1 Mrays/s)`; with adaptive sampling, `at 36 spp (10.4 on average)`.
     pub fn summary(&self) -> String {
+        let pixels = u64::from(self.width) * u64::from(self.height);
+        let spp = if self.samples == pixels * u64::from(self.spp) {
+            format!("{} spp", self.spp)
+        } else {
+            format!(
+                "{} spp ({:.1} on average)",
+                self.spp,
+                self.samples as f64 / pixels.max(1) as f64
+            )
+        };
         format!(
-            "rendered {}×{} at {} spp with {} on {} thread{} in {:.2} s: {:.1} M rays ({:.1} Mrays/s)",
+            "rendered {}×{} at {} with {} on {} thread{} in {:.2} s: {:.1} M rays ({:.1} Mrays/s)",
             self.width,
             self.height,
-            self.spp,
+            spp,
             self.integrator,
             self.threads,
             if self.threads == 1 { "" } else { "s" },
@@ -317,10 +342,132 @@ fn pixel_batch(
     }
 }
 
-/// The sample indices of a pixel in the chunks a [`Batching::ByPixel`] integrator is given.
-fn pixel_chunks(spp: u32) -> impl Iterator<Item = std::ops::Range<u32>> {
-    let step = PIXEL_BATCH as u32;
-    (0..spp.div_ceil(step)).map(move |k| k * step..(k * step + step).min(spp))
+/// A pixel's sample indices in rounds, after each of which it may stop: with adaptive sampling
+/// ([`Integrator::pixel_error`] > 0) rounds ending at ⌈spp/4⌉, twice that, … and `spp`, so a
+/// pixel takes a quarter of its samples, then half, then all, as its own samples say; without,
+/// one round of every sample.
+fn sample_rounds(integrator: &dyn Integrator, spp: u32) -> Vec<std::ops::Range<u32>> {
+    let mut ends = Vec::new();
+    if integrator.pixel_error() > 0.0 {
+        let mut n = spp.div_ceil(4);
+        while n < spp {
+            ends.push(n);
+            n = n.saturating_mul(2);
+        }
+    }
+    ends.push(spp);
+    let mut start = 0;
+    ends.into_iter()
+        .map(|end| {
+            let round = start..end;
+            start = end;
+            round
+        })
+        .collect()
+}
+
+/// Whether a pixel stops after the round that brought its samples to `moments`: its samples'
+/// spread is under the integrator's target and its four corners see one surface
+/// ([`corners_agree`], traced once, on the first round that meets the target, into `corners`).
+fn pixel_done(
+    scene: &Scene,
+    camera: &Camera,
+    integrator: &dyn Integrator,
+    settings: &RenderSettings,
+    (pixel, moments): ((u32, u32), &Moments),
+    corners: &mut Option<bool>,
+    rays: &mut RayCounter,
+) -> bool {
+    let target = integrator.pixel_error();
+    target > 0.0
+        && moments.converged(target)
+        && *corners.get_or_insert_with(|| corners_agree(scene, camera, settings, pixel, rays))
+}
+
+/// The cosine of the largest angle between two corners' geometric normals that still counts as
+/// one surface (25°): a curved, tessellated surface turns by far less across a pixel, a crease
+/// or the edge between a wall and the floor by more.
+const CORNER_NORMAL_COS: f32 = 0.906;
+
+/// The largest ratio of two corners' hit distances that still counts as one surface: a plane
+/// at grazing incidence changes its distance across a pixel by a few per cent at most at the
+/// image sizes rendered, a silhouette in front of a farther surface by far more.
+const CORNER_DISTANCE_RATIO: f32 = 1.1;
+
+/// Whether the rays through the four corners of pixel (x, y) all miss, or all hit one
+/// material at distances within [`CORNER_DISTANCE_RATIO`] and with geometric normals within
+/// [`CORNER_NORMAL_COS`] of each other. A silhouette or a change of material that crosses the
+/// pixel crosses its boundary, and so almost always separates two corners: adaptive sampling's
+/// spread test alone misses such a pixel when its first samples all fall on one side (an
+/// emitter's outline, its first quarter of samples all on the light).
+fn corners_agree(
+    scene: &Scene,
+    camera: &Camera,
+    settings: &RenderSettings,
+    (x, y): (u32, u32),
+    rays: &mut RayCounter,
+) -> bool {
+    let projection = camera.projection(settings.width, settings.height);
+    let mut seen = Vec::with_capacity(4);
+    for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+        let r = projection.ray(Vec2::new((x + dx) as f32, (y + dy) as f32));
+        let ray = Ray {
+            origin: r.origin,
+            direction: r.direction,
+            t_max: r.t_max,
+        };
+        rays.closest += 1;
+        seen.push(scene.intersect(&ray).map(|hit| {
+            let surface = scene.geometry().surface(&ray, &hit);
+            (surface.material_id, surface.geometric_normal, hit.t)
+        }));
+    }
+    let Some(first) = seen[0] else {
+        return seen.iter().all(Option::is_none);
+    };
+    seen.iter().all(|corner| {
+        corner.is_some_and(|(material, normal, t)| {
+            material == first.0
+                && normal.dot(first.1) >= CORNER_NORMAL_COS
+                && t.max(first.2) <= CORNER_DISTANCE_RATIO * t.min(first.2)
+        })
+    })
+}
+
+/// A pixel's running luminance sums, for adaptive sampling's stopping rule.
+#[derive(Clone, Copy, Debug, Default)]
+struct Moments {
+    n: u32,
+    sum: f64,
+    squares: f64,
+}
+
+impl Moments {
+    /// Adds a sample's radiance (a non-finite one as black, as the pixel counts it).
+    fn add(&mut self, l: Vec3) {
+        let y = if l.is_finite() {
+            f64::from(l.dot(Vec3::new(0.2126, 0.7152, 0.0722)))
+        } else {
+            0.0
+        };
+        self.n += 1;
+        self.sum += y;
+        self.squares += y * y;
+    }
+
+    /// Whether the relative standard error of the mean luminance is at most `target`:
+    /// s²/n ≤ target²·ȳ², with s² the unbiased sample variance. Scale-free (a pixel ten times
+    /// brighter with ten times the spread stops alike), and a pixel whose samples agree,
+    /// black ones included, stops at the first check.
+    fn converged(&self, target: f32) -> bool {
+        if self.n < 2 {
+            return false;
+        }
+        let n = f64::from(self.n);
+        let mean = self.sum / n;
+        let variance = ((self.squares - n * mean * mean) / (n - 1.0)).max(0.0);
+        variance / n <= (f64::from(target) * mean).powi(2)
+    }
 }
 
 /// Per-channel sums in f64, added to in sample order.
@@ -382,8 +529,9 @@ impl FirstHitSums {
 /// together, a bounce at a time, which lets a large scene's rays overlap their waits for
 /// memory); each sample's value is `li`'s, bit for bit. With `first` (a
 /// [`Batching::BySampleIndex`] integrator only), each pixel's first hits are summed there too,
-/// as the integrator reports them. Returns the values and the number of non-finite samples
-/// (counted as black).
+/// as the integrator reports them. With adaptive sampling ([`Integrator::pixel_error`]) each
+/// pixel takes its samples on its own, in rounds ([`for_each_sample`]). Returns the values, the
+/// number of non-finite samples (counted as black) and the number of samples.
 fn tile_pixels(
     scene: &Scene,
     camera: &Camera,
@@ -392,21 +540,23 @@ fn tile_pixels(
     tile: &Tile,
     rays: &mut RayCounter,
     mut first: Option<&mut [FirstHitSums]>,
-) -> (Vec<Vec3>, u64) {
+) -> (Vec<Vec3>, u64, u64) {
     let pixels: Vec<(u32, u32)> = (tile.y0..tile.y1)
         .flat_map(|y| (tile.x0..tile.x1).map(move |x| (x, y)))
         .collect();
-    if integrator.batching() == Batching::ByPixel {
-        let mut bad = 0;
+    if integrator.batching() == Batching::ByPixel || integrator.pixel_error() > 0.0 {
+        let (mut bad, mut samples) = (0, 0);
         let values = pixels
             .iter()
             .map(|&pixel| {
-                let (value, b) = pixel_radiance(scene, camera, integrator, settings, pixel, rays);
+                let (value, b, n) =
+                    pixel_radiance(scene, camera, integrator, settings, pixel, rays);
                 bad += b;
+                samples += u64::from(n);
                 value
             })
             .collect();
-        return (values, bad);
+        return (values, bad, samples);
     }
     let mut sums = vec![Sum3::default(); pixels.len()];
     let mut bad = 0;
@@ -464,12 +614,13 @@ fn tile_pixels(
         }
     }
     let n = f64::from(settings.spp);
-    (sums.iter().map(|s| s.mean(n)).collect(), bad)
+    let samples = pixels.len() as u64 * u64::from(settings.spp);
+    (sums.iter().map(|s| s.mean(n)).collect(), bad, samples)
 }
 
 /// A pixel's value with AOVs: the colour (the same bits as [`tile_pixels`] gives) and one value
 /// per entry of `aovs`, pushed onto `out` in that order (see the module docs of `aov` for what
-/// each is).
+/// each is); also the number of non-finite samples and the number of samples.
 #[expect(
     clippy::too_many_arguments,
     reason = "the render's context (scene, camera, integrator, settings) plus this pixel's outputs"
@@ -483,14 +634,22 @@ fn pixel_with_aovs(
     (x, y): (u32, u32),
     rays: &mut RayCounter,
     out: &mut Vec<Vec3>,
-) -> (Vec3, u64) {
+) -> (Vec3, u64, u32) {
     let wants = Wants::of(aovs);
     let [mut colour, mut emitted, mut direct, mut indirect] = [Sum3::default(); 4];
     let mut seen = FirstHitSums::default();
     let mut bad = 0;
     let (mut camera_rays, mut origins, mut dims) = (Vec::new(), Vec::new(), Vec::new());
     let (mut split, mut plain, mut first) = (Vec::new(), Vec::new(), Vec::new());
-    for chunk in sample_chunks(integrator, settings.spp) {
+    let mut moments = Moments::default();
+    let mut corners = None;
+    let chunks = sample_rounds(integrator, settings.spp)
+        .into_iter()
+        .flat_map(|round| {
+            let last = round.end;
+            round_chunks(integrator, round).map(move |c| (c.end == last, c))
+        });
+    for (ends_round, chunk) in chunks {
         pixel_batch(
             camera,
             settings,
@@ -532,6 +691,7 @@ fn pixel_with_aovs(
             } else {
                 r.emitted
             };
+            moments.add(l);
             // A non-finite colour counts as black, in its parts too (if the sum is finite, so
             // is every part: an infinite or NaN part makes the sum infinite or NaN).
             if l.is_finite() {
@@ -546,8 +706,21 @@ fn pixel_with_aovs(
                 seen.add(h, *origin);
             }
         }
+        if ends_round
+            && pixel_done(
+                scene,
+                camera,
+                integrator,
+                settings,
+                ((x, y), &moments),
+                &mut corners,
+                rays,
+            )
+        {
+            break;
+        }
     }
-    let n = f64::from(settings.spp);
+    let n = f64::from(moments.n);
     for &aov in aovs {
         out.push(match aov {
             Aov::Albedo | Aov::Normal | Aov::Depth => seen.value(aov, n).unwrap_or(Vec3::NAN),
@@ -559,25 +732,34 @@ fn pixel_with_aovs(
             Aov::Noisy => colour.mean(n),
         });
     }
-    (colour.mean(n), bad)
+    (colour.mean(n), bad, moments.n)
 }
 
-/// How a pixel's sample indices are handed to `integrator` when its samples are computed pixel
-/// by pixel (with AOVs, or to replay one): in [`PIXEL_BATCH`] chunks for a
+/// How a round of a pixel's sample indices ([`sample_rounds`]) is handed to `integrator` when
+/// its samples are computed pixel by pixel: in [`PIXEL_BATCH`] chunks for a
 /// [`Batching::ByPixel`] integrator, one at a time for the others (whose answers are each ray's
 /// alone, so the tiles' batches of one index give the same).
-fn sample_chunks(
+fn round_chunks(
     integrator: &dyn Integrator,
-    spp: u32,
+    round: std::ops::Range<u32>,
 ) -> Box<dyn Iterator<Item = std::ops::Range<u32>>> {
     match integrator.batching() {
-        Batching::ByPixel => Box::new(pixel_chunks(spp)),
-        Batching::BySampleIndex => Box::new((0..spp).map(|i| i..i + 1)),
+        Batching::ByPixel => {
+            let step = PIXEL_BATCH as u32;
+            let (start, end) = (round.start, round.end);
+            Box::new(
+                (0..(end - start).div_ceil(step)).map(move |k| {
+                    start + k * step..(start + k * step).saturating_add(step).min(end)
+                }),
+            )
+        }
+        Batching::BySampleIndex => Box::new(round.map(|i| i..i + 1)),
     }
 }
 
 /// Calls `f` with every sample's radiance of pixel (x, y), in index order, as the tiles
-/// compute it.
+/// compute it, and returns how many there were (fewer than `spp` where adaptive sampling
+/// stopped the pixel).
 fn for_each_sample(
     scene: &Scene,
     camera: &Camera,
@@ -586,26 +768,45 @@ fn for_each_sample(
     pixel: (u32, u32),
     rays: &mut RayCounter,
     mut f: impl FnMut(Vec3),
-) {
+) -> u32 {
     let (mut camera_rays, mut origins, mut dims) = (Vec::new(), Vec::new(), Vec::new());
     let mut out = Vec::new();
-    for chunk in sample_chunks(integrator, settings.spp) {
-        pixel_batch(
+    let mut moments = Moments::default();
+    let mut corners = None;
+    for round in sample_rounds(integrator, settings.spp) {
+        for chunk in round_chunks(integrator, round) {
+            pixel_batch(
+                camera,
+                settings,
+                pixel,
+                chunk,
+                (&mut camera_rays, &mut origins, &mut dims),
+            );
+            out.clear();
+            out.resize(camera_rays.len(), Vec3::ZERO);
+            integrator.li_many(scene, &camera_rays, &mut dims, &mut out, rays);
+            for &l in &out {
+                moments.add(l);
+                f(l);
+            }
+        }
+        if pixel_done(
+            scene,
             camera,
+            integrator,
             settings,
-            pixel,
-            chunk,
-            (&mut camera_rays, &mut origins, &mut dims),
-        );
-        out.clear();
-        out.resize(camera_rays.len(), Vec3::ZERO);
-        integrator.li_many(scene, &camera_rays, &mut dims, &mut out, rays);
-        out.iter().copied().for_each(&mut f);
+            (pixel, &moments),
+            &mut corners,
+            rays,
+        ) {
+            break;
+        }
     }
+    moments.n
 }
 
 /// A pixel's value from its samples (summed in index order in f64, non-finite ones counted and
-/// left out) and the number of non-finite samples.
+/// left out), the number of non-finite samples and the number of samples.
 fn pixel_radiance(
     scene: &Scene,
     camera: &Camera,
@@ -613,17 +814,17 @@ fn pixel_radiance(
     settings: &RenderSettings,
     pixel: (u32, u32),
     rays: &mut RayCounter,
-) -> (Vec3, u64) {
+) -> (Vec3, u64, u32) {
     let mut sum = Sum3::default();
     let mut bad = 0;
-    for_each_sample(scene, camera, integrator, settings, pixel, rays, |l| {
+    let n = for_each_sample(scene, camera, integrator, settings, pixel, rays, |l| {
         if l.is_finite() {
             sum.add(l);
         } else {
             bad += 1;
         }
     });
-    (sum.mean(f64::from(settings.spp)), bad)
+    (sum.mean(f64::from(n)), bad, n)
 }
 
 /// A rectangle of pixels `[x0, x1) × [y0, y1)`.
@@ -714,7 +915,8 @@ pub fn render_with_aovs(
     // batches of one sample index, the first hits reported by the integrator.
     let batched_first_hits = !aovs.is_empty()
         && !Wants::of(&aovs).split
-        && integrator.batching() == Batching::BySampleIndex;
+        && integrator.batching() == Batching::BySampleIndex
+        && integrator.pixel_error() <= 0.0;
     let tiles = tiles(settings.width, settings.height);
     let bar = progress_bar(tiles.len(), progress);
     let start = Instant::now();
@@ -723,13 +925,13 @@ pub fn render_with_aovs(
             .par_iter()
             .map(|tile| {
                 let mut rays = RayCounter::default();
-                let mut bad = 0;
+                let (mut bad, mut samples) = (0, 0u64);
                 let count = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
                 let mut extra = Vec::with_capacity(count * aovs.len());
                 let values = if aovs.is_empty() || batched_first_hits {
                     let mut first =
                         vec![FirstHitSums::default(); count * usize::from(batched_first_hits)];
-                    let (values, b) = tile_pixels(
+                    let (values, b, taken) = tile_pixels(
                         scene,
                         camera,
                         integrator,
@@ -743,12 +945,13 @@ pub fn render_with_aovs(
                         extra.extend(aovs.iter().filter_map(|&a| f.value(a, n)));
                     }
                     bad += b;
+                    samples += taken;
                     values
                 } else {
                     let mut values = Vec::with_capacity(count);
                     for y in tile.y0..tile.y1 {
                         for x in tile.x0..tile.x1 {
-                            let (v, b) = pixel_with_aovs(
+                            let (v, b, n) = pixel_with_aovs(
                                 scene,
                                 camera,
                                 integrator,
@@ -760,12 +963,13 @@ pub fn render_with_aovs(
                             );
                             values.push(v);
                             bad += b;
+                            samples += u64::from(n);
                         }
                     }
                     values
                 };
                 bar.inc(1);
-                (values, extra, rays, bad)
+                (values, extra, rays, bad, samples)
             })
             .collect::<Vec<_>>()
     })?;
@@ -777,8 +981,8 @@ pub fn render_with_aovs(
         .map(|_| Image::new(settings.width, settings.height))
         .collect();
     let mut rays = RayCounter::default();
-    let mut non_finite_samples = 0;
-    for (tile, (values, extra, r, bad)) in tiles.iter().zip(results) {
+    let (mut non_finite_samples, mut samples) = (0, 0);
+    for (tile, (values, extra, r, bad, n)) in tiles.iter().zip(results) {
         let mut v = values.into_iter();
         let mut e = extra.into_iter();
         for y in tile.y0..tile.y1 {
@@ -791,6 +995,7 @@ pub fn render_with_aovs(
         }
         rays += r;
         non_finite_samples += bad;
+        samples += n;
     }
     let mut images = AovImages::new();
     for (aov, layer) in aovs.iter().zip(layers) {
@@ -808,6 +1013,7 @@ pub fn render_with_aovs(
             seconds,
             rays,
             non_finite_samples,
+            samples,
         },
     })
 }
@@ -1041,6 +1247,182 @@ mod tests {
         assert_eq!(out.image, plain.image);
     }
 
+    /// The path tracer with adaptive sampling switched on (no integrator of the renderer's own
+    /// tests asks for it otherwise).
+    struct Adaptive(PathTracer, f32);
+
+    impl Integrator for Adaptive {
+        fn name(&self) -> &'static str {
+            "adaptive"
+        }
+        fn li(
+            &self,
+            scene: &Scene,
+            ray: &Ray,
+            dims: &mut Dimensions,
+            rays: &mut RayCounter,
+        ) -> Vec3 {
+            self.0.li(scene, ray, dims, rays)
+        }
+        fn li_split(
+            &self,
+            scene: &Scene,
+            ray: &Ray,
+            dims: &mut Dimensions,
+            rays: &mut RayCounter,
+        ) -> Radiance {
+            self.0.li_split(scene, ray, dims, rays)
+        }
+        fn pixel_error(&self) -> f32 {
+            self.1
+        }
+    }
+
+    /// Rounds end at ⌈spp/4⌉, doubling, and spp; one round without adaptive sampling; no
+    /// overflow at the largest spp.
+    #[test]
+    fn adaptive_rounds_double_from_a_quarter() {
+        let pt = PathTracer::new(PathSettings::default());
+        let on = Adaptive(PathTracer::new(PathSettings::default()), 0.1);
+        assert_eq!(sample_rounds(&pt, 36), vec![0..36]);
+        assert_eq!(sample_rounds(&on, 36), vec![0..9, 9..18, 18..36]);
+        assert_eq!(sample_rounds(&on, 64), vec![0..16, 16..32, 32..64]);
+        assert_eq!(sample_rounds(&on, 1), vec![0..1]);
+        assert_eq!(sample_rounds(&on, 3), vec![0..1, 1..2, 2..3]);
+        let last = sample_rounds(&on, u32::MAX);
+        assert_eq!(last.first().map(|r| r.end), Some(u32::MAX.div_ceil(4)));
+        assert_eq!(last.last().map(|r| r.end), Some(u32::MAX));
+        assert!(last.windows(2).all(|w| w[0].end == w[1].start));
+    }
+
+    /// The stopping rule's known answer: samples alternating 0 and y (luminance y) have mean
+    /// y/2 and unbiased variance n·y²/(4(n − 1)) for even n, so the relative standard error of
+    /// the mean is 1/√(n − 1) whatever y: converged at target T exactly when n ≥ 1 + 1/T².
+    /// Identical samples, black ones included, converge at n = 2; one sample never does.
+    #[test]
+    fn the_stopping_rule_reads_the_relative_standard_error() {
+        for y in [1e-4f32, 1.0, 1e4] {
+            let mut m = Moments::default();
+            for i in 0..26 {
+                m.add(if i % 2 == 0 {
+                    Vec3::ZERO
+                } else {
+                    Vec3::splat(y)
+                });
+            }
+            // n = 26: relative error 1/5.
+            assert!(m.converged(0.2001), "{y}");
+            assert!(!m.converged(0.1999), "{y}");
+        }
+        let mut same = Moments::default();
+        same.add(Vec3::splat(0.3));
+        assert!(!same.converged(1.0));
+        same.add(Vec3::splat(0.3));
+        assert!(same.converged(1e-6));
+        let mut black = Moments::default();
+        black.add(Vec3::ZERO);
+        black.add(Vec3::NAN);
+        assert!(black.converged(1e-6));
+    }
+
+    /// A plane of two materials meeting at x = 0, straight ahead: a pixel whose corners lie on
+    /// both halves disagrees, one inside a half agrees, and a pixel beyond the plane's edge
+    /// (corners on the plane and off it) disagrees.
+    #[test]
+    fn corners_see_an_edge_between_materials_and_a_silhouette() {
+        let half = |x0: f32, x1: f32, material: u32| TriangleMesh {
+            positions: vec![
+                Vec3::new(x0, -1.0, -3.0),
+                Vec3::new(x1, -1.0, -3.0),
+                Vec3::new(x1, 1.0, -3.0),
+                Vec3::new(x0, 1.0, -3.0),
+            ],
+            indices: vec![[0, 1, 2], [0, 2, 3]],
+            normals: None,
+            material_ids: vec![material; 2],
+        };
+        let geometry = Geometry::build(&[half(-1.0, 0.0, 0), half(0.0, 1.0, 1)])
+            .unwrap_or_else(|e| panic!("{e}"));
+        let scene = Scene::new(
+            geometry,
+            vec![
+                Material::diffuse(Vec3::splat(0.5)),
+                Material::diffuse(Vec3::splat(0.5)),
+            ],
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        // yfov 0.5 rad at distance 3: the image spans 2·3·tan(0.25) = 1.53 units, inside the
+        // plane's height; 64 pixels wide and high.
+        let camera = Camera::from_node(Mat4::IDENTITY, 0.5).unwrap_or_else(|| panic!("camera"));
+        let settings = RenderSettings {
+            width: 64,
+            height: 64,
+            spp: 1,
+            seed: 0,
+            threads: 1,
+        };
+        let mut rays = RayCounter::default();
+        let mut agree = |x, y| corners_agree(&scene, &camera, &settings, (x, y), &mut rays);
+        // Pixel 31 spans raster x 31..32, the image's centre column x = 32 is the material edge.
+        assert!(agree(10, 30) && agree(50, 30) && agree(30, 30));
+        // The corner at raster x = 32 lies on the edge itself and may meet either half.
+        for y in [10, 30] {
+            let (left, right) = (agree(31, y), agree(32, y));
+            assert!(!left || !right, "row {y}");
+        }
+        // Four corner rays a pixel.
+        assert_eq!(rays.closest, 4 * 7);
+        // A wider view (yfov 1.2 rad: 4.1 units across) sees past the plane's edges at x = ±1.
+        let wide = Camera::from_node(Mat4::IDENTITY, 1.2).unwrap_or_else(|| panic!("camera"));
+        let mut rays = RayCounter::default();
+        let mut wide_agree = |x| corners_agree(&scene, &wide, &settings, (x, 32), &mut rays);
+        let outline: Vec<u32> = (0..64).filter(|&x| !wide_agree(x)).collect();
+        // The plane's edges at x = ±1 fall at raster 32 ± 32/2.05 ≈ 16.4 and 47.6, the
+        // materials' at 32: each splits one pixel (or lands on a corner, splitting none).
+        assert!(
+            outline.iter().all(|&x| [16, 31, 32, 47].contains(&x)) && outline.len() >= 2,
+            "{outline:?}"
+        );
+        assert!(wide_agree(2) && wide_agree(24) && wide_agree(60));
+    }
+
+    /// An adaptive render is the same for any thread count, takes fewer samples than spp
+    /// where its pixels agree, and replays: `pixel_samples` gives each pixel's samples as the
+    /// render took them, their mean the pixel bit for bit.
+    #[test]
+    fn adaptive_sampling_stops_pixels_and_replays_them() {
+        let (scene, camera) = plane_scene(3.0, Vec3::splat(0.5), 0.25);
+        let on = Adaptive(PathTracer::new(PathSettings::default()), 0.2);
+        let settings = |threads| RenderSettings {
+            spp: 16,
+            ..small(threads)
+        };
+        let one =
+            render(&scene, &camera, &on, &settings(1), false).unwrap_or_else(|e| panic!("{e}"));
+        let three =
+            render(&scene, &camera, &on, &settings(3), false).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(one.image, three.image);
+        assert_eq!(one.stats.samples, three.stats.samples);
+        let s = settings(2);
+        let full = u64::from(s.width) * u64::from(s.height) * u64::from(s.spp);
+        assert!(one.stats.samples < full, "{} of {full}", one.stats.samples);
+        assert!(one.stats.samples >= full / 4);
+        let aovs = render_with_aovs(&scene, &camera, &on, &s, &Aov::ALL, false)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(aovs.image, one.image);
+        let mut counts = std::collections::BTreeSet::new();
+        for (x, y) in [(0, 0), (5, 7), (s.width - 1, s.height - 1), (17, 3)] {
+            let samples =
+                pixel_samples(&scene, &camera, &on, &s, x, y).unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(mean_of_samples(&samples), one.image.get(x, y), "({x}, {y})");
+            counts.insert(samples.len());
+        }
+        assert!(
+            counts.iter().all(|&n| [4, 8, 16].contains(&n)),
+            "{counts:?}"
+        );
+    }
+
     #[test]
     fn image_size_follows_the_aspect_ratio() {
         let size =
@@ -1132,10 +1514,17 @@ mod tests {
                 shadow: 1_000_000,
             },
             non_finite_samples: 0,
+            samples: 64,
         };
         assert_eq!(
             s.summary(),
             "rendered 4×2 at 8 spp with path on 2 threads in 2.00 s: 4.0 M rays (2.0 Mrays/s)"
+        );
+        // Adaptive sampling took 21 of the 64 samples.
+        let adaptive = RenderStats { samples: 21, ..s };
+        assert_eq!(
+            adaptive.summary(),
+            "rendered 4×2 at 8 spp (2.6 on average) with path on 2 threads in 2.00 s: 4.0 M rays (2.0 Mrays/s)"
         );
     }
 }

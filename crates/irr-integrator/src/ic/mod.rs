@@ -553,6 +553,10 @@ impl Integrator for IrradianceCacheIntegrator {
         IrradianceCacheIntegrator::li_split(self, scene, ray, dims, rays)
     }
 
+    fn pixel_error(&self) -> f32 {
+        self.core.settings.pixel_error
+    }
+
     /// A pixel's samples share their cache lookups (module `pixel`).
     fn batching(&self) -> Batching {
         Batching::ByPixel

@@ -197,6 +197,13 @@ pub struct IcSettings {
     /// error a user asks for, with the strata as the first pass and `gather_budget` as the
     /// bound (docs/performance.md, "Continuations"). Range: [0, ∞).
     pub gather_error: f32,
+    /// Adaptive camera sampling in the final pass ([`crate::Integrator::pixel_error`]): a
+    /// pixel stops taking samples once the relative standard error of its mean luminance,
+    /// estimated from its own samples after a quarter, a half, … of the samples per pixel, is
+    /// at most this. Where the cache supplies the light a pixel's samples barely differ, so
+    /// they stop at the first check; samples go to the direct light's noise and to edges.
+    /// 0: every pixel takes all its samples. Default: 0. Range: [0, ∞).
+    pub pixel_error: f32,
     /// The most extra rays of a super-sampled gather, as a multiple of its strata (M·N).
     /// Default: 3. Range: [0, 64].
     pub gather_budget: f32,
@@ -255,6 +262,7 @@ impl Default for IcSettings {
             level_loosening: 2.0,
             direct_samples: 2,
             gather_error: 0.05,
+            pixel_error: 0.0,
             gather_budget: 3.0,
             light_cache_paths: 1 << 19,
             light_cache_error: 0.12,
@@ -357,6 +365,12 @@ impl IcSettings {
             return Err(setting_error(
                 "--gather-error",
                 format!("must be finite and non-negative, got {}", self.gather_error),
+            ));
+        }
+        if !(self.pixel_error.is_finite() && self.pixel_error >= 0.0) {
+            return Err(setting_error(
+                "--pixel-error",
+                format!("must be finite and non-negative, got {}", self.pixel_error),
             ));
         }
         if !(0.0..=64.0).contains(&self.gather_budget) {
