@@ -75,8 +75,8 @@ pub use bsdf::{Bsdf, BsdfDraw};
 pub use ic::{
     BounceMode, CacheBuilder, CachedAmbientOcclusion, CachedLevel, Candidate, CommitStats,
     DisplayRecord, GradientMode, GuardRecord, IcMetric, IcSettings, IcSettingsError,
-    IrradianceCacheIntegrator, LeakGuard, LightCacheCounts, LightDeposit, MetricKind, Probe,
-    RadiusStatistic, surface_spacing,
+    IrradianceCacheIntegrator, LeakGuard, LightCacheCounts, LightDeposit, LightPathTracer,
+    MetricKind, Probe, RadiusStatistic, surface_spacing,
 };
 pub use integrator::{Batching, FirstHit, Integrator, PIXEL_BATCH, RayCounter, first_hit};
 pub use light::{LightSample, LightSampler};

@@ -36,8 +36,8 @@ use crate::render::RenderSettings;
 use glam::Vec2;
 use irr_geometry::Ray;
 use irr_integrator::{
-    CacheBuilder, Candidate, CommitStats, DisplayRecord, LightCacheCounts, LightDeposit, Probe,
-    RayCounter, Scene, surface_spacing,
+    CacheBuilder, Candidate, CommitStats, DisplayRecord, LightCacheCounts, LightDeposit,
+    LightPathTracer, Probe, RayCounter, Scene, surface_spacing,
 };
 use irr_sampling::SampleKey;
 use rayon::prelude::*;
@@ -120,7 +120,9 @@ pub fn build_light_cache(
 /// Fills the integrator's light cache with at most `paths` camera-launched paths, each from a
 /// uniformly random point of the image, in chunks of [`LIGHT_CACHE_CHUNK`] until the integrator
 /// says it has converged: traced in parallel, added in path order (so the cells' sums, and the
-/// chunk it stops after, are the same for any thread count).
+/// chunk it stops after, are the same for any thread count). A chunk is traced while the one
+/// before it is added (adding is sequential); when the cache converges with that one, the
+/// chunk traced beside it is dropped, so the cache holds the same chunks as if each waited.
 fn trace_light_cache(
     scene: &Scene,
     camera: &Camera,
@@ -131,11 +133,9 @@ fn trace_light_cache(
     let start = Instant::now();
     let mut rays = RayCounter::default();
     let size = Vec2::new(settings.width as f32, settings.height as f32);
-    let mut first = 0u32;
-    while first < paths {
-        let last = paths.min(first.saturating_add(LIGHT_CACHE_CHUNK));
-        let shared: &dyn CacheBuilder = builder;
-        let traced: Vec<(Vec<LightDeposit>, RayCounter)> = (first..last)
+    let tracer = builder.light_path_tracer();
+    let trace = |chunk: std::ops::Range<u32>, tracer: LightPathTracer| {
+        let traced: Vec<(Vec<LightDeposit>, RayCounter)> = chunk
             .into_par_iter()
             .with_min_len(64)
             .map(|i| {
@@ -145,18 +145,46 @@ fn trace_light_cache(
                 let ray = camera_ray(camera, settings, raster);
                 let key = SampleKey::new(settings.seed, LIGHT_CACHE_STREAM, u64::from(i));
                 let mut r = RayCounter::default();
-                (shared.trace_light_path(scene, &ray, key, &mut r), r)
+                (tracer.trace(scene, &ray, key, &mut r), r)
             })
             .collect();
-        let mut deposits = Vec::with_capacity(traced.len());
-        for (d, r) in traced {
-            rays += r;
-            deposits.push(d);
+        let mut rays = RayCounter::default();
+        let deposits = traced
+            .into_iter()
+            .map(|(d, r)| {
+                rays += r;
+                d
+            })
+            .collect::<Vec<_>>();
+        (deposits, rays)
+    };
+    let mut pending: Option<Vec<Vec<LightDeposit>>> = None;
+    let mut first = 0u32;
+    loop {
+        let next = tracer
+            .filter(|_| first < paths)
+            .map(|t| (first..paths.min(first.saturating_add(LIGHT_CACHE_CHUNK)), t));
+        let (traced, converged) = rayon::join(
+            || next.clone().map(|(chunk, t)| trace(chunk, t)),
+            || {
+                pending.take().map(|p| {
+                    builder.add_light_paths(p);
+                    builder.light_cache_converged()
+                })
+            },
+        );
+        if let Some((_, r)) = &traced {
+            rays += *r;
         }
-        builder.add_light_paths(deposits);
-        first = last;
-        if builder.light_cache_converged() {
+        if converged == Some(true) {
             break;
+        }
+        match (traced, next) {
+            (Some((deposits, _)), Some((chunk, _))) => {
+                pending = Some(deposits);
+                first = chunk.end;
+            }
+            _ => break,
         }
     }
     LightCacheStats {

@@ -16,7 +16,7 @@
 //! of its own, used and not stored.
 
 use super::guard::GuardRecord;
-use super::light_cache::{LightCacheCounts, LightDeposit};
+use super::light_cache::{LightCacheCounts, LightDeposit, LightPathTracer};
 use crate::integrator::{Integrator, RayCounter};
 use crate::path::ShadingPoint;
 use crate::scene::Scene;
@@ -180,18 +180,12 @@ pub trait CacheBuilder: Integrator + Send {
         0
     }
 
-    /// One light-cache path from the camera ray `ray`, all its randomness from `key`: its
-    /// vertices' deposits, to hand to [`CacheBuilder::add_light_paths`] in path order. Read-only,
-    /// so the renderer traces paths in parallel.
-    fn trace_light_path(
-        &self,
-        scene: &Scene,
-        ray: &Ray,
-        key: SampleKey,
-        rays: &mut RayCounter,
-    ) -> Vec<LightDeposit> {
-        let _ = (scene, ray, key, rays);
-        Vec::new()
+    /// What traces the light cache's paths (`None` without one): each path's deposits, all its
+    /// randomness from its key, to hand to [`CacheBuilder::add_light_paths`] in path order. A
+    /// value apart from the builder, so the renderer traces the next paths in parallel while
+    /// the builder adds the last ones.
+    fn light_path_tracer(&self) -> Option<LightPathTracer> {
+        None
     }
 
     /// Adds traced paths to the light cache, in the order given (the renderer gives path

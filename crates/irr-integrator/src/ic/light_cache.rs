@@ -160,6 +160,16 @@ impl LightCache {
         CellKey::of(x.position, x.ns, self.inv_cell)
     }
 
+    /// A tracer of this cache's paths: all it needs of the cache is the grid, so a renderer
+    /// can trace the next paths while it adds the last ones.
+    pub fn tracer(&self, (max_depth, rr_start): (u32, u32)) -> LightPathTracer {
+        LightPathTracer {
+            inv_cell: self.inv_cell,
+            max_depth,
+            rr_start,
+        }
+    }
+
     /// Adds one path's deposits. The sums depend on the order of the calls, so the renderer
     /// adds paths in their index order whatever thread traced them.
     pub fn add_path(&mut self, deposits: &[LightDeposit]) {
@@ -255,11 +265,41 @@ struct Slot {
     deposit: bool,
 }
 
+/// What tracing a light cache's paths needs ([`LightCache::tracer`]): its cells' size and the
+/// path tracer's depth limits. Holds no deposits, so it can be copied to the threads that trace
+/// while the cache itself takes earlier paths.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightPathTracer {
+    inv_cell: f32,
+    max_depth: u32,
+    rr_start: u32,
+}
+
+impl LightPathTracer {
+    /// One path from the camera ray `ray` ([`trace_light_path`]).
+    pub fn trace(
+        &self,
+        scene: &Scene,
+        ray: &Ray,
+        key: SampleKey,
+        rays: &mut RayCounter,
+    ) -> Vec<LightDeposit> {
+        trace_light_path(
+            self.inv_cell,
+            scene,
+            ray,
+            key,
+            (self.max_depth, self.rr_start),
+            rays,
+        )
+    }
+}
+
 /// Follows a camera ray through the scene by BSDF-sampled bounces (cosine-weighted on
 /// Lambertian surfaces, `Bsdf::sample_defensive` on glossy ones; Russian roulette on the
 /// albedo, at least [`MIN_CONTINUATION`], from vertex `rr_start` on) and returns the estimate of
-/// the irradiance at each of its first [`DEPOSITS_PER_PATH`] vertices, filed under its cell of
-/// `cache`. All randomness comes from `key`, so the deposits do not depend on the thread that
+/// the irradiance at each of its first [`DEPOSITS_PER_PATH`] vertices, filed under its cell
+/// of a grid of cells 1/`inv_cell` wide. All randomness comes from `key`, so the deposits do not depend on the thread that
 /// traces them.
 ///
 /// The estimate at vertex k unrolls E(v) = d(v) + (cos θ/(pdf·q))(v)·R(v₊₁), d(v) the light
@@ -272,8 +312,8 @@ struct Slot {
 /// and of the `max_depth` − 2 vertices after it, whatever its own depth on its path, so the
 /// cache obeys the path tracer's depth limit. The walk goes no further than the last depositing
 /// vertex's window needs.
-pub fn trace_light_path(
-    cache: &LightCache,
+fn trace_light_path(
+    inv_cell: f32,
     scene: &Scene,
     ray: &Ray,
     key: SampleKey,
@@ -319,7 +359,7 @@ pub fn trace_light_path(
         let bsdf = Bsdf::at(scene, &x);
         if j < DEPOSITS_PER_PATH {
             slots.push(Slot {
-                key: cache.key(&x),
+                key: CellKey::of(x.position, x.ns, inv_cell),
                 factor: Vec3::ZERO,
                 irradiance: Vec3::ZERO,
                 // Black vertices reflect nothing (their walk ends there, so their estimate
@@ -420,7 +460,7 @@ mod tests {
                     let d = sample_uniform_sphere(SampleKey::new(4, i, 0).uniform_2d(0));
                     let mut rays = RayCounter::default();
                     trace_light_path(
-                        &cache,
+                        cache.inv_cell,
                         &scene,
                         &Ray::new(Vec3::ZERO, d),
                         key,
@@ -465,9 +505,9 @@ mod tests {
         let ray = Ray::new(Vec3::ZERO, Vec3::Y);
         let key = SampleKey::new(1, 2, 3);
         let mut rays = RayCounter::default();
-        assert!(trace_light_path(&cache, &scene, &ray, key, (1, 64), &mut rays).is_empty());
+        assert!(trace_light_path(cache.inv_cell, &scene, &ray, key, (1, 64), &mut rays).is_empty());
         assert_eq!(rays, RayCounter::default());
-        let deposits = trace_light_path(&cache, &scene, &ray, key, (3, 64), &mut rays);
+        let deposits = trace_light_path(cache.inv_cell, &scene, &ray, key, (3, 64), &mut rays);
         assert_eq!(deposits.len(), DEPOSITS_PER_PATH);
         assert_eq!(rays.shadow, DEPOSITS_PER_PATH as u64 + 1);
         assert_eq!(rays.closest, DEPOSITS_PER_PATH as u64 + 2);
@@ -509,7 +549,7 @@ mod tests {
             let cached = crate::tests::estimate(n, |i| {
                 let key = SampleKey::new(7, u64::from(i), 0);
                 let d = trace_light_path(
-                    &cache,
+                    cache.inv_cell,
                     &scene,
                     &ray,
                     key,

@@ -80,7 +80,7 @@ pub use builder::{
     CacheBuilder, Candidate, CommitStats, DisplayRecord, FinalPassMisses, PROBE_M, PROBE_N, Probe,
 };
 pub use guard::GuardRecord;
-pub use light_cache::{LightCache, LightCacheCounts, LightDeposit, MIN_DEPOSITS};
+pub use light_cache::{LightCache, LightCacheCounts, LightDeposit, LightPathTracer, MIN_DEPOSITS};
 pub use radius::{HORIZON_CUT_COS, surface_spacing};
 pub use settings::{
     BounceMode, GradientMode, IcMetric, IcSettings, IcSettingsError, LeakGuard, MAX_RADIANCE_ORDER,
@@ -645,22 +645,9 @@ impl CacheBuilder for IrradianceCacheIntegrator {
         }
     }
 
-    fn trace_light_path(
-        &self,
-        scene: &Scene,
-        ray: &Ray,
-        key: SampleKey,
-        rays: &mut RayCounter,
-    ) -> Vec<LightDeposit> {
+    fn light_path_tracer(&self) -> Option<LightPathTracer> {
         let path = self.core.settings.path;
-        light_cache::trace_light_path(
-            &self.light,
-            scene,
-            ray,
-            key,
-            (path.max_depth, path.rr_start),
-            rays,
-        )
+        (self.light_paths() > 0).then(|| self.light.tracer((path.max_depth, path.rr_start)))
     }
 
     fn add_light_paths(&mut self, paths: Vec<Vec<LightDeposit>>) {
@@ -756,12 +743,14 @@ mod tests {
         // Paths from the same ray all start in the hit's cell.
         let paths: Vec<Vec<LightDeposit>> = (0..MIN_DEPOSITS as u64)
             .map(|i| {
-                ic.trace_light_path(
-                    &scene,
-                    &ray,
-                    SampleKey::new(9, i, 0),
-                    &mut RayCounter::default(),
-                )
+                ic.light_path_tracer()
+                    .unwrap_or_else(|| panic!("a light cache"))
+                    .trace(
+                        &scene,
+                        &ray,
+                        SampleKey::new(9, i, 0),
+                        &mut RayCounter::default(),
+                    )
             })
             .collect();
         ic.add_light_paths(paths);
