@@ -43,9 +43,7 @@ use glam::{DVec3, Vec3};
 use irr_geometry::Ray;
 use irr_sampling::SampleKey;
 use irr_sampling::rng::Dimensions;
-use std::collections::HashMap;
-use std::collections::hash_map::DefaultHasher;
-use std::hash::BuildHasherDefault;
+use rustc_hash::FxHashMap;
 
 /// The fewest deposits a cell must hold to be used. Below it the cell's mean rests on a few
 /// paths, shared by every gather ray that hits the cell, and a path-traced continuation (one
@@ -133,10 +131,10 @@ fn luminance(v: DVec3) -> f64 {
 #[derive(Clone, Debug, Default)]
 pub struct LightCache {
     inv_cell: f32,
-    /// A fixed hasher (SipHash with zero keys, not the per-process random one): the cells'
-    /// iteration order, and so the float sums over them (`relative_error`), depend on the
-    /// deposits alone.
-    cells: HashMap<CellKey, CellSums, BuildHasherDefault<DefaultHasher>>,
+    /// A fixed hasher (rustc's Fx, not std's per-process random SipHash): the cells' iteration
+    /// order, and so the float sums over them (`relative_error`), depend on the deposits alone;
+    /// and a gather ray's lookup hashes its key in a few instructions.
+    cells: FxHashMap<CellKey, CellSums>,
     deposits: u64,
     paths: u64,
 }
