@@ -210,8 +210,11 @@ pub struct IcSettings {
     /// Default: 3. Range: [0, 64].
     pub gather_budget: f32,
     /// With [`BounceMode::LightCache`]: the most camera-launched paths that fill the light
-    /// cache. Default: 2¹⁹ = 524288. Range: 1 to 2²² (each path deposits at most 16 times, and
-    /// a cell takes about 64 bytes: at most 4 GiB at the bound, with cells as small as they go).
+    /// cache. Default: 5·2¹⁷ = 655360, the indirect-lit room's most efficient (docs/
+    /// performance.md, "The light cache's paths, again"); scenes whose cells reach
+    /// `light_cache_error` first stop before it. Range: 1 to 2²² (each path deposits at most 16
+    /// times, and a cell takes about 64 bytes: at most 4 GiB at the bound, with cells as small
+    /// as they go).
     pub light_cache_paths: u32,
     /// With [`BounceMode::LightCache`]: the light cache's target, the relative standard error
     /// of its cells' means (`LightCache::relative_error`). Paths are added in chunks of 2¹⁴
@@ -266,7 +269,7 @@ impl Default for IcSettings {
             gather_error: 0.05,
             pixel_error: 0.01,
             gather_budget: 3.0,
-            light_cache_paths: 1 << 19,
+            light_cache_paths: 5 << 17,
             light_cache_error: 0.12,
             light_cache_cell: 1.0 / 64.0,
             fill_samples: false,
