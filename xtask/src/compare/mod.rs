@@ -388,6 +388,13 @@ fn ic_sweep(quick: bool, glossy: bool) -> Vec<Sweep> {
                 ..base
             },
         ),
+        (
+            "pixel-error=0",
+            IcSettings {
+                pixel_error: 0.0,
+                ..base
+            },
+        ),
     ];
     for (label, settings) in variants {
         out.push(Sweep {
