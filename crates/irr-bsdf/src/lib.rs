@@ -134,7 +134,7 @@ pub mod microfacet;
 mod testing;
 
 pub use fresnel::{DIELECTRIC_F0, dielectric_diffuse_albedo, schlick};
-pub use material::{BsdfSample, Lobe, Lobes, MIN_ALPHA, MetallicRoughness};
+pub use material::{BsdfSample, Lobe, Lobes, MIN_ALPHA, MetallicRoughness, luminance};
 pub use microfacet::{
     ggx_d, invert_visible_normal, sample_visible_normal, smith_g1, visibility, visible_normal_pdf,
 };

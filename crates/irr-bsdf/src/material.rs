@@ -91,9 +91,10 @@ fn unit_interval(x: f32) -> f32 {
     if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) }
 }
 
-/// Rec. 709 luminance of a linear RGB colour: the weight that lobe selection compares.
+/// Rec. 709 luminance of a linear RGB colour: the weight that lobe selection compares, and
+/// that renderers built on these crates rank colours by.
 #[inline]
-fn luminance(c: Vec3) -> f32 {
+pub fn luminance(c: Vec3) -> f32 {
     c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
 

@@ -234,7 +234,7 @@ impl Bsdf {
         if self.is_lambertian() {
             return 0.0;
         }
-        let lum = |c: Vec3| c.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+        let lum = irr_bsdf::luminance;
         let total = lum(self.albedo_estimate());
         if total <= 0.0 {
             return 1.0;

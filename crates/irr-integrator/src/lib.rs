@@ -79,6 +79,7 @@ pub use ic::{
     MetricKind, Probe, RadiusStatistic, surface_spacing,
 };
 pub use integrator::{Batching, FirstHit, Integrator, PIXEL_BATCH, RayCounter, first_hit};
+pub use irr_bsdf::luminance;
 pub use light::{LightSample, LightSampler};
 pub use path::{PathSettings, PathTracer, Radiance};
 pub use punctual::{Incidence, PunctualLight};

@@ -410,8 +410,7 @@ fn corners_agree(
     rays: &mut RayCounter,
 ) -> bool {
     let projection = camera.projection(settings.width, settings.height);
-    let mut seen = Vec::with_capacity(4);
-    for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+    let seen = [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(dx, dy)| {
         let r = projection.ray(Vec2::new((x + dx) as f32, (y + dy) as f32));
         let ray = Ray {
             origin: r.origin,
@@ -419,11 +418,11 @@ fn corners_agree(
             t_max: r.t_max,
         };
         rays.closest += 1;
-        seen.push(scene.intersect(&ray).map(|hit| {
+        scene.intersect(&ray).map(|hit| {
             let surface = scene.geometry().surface(&ray, &hit);
             (surface.material_id, surface.geometric_normal, hit.t)
-        }));
-    }
+        })
+    });
     let Some(first) = seen[0] else {
         return seen.iter().all(Option::is_none);
     };
@@ -448,7 +447,7 @@ impl Moments {
     /// Adds a sample's radiance (a non-finite one as black, as the pixel counts it).
     fn add(&mut self, l: Vec3) {
         let y = if l.is_finite() {
-            f64::from(l.dot(Vec3::new(0.2126, 0.7152, 0.0722)))
+            f64::from(irr_integrator::luminance(l))
         } else {
             0.0
         };

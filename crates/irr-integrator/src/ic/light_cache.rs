@@ -122,7 +122,7 @@ impl CellSums {
     }
 }
 
-/// Rec. 709 luminance.
+/// Rec. 709 luminance in f64, for the cells' f64 sums ([`irr_bsdf::luminance`] is the f32 one).
 fn luminance(v: DVec3) -> f64 {
     v.dot(DVec3::new(0.2126, 0.7152, 0.0722))
 }
