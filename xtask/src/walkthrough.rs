@@ -4,16 +4,23 @@
 //! per frame; each scored by its frames' error against a reference and by its **temporal
 //! error**, how much a surface point's radiance changes from one frame to the next.
 //!
-//! Temporal error: each pixel of frame f + 1 is carried into frame f through the reference's
-//! depth (the distance along the pixel's centre ray) and the two cameras, and frame f is read
-//! there bilinearly; a pixel whose four neighbours' reference depths disagree with the carried
-//! point's distance by over 1 % is a disocclusion (or an edge) and is left out. On Lambertian
-//! surfaces the same point has the same radiance from any view, so an exact sequence scores only
-//! the bilinear reading's error: the reference's own row is that floor (plus its noise), and
-//! the next row the floor alone, the noise estimated from one half of each reference.
-//! relMSE = mean((L₁ − L₀)² / (m² + 0.01)), m the two values' mean, averaged over the pairs.
+//! Temporal error: how much a frame's error changes from one frame to the next where the two
+//! frames see the same surface point, as relMSE against the reference's own change. Each pixel
+//! of frame f + 1 is carried into frame f through the reference's depth (the distance along the
+//! pixel's centre ray) and the two cameras, and frame f is read there bilinearly; a pixel whose
+//! four neighbours' reference depths disagree with the carried point's distance by over 1 % is
+//! a disocclusion (or an edge) and is left out. With e = x − r a frame's error against its
+//! reference and C the carrying, a pair scores mean((e₁ − C e₀)² / (r₁² + 0.01)), that is,
+//! (x₁ − C x₀) against (r₁ − C r₀): the run's change between the frames against the reference's.
+//! C is linear, so the bilinear reading's own error is in both and cancels: an exact sequence
+//! scores zero, and so does an error that stays on its surface point (a record's splotch seen
+//! from a moving camera), while an error drawn afresh each frame (sampling noise, a denoiser's
+//! blotches) scores about twice its frame relMSE. The references' own noise adds the same term
+//! to every row; it is measured from the two halves of each reference ((h₁ − h₂)/2 has the
+//! mean's noise and nothing else) and removed. Scores are averaged over the pairs.
 //! A frame's error is relMSE = mean((x − r)² / (r² + 0.01)) against its reference frame.
 
+use crate::compare::metrics::{BLOCK, paired_standard_error};
 use clap::Args;
 use glam::Vec3;
 use irr_render::{
@@ -48,9 +55,10 @@ pub struct WalkthroughArgs {
     /// The shared cache's key frames: every K-th and the last
     #[arg(long, default_value_t = 4)]
     pub cache_every: u32,
-    /// Camera samples per pixel of the denoised shared-cache row (built with the denoiser)
-    #[arg(long, default_value_t = crate::compare::DENOISED_IC_SPP)]
-    pub denoised_ic_spp: u32,
+    /// Camera samples per pixel of the denoised shared-cache rows (built with the denoiser),
+    /// comma-separated: a row each, each followed by the denoised path tracer at its time
+    #[arg(long, value_delimiter = ',', default_values_t = [crate::compare::DENOISED_IC_SPP])]
+    pub denoised_ic_spp: Vec<u32>,
     /// Also the shared cache built in S shards, each into an empty cache, joined (a farm's
     /// construction, here on one machine); 1 or 0: not
     #[arg(long, default_value_t = 2)]
@@ -113,28 +121,34 @@ pub fn run(args: WalkthroughArgs, root: &Path) -> Result<(), String> {
         args.reference_spp / 2
     );
     let pt = PathTracer::new(PathSettings::default());
-    let mut references = Vec::new();
-    let mut first_halves = Vec::new();
-    let mut depths = Vec::new();
+    let (mut references, mut noises, mut depths) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut indirect_references, mut indirect_noises) = (Vec::new(), Vec::new());
     let mut reference_noise = 0.0;
     for camera in &cameras {
         let mut halves = Vec::new();
         for seed in REFERENCE_SEEDS {
             let s = settings((args.reference_spp / 2).max(1), seed);
-            let out = render_with_aovs(&loaded.scene, camera, &pt, &s, &[Aov::Depth], false)
-                .map_err(|e| e.to_string())?;
+            let out = render_with_aovs(
+                &loaded.scene,
+                camera,
+                &pt,
+                &s,
+                &[Aov::Depth, Aov::Indirect],
+                false,
+            )
+            .map_err(|e| e.to_string())?;
             halves.push(out);
         }
         let (a, b) = (&halves[0].image, &halves[1].image);
-        let mean: Vec<Vec3> = a
-            .pixels()
-            .iter()
-            .zip(b.pixels())
-            .map(|(x, y)| 0.5 * (*x + *y))
-            .collect();
-        let mean = Image::from_pixels(args.size, args.size, mean).ok_or("reference size")?;
+        let (mean, noise) = mean_and_noise(a, b)?;
         // relMSE of the mean of two halves: the halves' difference squared, over 4.
         reference_noise += rel_mse(a, b, &mean) / 4.0;
+        references.push(mean);
+        noises.push(noise);
+        let indirect = |k: usize| halves[k].aovs.get(Aov::Indirect).ok_or("no indirect image");
+        let (mean, noise) = mean_and_noise(indirect(0)?, indirect(1)?)?;
+        indirect_references.push(mean);
+        indirect_noises.push(noise);
         depths.push(
             halves[0]
                 .aovs
@@ -142,8 +156,6 @@ pub fn run(args: WalkthroughArgs, root: &Path) -> Result<(), String> {
                 .cloned()
                 .ok_or("the reference has no depth")?,
         );
-        first_halves.push(halves[0].image.clone());
-        references.push(mean);
     }
     reference_noise /= f64::from(args.frames);
     let ic_settings = IcSettings::default();
@@ -191,24 +203,6 @@ pub fn run(args: WalkthroughArgs, root: &Path) -> Result<(), String> {
             &settings(spp, RUN_SEED),
         )?);
     }
-    // The same cache, its frames denoised (at compare's denoised camera samples).
-    if DENOISER.is_some() {
-        let start = Instant::now();
-        let denoised_spp = args.denoised_ic_spp.max(1);
-        let (frames, _) = render_frames(
-            &loaded,
-            &cameras,
-            &shared,
-            &settings(denoised_spp, RUN_SEED),
-            true,
-        )?;
-        runs.push(Run {
-            name: format!("ic + OIDN, shared cache, {denoised_spp} spp"),
-            frames,
-            indirect: None,
-            seconds: built + start.elapsed().as_secs_f64(),
-        });
-    }
     // A cache per frame.
     let start = Instant::now();
     let (mut frames, mut indirect) = (Vec::new(), Vec::new());
@@ -227,40 +221,50 @@ pub fn run(args: WalkthroughArgs, root: &Path) -> Result<(), String> {
         indirect: Some(indirect),
         seconds: start.elapsed().as_secs_f64(),
     });
-    // The path tracer at about the shared cache's time: its rate from a 16-spp frame.
+    // The path tracer at about the shared cache's time per frame: its rate from a 16-spp
+    // frame first, then from its whole row.
     let probe = Instant::now();
     render_frames(&loaded, &cameras[..1], &pt, &settings(16, RUN_SEED), false)?;
-    let per_spp = probe.elapsed().as_secs_f64() / 16.0;
-    let per_frame = runs[0].seconds / f64::from(args.frames);
-    let path_spp = ((per_frame / per_spp.max(1e-9)) as u32).clamp(1, 4096);
-    for denoised in [false, true] {
-        if denoised && DENOISER.is_none() {
-            continue;
+    let mut per_spp = probe.elapsed().as_secs_f64() / 16.0;
+    let spp_for = |seconds: f64, per_spp: f64| {
+        ((seconds / f64::from(args.frames) / per_spp.max(1e-9)) as u32).clamp(1, 4096)
+    };
+    let path_spp = spp_for(runs[0].seconds, per_spp);
+    let path = path_run(&loaded, &cameras, &pt, &settings(path_spp, RUN_SEED), false)?;
+    per_spp = path.seconds / f64::from(args.frames * path_spp);
+    runs.push(path);
+    // The shared cache's frames denoised, at each of the given camera samples, each followed
+    // by the denoised path tracer at its time per frame.
+    if DENOISER.is_some() {
+        for &denoised_spp in &args.denoised_ic_spp {
+            let denoised_spp = denoised_spp.max(1);
+            let start = Instant::now();
+            let (frames, _) = render_frames(
+                &loaded,
+                &cameras,
+                &shared,
+                &settings(denoised_spp, RUN_SEED),
+                true,
+            )?;
+            let seconds = built + start.elapsed().as_secs_f64();
+            runs.push(Run {
+                name: format!("ic + OIDN, shared cache, {denoised_spp} spp"),
+                frames,
+                indirect: None,
+                seconds,
+            });
+            let s = settings(spp_for(seconds, per_spp), RUN_SEED);
+            runs.push(path_run(&loaded, &cameras, &pt, &s, true)?);
         }
-        let start = Instant::now();
-        let (frames, indirect) = render_frames(
-            &loaded,
-            &cameras,
-            &pt,
-            &settings(path_spp, RUN_SEED),
-            denoised,
-        )?;
-        runs.push(Run {
-            name: format!(
-                "path{}, {path_spp} spp",
-                if denoised { " + OIDN" } else { "" }
-            ),
-            frames,
-            indirect,
-            seconds: start.elapsed().as_secs_f64(),
-        });
     }
     // The report.
     let mut report = format!(
         "# Walkthrough: {}\n\n{} frames at {} fps, {}², {} spp for the cache runs, 2 threads unless \
          --threads; references 2 × {} spp (own relMSE {:.2e}). Temporal relMSE between consecutive \
-         frames, each carried into the other by the reference's depth (module docs of \
-         xtask/src/walkthrough.rs), of the image and of its indirect part.\n\n| run | seconds | \
+         frames: the change of each frame's error where both frames see the same point, carried by \
+         the reference's depth, against the reference's own change (module docs of \
+         xtask/src/walkthrough.rs), of the image and of its indirect part; the references' noise \
+         removed from every score.\n\n| run | seconds | \
          frame relMSE | temporal relMSE | temporal relMSE, indirect |\n|---|---|---|---|---|\n",
         scene.display(),
         args.frames,
@@ -270,19 +274,21 @@ pub fn run(args: WalkthroughArgs, root: &Path) -> Result<(), String> {
         args.reference_spp / 2,
         reference_noise
     );
-    let floor = temporal(&references, &depths, &cameras);
+    // What the references' own noise adds to every row's temporal score (module docs).
+    let noise = temporal_blocks(&noises, &references, &depths, &cameras);
+    let indirect_noise = temporal_blocks(&indirect_noises, &indirect_references, &depths, &cameras);
+    // A row's score less the references' noise, ± the standard error of the difference (the
+    // blocks paired: both over the same carried pixels).
+    let less_noise = |row: &[(f64, f64)], noise: &[(f64, f64)]| {
+        let score: f64 = row.iter().zip(noise).map(|(r, n)| r.0 * (r.1 - n.1)).sum();
+        format!("{score:.3e} ± {:.1e}", paired_standard_error(row, noise))
+    };
+    let sum = |blocks: &[(f64, f64)]| blocks.iter().map(|(w, v)| w * v).sum::<f64>();
     let _ = writeln!(
         report,
-        "| reference (the measure's floor) | — | — | {floor:.3e} | — |"
-    );
-    // Independent noise of variance v in each frame adds about 2v/(m² + 0.01) to a pair's
-    // score; a half-sample reference has twice the mean's variance, so the floor without the
-    // references' noise is about 2·T(means) − T(halves).
-    let half = temporal(&first_halves, &depths, &cameras);
-    let _ = writeln!(
-        report,
-        "| the floor, the references' noise removed (2·T(reference) − T(one half), T(one half) {half:.3e}) | — | — | {:.3e} | — |",
-        2.0 * floor - half
+        "| the references' noise (removed from every row) | — | {reference_noise:.3e} | {:.3e} | {:.3e} |",
+        sum(&noise),
+        sum(&indirect_noise)
     );
     for r in &runs {
         let error = r
@@ -294,16 +300,24 @@ pub fn run(args: WalkthroughArgs, root: &Path) -> Result<(), String> {
             / f64::from(args.frames)
             - reference_noise;
         let indirect = r.indirect.as_ref().map_or_else(
-            || "—".to_string(),
-            |i| format!("{:.3e}", temporal(i, &depths, &cameras)),
-        );
+            || Ok("—".to_string()),
+            |i| {
+                let errors = errors_of(i, &indirect_references)?;
+                let t = temporal_blocks(&errors, &indirect_references, &depths, &cameras);
+                Ok::<_, String>(less_noise(&t, &indirect_noise))
+            },
+        )?;
+        let errors = errors_of(&r.frames, &references)?;
         let _ = writeln!(
             report,
-            "| {} | {:.2} | {:.3e} | {:.3e} | {indirect} |",
+            "| {} | {:.2} | {:.3e} | {} | {indirect} |",
             r.name,
             r.seconds,
             error,
-            temporal(&r.frames, &depths, &cameras)
+            less_noise(
+                &temporal_blocks(&errors, &references, &depths, &cameras),
+                &noise
+            )
         );
     }
     let stem = scene
@@ -386,6 +400,28 @@ fn sharded(
     })
 }
 
+/// The path tracer's row: every frame at `settings`, denoised with `denoised`.
+fn path_run(
+    loaded: &LoadedScene,
+    cameras: &[Camera],
+    pt: &PathTracer,
+    settings: &RenderSettings,
+    denoised: bool,
+) -> Result<Run, String> {
+    let start = Instant::now();
+    let (frames, indirect) = render_frames(loaded, cameras, pt, settings, denoised)?;
+    Ok(Run {
+        name: format!(
+            "path{}, {} spp",
+            if denoised { " + OIDN" } else { "" },
+            settings.spp
+        ),
+        frames,
+        indirect,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
 /// Each camera's image by `integrator`, denoised by OIDN with `denoised`, and its indirect part
 /// (without `denoised`).
 fn render_frames(
@@ -431,31 +467,88 @@ fn rel_mse(x: &Image, y: &Image, r: &Image) -> f64 {
     sum / (3 * x.pixels().len()).max(1) as f64
 }
 
-/// The temporal relMSE of `frames` (module docs), carried by `depths` through `cameras`.
-pub fn temporal(frames: &[Image], depths: &[Image], cameras: &[Camera]) -> f64 {
-    let pairs = frames.len().saturating_sub(1);
-    if pairs == 0 {
-        return 0.0;
-    }
-    let mut total = 0.0;
-    for f in 0..pairs {
-        total += pair_error(
-            (&frames[f], &depths[f], &cameras[f]),
-            (&frames[f + 1], &depths[f + 1], &cameras[f + 1]),
-        );
-    }
-    total / pairs as f64
+/// The two halves' mean, the reference, and their half difference (a − b)/2, which has the
+/// mean's noise (for independent halves) and none of its signal.
+fn mean_and_noise(a: &Image, b: &Image) -> Result<(Image, Image), String> {
+    let (mean, noise): (Vec<Vec3>, Vec<Vec3>) = a
+        .pixels()
+        .iter()
+        .zip(b.pixels())
+        .map(|(x, y)| (0.5 * (*x + *y), 0.5 * (*x - *y)))
+        .unzip();
+    let image = |pixels| Image::from_pixels(a.width(), a.height(), pixels).ok_or("reference size");
+    Ok((image(mean)?, image(noise)?))
 }
 
-/// The temporal relMSE of one pair: frame `b`'s pixels carried into frame `a`.
+/// Each frame's error x − r against its reference.
+fn errors_of(frames: &[Image], references: &[Image]) -> Result<Vec<Image>, String> {
+    frames
+        .iter()
+        .zip(references)
+        .map(|(x, r)| {
+            let pixels = x.pixels().iter().zip(r.pixels()).map(|(a, b)| *a - *b);
+            Image::from_pixels(x.width(), x.height(), pixels.collect()).ok_or_else(|| {
+                format!(
+                    "a frame of {}×{} against a reference of {}×{}",
+                    x.width(),
+                    x.height(),
+                    r.width(),
+                    r.height()
+                )
+            })
+        })
+        .collect()
+}
+
+/// The temporal relMSE (module docs) of a sequence whose frames err by `errors` against
+/// `references` (each pair's later frame carried into the earlier by `depths` through
+/// `cameras`: mean((e₁ − C e₀)² / (r₁² + 0.01)) over every pair's carried pixels), by
+/// [`BLOCK`]×[`BLOCK`]-pixel blocks of the later frames' raster, each over every pair: (the block's share of the carried pixels, its score), whose weighted sum is the score
+/// and whose spread gives its standard error (blocks as compare's metrics use them: a
+/// record's, or a denoiser's, errors are correlated over a few pixels, not over a block).
+fn temporal_blocks(
+    errors: &[Image],
+    references: &[Image],
+    depths: &[Image],
+    cameras: &[Camera],
+) -> Vec<(f64, f64)> {
+    let Some(first) = errors.first() else {
+        return Vec::new();
+    };
+    let (w, h) = (first.width(), first.height());
+    let bw = w.div_ceil(BLOCK);
+    let mut blocks = vec![(0.0f64, 0usize); (bw * h.div_ceil(BLOCK)) as usize];
+    for f in 0..errors.len().saturating_sub(1) {
+        pair_error(
+            (&errors[f], &depths[f], &cameras[f]),
+            (&errors[f + 1], &depths[f + 1], &cameras[f + 1]),
+            &references[f + 1],
+            |x, y, term| {
+                let block = &mut blocks[((y / BLOCK) * bw + x / BLOCK) as usize];
+                block.0 += term;
+                block.1 += 1;
+            },
+        );
+    }
+    let total = blocks.iter().map(|b| b.1).sum::<usize>().max(1) as f64;
+    blocks
+        .iter()
+        .map(|&(sum, n)| (n as f64 / total, if n == 0 { 0.0 } else { sum / n as f64 }))
+        .collect()
+}
+
+/// One pair's terms: frame `b`'s errors against frame `a`'s carried to them, relative to
+/// `reference_b` (the later frame's reference), each pixel and channel's handed to `add` with
+/// the pixel of `b` it belongs to.
 fn pair_error(
-    (image_a, depth_a, camera_a): (&Image, &Image, &Camera),
-    (image_b, depth_b, camera_b): (&Image, &Image, &Camera),
-) -> f64 {
-    let (w, h) = (image_b.width(), image_b.height());
+    (error_a, depth_a, camera_a): (&Image, &Image, &Camera),
+    (error_b, depth_b, camera_b): (&Image, &Image, &Camera),
+    reference_b: &Image,
+    mut add: impl FnMut(u32, u32, f64),
+) {
+    let (w, h) = (error_b.width(), error_b.height());
     let tan = (0.5 * camera_b.yfov).tan();
     let aspect = w as f32 / h as f32;
-    let (mut sum, mut count) = (0.0f64, 0usize);
     for y in 0..h {
         for x in 0..w {
             let ndc_x = 2.0 * (x as f32 + 0.5) / w as f32 - 1.0;
@@ -478,20 +571,17 @@ fn pair_error(
                 continue;
             }
             let (fx, fy) = (xa - x0 as f32, ya - y0 as f32);
-            let carried = image_a.get(x0, y0) * ((1.0 - fx) * (1.0 - fy))
-                + image_a.get(x0 + 1, y0) * (fx * (1.0 - fy))
-                + image_a.get(x0, y0 + 1) * ((1.0 - fx) * fy)
-                + image_a.get(x0 + 1, y0 + 1) * (fx * fy);
-            let now = image_b.get(x, y);
+            let carried = error_a.get(x0, y0) * ((1.0 - fx) * (1.0 - fy))
+                + error_a.get(x0 + 1, y0) * (fx * (1.0 - fy))
+                + error_a.get(x0, y0 + 1) * ((1.0 - fx) * fy)
+                + error_a.get(x0 + 1, y0 + 1) * (fx * fy);
+            let (now, r) = (error_b.get(x, y), reference_b.get(x, y));
             for k in 0..3 {
-                let (p, q) = (f64::from(carried[k]), f64::from(now[k]));
-                let m = 0.5 * (p + q);
-                sum += (q - p).powi(2) / (m * m + 0.01);
+                let (p, q, r) = (f64::from(carried[k]), f64::from(now[k]), f64::from(r[k]));
+                add(x, y, (q - p).powi(2) / (r * r + 0.01));
             }
-            count += 3;
         }
     }
-    if count == 0 { 0.0 } else { sum / count as f64 }
 }
 
 /// Where `point` lands on `camera`'s `w` × `h` image, in pixel-centre coordinates (pixel (x, y)'s
@@ -513,48 +603,104 @@ fn raster_of(camera: &Camera, point: Vec3, w: u32, h: u32) -> Option<(f32, f32)>
 mod tests {
     use super::*;
 
-    /// A flat wall 2 m in front of a camera that slides sideways by 1 cm, its radiance a
-    /// function of the wall's position (so a view-independent, exact sequence): carried
-    /// between the frames it scores only the bilinear reading's error, which for a radiance
-    /// linear in position is zero up to f32 rounding; a sequence whose second frame is
-    /// brighter by 10 % everywhere scores ≈ (0.1/1.05)² relative (m the pair's mean).
-    #[test]
-    fn a_view_independent_sequence_scores_zero_and_a_change_does_not() {
-        let size = 16;
+    const SIZE: u32 = 16;
+
+    /// The temporal score: the blocks' weighted sum.
+    fn temporal(
+        errors: &[Image],
+        references: &[Image],
+        depths: &[Image],
+        cameras: &[Camera],
+    ) -> f64 {
+        temporal_blocks(errors, references, depths, cameras)
+            .iter()
+            .map(|(w, v)| w * v)
+            .sum()
+    }
+
+    /// A flat wall 2 m in front of `camera` (the plane z = −2): the image of `radiance(p)` and the
+    /// depth of each pixel's centre ray.
+    fn wall(camera: &Camera, radiance: impl Fn(Vec3) -> f32) -> (Image, Image) {
+        let tan = (0.5 * camera.yfov).tan();
+        let (mut image, mut depth) = (Vec::new(), Vec::new());
+        for y in 0..SIZE {
+            for x in 0..SIZE {
+                let nx = 2.0 * (x as f32 + 0.5) / SIZE as f32 - 1.0;
+                let ny = 1.0 - 2.0 * (y as f32 + 0.5) / SIZE as f32;
+                let d =
+                    (camera.right * nx * tan + camera.up * ny * tan + camera.forward).normalize();
+                let t = 2.0 / -d.z;
+                image.push(Vec3::splat(radiance(camera.position + d * t)));
+                depth.push(Vec3::splat(t));
+            }
+        }
+        let of = |pixels| Image::from_pixels(SIZE, SIZE, pixels).unwrap_or_else(|| panic!());
+        (of(image), of(depth))
+    }
+
+    /// Two views of the wall, the second 1 cm to the right (a third of a pixel at 16²).
+    fn cameras() -> [Camera; 2] {
         let a = Camera::look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 0.8)
             .unwrap_or_else(|| panic!("camera"));
         let b = Camera {
             position: Vec3::new(0.01, 0.0, 0.0),
             ..a
         };
-        let frame = |camera: &Camera, gain: f32| {
-            let tan = (0.5 * camera.yfov).tan();
-            let (mut image, mut depth) = (Vec::new(), Vec::new());
-            for y in 0..size {
-                for x in 0..size {
-                    let nx = 2.0 * (x as f32 + 0.5) / size as f32 - 1.0;
-                    let ny = 1.0 - 2.0 * (y as f32 + 0.5) / size as f32;
-                    let d = (camera.right * nx * tan + camera.up * ny * tan + camera.forward)
-                        .normalize();
-                    // The wall z = −2.
-                    let t = 2.0 / -d.z;
-                    let p = camera.position + d * t;
-                    image.push(Vec3::splat(gain * (1.0 + 0.1 * p.x + 0.05 * p.y)));
-                    depth.push(Vec3::splat(t));
-                }
-            }
-            (
-                Image::from_pixels(size, size, image).unwrap_or_else(|| panic!("image")),
-                Image::from_pixels(size, size, depth).unwrap_or_else(|| panic!("depth")),
-            )
+        [a, b]
+    }
+
+    /// The reference is curved (a ripple of 8 cm period), so the bilinear reading errs; the
+    /// run's error is linear in the wall's position, so it is carried exactly. An error that
+    /// stays on its surface point scores zero (f32 rounding: errors of 1e-2 carried with
+    /// weights rounded at 2⁻²⁴, squared, far below 1e-10), though the reference's own change
+    /// between the frames does not: that was the old measure's floor.
+    #[test]
+    fn an_error_that_stays_on_its_surface_point_scores_zero() {
+        let cams = cameras();
+        let reference = |p: Vec3| 1.0 + 0.5 * (p.x * 78.5).sin() * (p.y * 78.5).cos();
+        let run = |p: Vec3| reference(p) + 0.01 + 0.02 * p.x - 0.01 * p.y;
+        let (ra, da) = wall(&cams[0], reference);
+        let (rb, db) = wall(&cams[1], reference);
+        let (xa, _) = wall(&cams[0], run);
+        let (xb, _) = wall(&cams[1], run);
+        let (refs, depths) = ([ra, rb], [da, db]);
+        let errors = errors_of(&[xa, xb], &refs).unwrap_or_else(|e| panic!("{e}"));
+        let score = temporal(&errors, &refs, &depths, &cams);
+        assert!(score < 1e-10, "{score}");
+        // The reference's own change, carried the same way, is far from zero.
+        let raw = temporal(&refs, &refs, &depths, &cams);
+        assert!(raw > 1e-4, "{raw}");
+    }
+
+    /// An error drawn afresh in each frame scores its change: +δ in the first frame and −δ in
+    /// the second give (2δ)² / (r² + 0.01) at every pixel carried, exactly (the carrying of a
+    /// constant is the constant, its weights summing to 1 up to 2⁻²³).
+    #[test]
+    fn an_error_that_changes_scores_its_change() {
+        let cams = cameras();
+        let (delta, level) = (0.05f32, 0.8f32);
+        let (ra, da) = wall(&cams[0], |_| level);
+        let (rb, db) = wall(&cams[1], |_| level);
+        let (xa, _) = wall(&cams[0], |_| level + delta);
+        let (xb, _) = wall(&cams[1], |_| level - delta);
+        let (refs, depths) = ([ra, rb], [da, db]);
+        let errors = errors_of(&[xa, xb], &refs).unwrap_or_else(|e| panic!("{e}"));
+        let score = temporal(&errors, &refs, &depths, &cams);
+        let want = f64::from(2.0 * delta).powi(2) / (f64::from(level).powi(2) + 0.01);
+        assert!((score / want - 1.0).abs() < 1e-5, "{score} vs {want}");
+    }
+
+    /// The half difference of two halves has their mean's noise and none of the signal.
+    #[test]
+    fn the_half_difference_holds_only_the_noise() {
+        let px = |v: &[f32]| {
+            Image::from_pixels(2, 1, v.iter().map(|&x| Vec3::splat(x)).collect())
+                .unwrap_or_else(|| panic!())
         };
-        let (ia, da) = frame(&a, 1.0);
-        let (ib, db) = frame(&b, 1.0);
-        let exact = temporal(&[ia.clone(), ib], &[da.clone(), db.clone()], &[a, b]);
-        assert!(exact < 1e-10, "{exact}");
-        let (ic, _) = frame(&b, 1.1);
-        let changed = temporal(&[ia, ic], &[da, db], &[a, b]);
-        let want = (0.1f64 / 1.05).powi(2);
-        assert!((changed / want - 1.0).abs() < 0.05, "{changed} vs {want}");
+        let (mean, noise) =
+            mean_and_noise(&px(&[1.0, 3.0]), &px(&[0.5, 3.0])).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(mean.get(0, 0).x, 0.75);
+        assert_eq!(noise.get(0, 0).x, 0.25);
+        assert_eq!(noise.get(1, 0).x, 0.0);
     }
 }

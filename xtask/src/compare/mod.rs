@@ -18,7 +18,7 @@
 //!    the four methods is fastest, with FLIP beside relMSE ([`figures`]).
 
 mod figures;
-mod metrics;
+pub mod metrics;
 mod pictures;
 mod reference;
 
