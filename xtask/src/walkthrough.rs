@@ -17,7 +17,8 @@
 //! from a moving camera), while an error drawn afresh each frame (sampling noise, a denoiser's
 //! blotches) scores about twice its frame relMSE. The references' own noise adds the same term
 //! to every row; it is measured from the two halves of each reference ((h₁ − h₂)/2 has the
-//! mean's noise and nothing else) and removed. Scores are averaged over the pairs.
+//! mean's noise and nothing else) and removed. A score pools every pair's carried pixels; its
+//! standard error comes from the spread of 16×16-pixel blocks (compare's blocks).
 //! A frame's error is relMSE = mean((x − r)² / (r² + 0.01)) against its reference frame.
 
 use crate::compare::metrics::{BLOCK, paired_standard_error};
