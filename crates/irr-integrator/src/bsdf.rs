@@ -189,6 +189,18 @@ impl Bsdf {
         })
     }
 
+    /// The density with which [`Bsdf::sample_defensive`] draws the unit world direction `wi`:
+    /// what a light sample's weight against that draw needs.
+    #[inline]
+    pub fn pdf_defensive(&self, wi: Vec3) -> f32 {
+        match self {
+            Bsdf::Lambertian { .. } => self.pdf(wi),
+            Bsdf::Glossy { frame, .. } => {
+                0.5 * cosine_hemisphere_pdf(frame.to_local(wi).z) + 0.5 * self.pdf(wi)
+            }
+        }
+    }
+
     /// The reflectance ρ_d by which an irradiance cache multiplies its irradiance, ρ_d/π·E, to
     /// stand for the diffuse reflection of indirect light: the albedo of a Lambertian surface
     /// (exact), irr-bsdf's `diffuse_albedo(wo)` for a glossy one (exact under uniform light;
@@ -323,6 +335,31 @@ mod tests {
                 );
                 let r = b.residual(d.wi) + b.diffuse_reflectance() * FRAC_1_PI;
                 assert!(((r - b.eval(d.wi)).abs()).max_element() < 1e-5 * (1.0 + r.max_element()));
+            }
+            assert!(drawn > 32, "{drawn} of 64 draws");
+        }
+    }
+
+    /// `pdf_defensive` is the density `sample_defensive` reports for its own draws (the same
+    /// sum of the same two densities: equal up to the rounding of the frame's rotation, 1e-5
+    /// relative), on a Lambertian and on glossy surfaces.
+    #[test]
+    fn the_defensive_density_is_the_defensive_draws() {
+        for material in [
+            Material::diffuse(Vec3::splat(0.5)),
+            Material::metallic_roughness(Vec3::new(0.9, 0.6, 0.3), 0.0, 0.4),
+            Material::metallic_roughness(Vec3::new(0.9, 0.6, 0.3), 1.0, 0.1),
+        ] {
+            let (s, x) = plane(material);
+            let b = Bsdf::at(&s, &x);
+            let mut drawn = 0;
+            for i in 0..64 {
+                let Some(d) = b.sample_defensive(SampleKey::new(9, i, 0).uniform_2d(0)) else {
+                    continue;
+                };
+                drawn += 1;
+                let pdf = b.pdf_defensive(d.wi);
+                assert!((pdf / d.pdf - 1.0).abs() < 1e-5, "{pdf} vs {}", d.pdf);
             }
             assert!(drawn > 32, "{drawn} of 64 draws");
         }

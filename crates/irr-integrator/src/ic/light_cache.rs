@@ -3,8 +3,12 @@
 //!
 //! # What it stores
 //! Camera-launched paths ([`trace_light_path`]) deposit, at every vertex v they reach, an
-//! estimate of the irradiance E(v) there: the direct part by one light sample (as the cache's
-//! `direct_nee`), plus the indirect part carried back from the rest of the same path
+//! estimate of the irradiance E(v) there: the direct part by one light sample and the emission
+//! the path's next ray finds, weighted against each other by the power heuristic as the path
+//! tracer weighs them (a light sample alone has unbounded weight where an emitter meets a
+//! surface: rare, huge deposits that would leave a cell bright for every gather that reads
+//! it), plus the indirect part
+//! carried back from the rest of the same path
 //! (cos θ/(pdf·q)·L_reflected(v₊₁) with q the Russian-roulette probability of continuing and
 //! pdf the drawn direction's density: π/q on a Lambertian vertex; B in place of L_reflected when
 //! the path left the scene). Each estimate is unbiased for E(v) (with the path tracer's limit
@@ -37,7 +41,7 @@
 
 use crate::bsdf::Bsdf;
 use crate::integrator::RayCounter;
-use crate::path::{ShadingPoint, sample_light};
+use crate::path::{ShadingPoint, power_heuristic, sample_light};
 use crate::scene::Scene;
 use glam::{DVec3, Vec3};
 use irr_geometry::Ray;
@@ -301,8 +305,9 @@ impl LightPathTracer {
 /// traces them.
 ///
 /// The estimate at vertex k unrolls E(v) = d(v) + (cos θ/(pdf·q))(v)·R(v₊₁), d(v) the light
-/// arriving at v with no reflection beyond it (its light sample's irradiance, and the background
-/// B through the drawn direction's weight when the path left the scene from v), and R(v) the
+/// arriving at v with no reflection beyond it (its light sample's irradiance and the emission
+/// its drawn ray finds, each weighted by the power heuristic, and the background B through the
+/// drawn direction's weight when the path left the scene from v), and R(v) the
 /// radiance v reflects back along the path, R(v) = f·d-like terms + (f cos θ/(pdf·q))(v)·R(v₊₁):
 /// on a Lambertian path the familiar E(v) = d(v) + (ρ(v₊₁)/q(v))·E(v₊₁). A
 /// gather ray's hit is the second reflection from the camera at least, so what it reflects may
@@ -339,6 +344,8 @@ fn trace_light_path(
     };
     let mut ray = *ray;
     let mut j = 0usize;
+    // The density and origin of the last vertex's draw, for weighting the emission it finds.
+    let mut last_draw: Option<(f32, Vec3)> = None;
     loop {
         rays.closest += 1;
         let Some(hit) = scene.intersect(&ray) else {
@@ -348,11 +355,24 @@ fn trace_light_path(
             }
             break;
         };
+        let surface = geometry.surface(&ray, &hit);
+        // Emission the last vertex's draw found: light arriving there, weighted against its
+        // light sample by the power heuristic (as the path tracer weighs them).
+        if let Some((pdf_draw, from)) = last_draw {
+            let le = scene.emitted_at(&surface, -ray.direction);
+            if le != Vec3::ZERO {
+                let dist2 = (surface.position - from).length_squared();
+                let cos_light = surface.geometric_normal.dot(ray.direction).abs();
+                let pdf_light = scene.lights().pdf_area(surface.triangle) * dist2 / cos_light;
+                if pdf_light.is_finite() {
+                    add(&mut slots, j - 1, le * power_heuristic(pdf_draw, pdf_light));
+                }
+            }
+        }
         // Past every window: this ray was traced only to see whether vertex `cap` escaped.
         if j > cap {
             break;
         }
-        let surface = geometry.surface(&ray, &hit);
         let x = scene.shading_point(&surface, -ray.direction);
         let bsdf = Bsdf::at(scene, &x);
         if j < DEPOSITS_PER_PATH {
@@ -365,11 +385,17 @@ fn trace_light_path(
                 deposit: !bsdf.is_black(),
             });
         }
-        // One light sample (the next vertex's emission is never added, so no light is counted
-        // twice): its irradiance Le·cos θ / pdf for this vertex's own slot, and the radiance
-        // f·Le·cos θ / pdf it reflects back along the path for the earlier slots.
+        // One light sample, weighted against this vertex's draw by the power heuristic (a
+        // punctual light, which no draw finds, with weight 1): its irradiance w·Le·cos θ / pdf
+        // for this vertex's own slot, and the radiance f·w·Le·cos θ / pdf it reflects back
+        // along the path for the earlier slots.
         if let Some(a) = sample_light(scene, &x, &mut dims, rays) {
-            let irradiance = a.le * (a.cos_surface / a.pdf);
+            let w = if a.delta {
+                1.0
+            } else {
+                power_heuristic(a.pdf, bsdf.pdf_defensive(a.wi))
+            };
+            let irradiance = a.le * (w * a.cos_surface / a.pdf);
             let reflected = bsdf.eval(a.wi) * irradiance;
             for (k, slot) in slots.iter_mut().enumerate() {
                 if k == j {
@@ -411,6 +437,7 @@ fn trace_light_path(
                 slot.factor *= d.weight / q;
             }
         }
+        last_draw = Some((d.pdf, x.position));
         ray = Ray::spawn(x.position, x.ng, d.wi);
         j += 1;
     }
@@ -581,6 +608,64 @@ mod tests {
                 traced.1
             );
         }
+    }
+
+    /// The light arriving at a vertex with no further reflection is bounded where an emitter
+    /// meets the surface: a floor (ρ 0.5) and an emitting wall (Le 1, one-sided, facing +x)
+    /// standing on it, seen at points 10⁻⁴ to 10⁻² from the wall's foot, where one light sample
+    /// alone has unbounded weight (Le·cos θ·cos θ_l/(p_A·r²), r → 0). With a depth limit of 2
+    /// (no reflection after a gather's hit) a deposit is that light alone: the light sample
+    /// weighted by the power heuristic, Le·cos θ·p_l/(p_l² + p_b²) ≤ Le·cos θ/(2·p_b) = π·Le/2
+    /// (p_b = cos θ/π), plus the emission its own draw finds, (π/q)·Le·w ≤ π·Le (no Russian
+    /// roulette here, q = 1): every deposit at most 3π/2·Le, up to f32 rounding (1e-5).
+    #[test]
+    fn light_next_to_an_emitter_is_bounded() {
+        use crate::tests::polygon;
+        use irr_geometry::TriangleMesh;
+        let wall = TriangleMesh {
+            positions: vec![
+                Vec3::new(0.0, 0.0, -0.5),
+                Vec3::new(0.0, 1.0, -0.5),
+                Vec3::new(0.0, 1.0, 0.5),
+                Vec3::new(0.0, 0.0, 0.5),
+            ],
+            indices: vec![[0, 1, 2], [0, 2, 3]],
+            normals: None,
+            material_ids: vec![1, 1],
+        };
+        let scene = scene(
+            &[polygon(Vec3::ZERO, 2.0, 24, 1.0, 0), wall],
+            vec![
+                Material::diffuse(Vec3::splat(0.5)),
+                Material::emitter(Vec3::ONE),
+            ],
+        );
+        let cache = LightCache::new(0.25);
+        let bound = 1.5 * PI * (1.0 + 1e-5);
+        let mut deposits = 0;
+        for i in 0..4000u64 {
+            let u = SampleKey::new(11, i, 0).uniform_2d(0);
+            let x = 10f32.powf(-4.0 + 2.0 * u.x);
+            let ray = Ray::new(Vec3::new(x, 0.5, u.y - 0.5), Vec3::NEG_Y);
+            let key = SampleKey::new(12, i, 0);
+            for d in trace_light_path(
+                cache.inv_cell,
+                &scene,
+                &ray,
+                key,
+                (2, 64),
+                &mut RayCounter::default(),
+            ) {
+                deposits += 1;
+                assert!(
+                    d.irradiance.max_element() <= bound,
+                    "{} at {x:e} from the wall",
+                    d.irradiance
+                );
+            }
+        }
+        // Every path deposits at least its first vertex (most then leave the open scene).
+        assert!(deposits >= 4000, "{deposits} deposits");
     }
 
     /// Cells: the same cell for points within a cell that face the same way, different cells
