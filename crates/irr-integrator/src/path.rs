@@ -105,6 +105,28 @@ pub fn power_heuristic(pdf_f: f32, pdf_g: f32) -> f32 {
     if f2 + g2 == 0.0 { 0.0 } else { f2 / (f2 + g2) }
 }
 
+/// The power heuristic's weight of emission that a BSDF draw of density `pdf_bsdf` from `from`
+/// along the unit direction `wi` found at `surface`, against `light_samples` light samples'
+/// density for that point (each the light sampler's, per unit solid angle at `from`); 0 where
+/// that density is not finite (the emitter seen edge-on).
+#[inline]
+pub(crate) fn emission_weight(
+    scene: &Scene,
+    surface: &SurfacePoint,
+    (from, wi): (Vec3, Vec3),
+    pdf_bsdf: f32,
+    light_samples: f32,
+) -> f32 {
+    let dist2 = (surface.position - from).length_squared();
+    let cos_light = surface.geometric_normal.dot(wi).abs();
+    let pdf_light = scene.lights().pdf_area(surface.triangle) * dist2 / cos_light;
+    if pdf_light.is_finite() {
+        power_heuristic(pdf_bsdf, light_samples * pdf_light)
+    } else {
+        0.0
+    }
+}
+
 /// A surface point prepared for shading: normals turned to the side the light leaves towards.
 #[derive(Clone, Copy, Debug)]
 pub struct ShadingPoint {
@@ -511,15 +533,8 @@ impl PathTracer {
                     // Emission found by the BSDF sample, weighted against NEE.
                     let le = scene.emitted_at(&surface, -b.wi);
                     if le != Vec3::ZERO {
-                        let dist2 = (surface.position - path.x.position).length_squared();
-                        let cos_light = surface.geometric_normal.dot(b.wi).abs();
-                        let pdf_light =
-                            scene.lights().pdf_area(surface.triangle) * dist2 / cos_light;
-                        let w = if pdf_light.is_finite() {
-                            power_heuristic(b.pdf_bsdf, pdf_light)
-                        } else {
-                            0.0
-                        };
+                        let ray = (path.x.position, b.wi);
+                        let w = emission_weight(scene, &surface, ray, b.pdf_bsdf, 1.0);
                         contribution += weight * le * w;
                     }
                     next = Some(surface);

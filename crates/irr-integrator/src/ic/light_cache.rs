@@ -41,7 +41,7 @@
 
 use crate::bsdf::Bsdf;
 use crate::integrator::RayCounter;
-use crate::path::{ShadingPoint, power_heuristic, sample_light};
+use crate::path::{ShadingPoint, emission_weight, power_heuristic, sample_light};
 use crate::scene::Scene;
 use glam::{DVec3, Vec3};
 use irr_geometry::Ray;
@@ -361,12 +361,8 @@ fn trace_light_path(
         if let Some((pdf_draw, from)) = last_draw {
             let le = scene.emitted_at(&surface, -ray.direction);
             if le != Vec3::ZERO {
-                let dist2 = (surface.position - from).length_squared();
-                let cos_light = surface.geometric_normal.dot(ray.direction).abs();
-                let pdf_light = scene.lights().pdf_area(surface.triangle) * dist2 / cos_light;
-                if pdf_light.is_finite() {
-                    add(&mut slots, j - 1, le * power_heuristic(pdf_draw, pdf_light));
-                }
+                let w = emission_weight(scene, &surface, (from, ray.direction), pdf_draw, 1.0);
+                add(&mut slots, j - 1, le * w);
             }
         }
         // Past every window: this ray was traced only to see whether vertex `cap` escaped.

@@ -91,7 +91,8 @@ pub use value::IcValue;
 use crate::bsdf::Bsdf;
 use crate::integrator::{Batching, FirstHit, Integrator, RayCounter};
 use crate::path::{
-    PathSettings, PathTracer, Radiance, ShadingPoint, power_heuristic, sample_light,
+    PathSettings, PathTracer, Radiance, ShadingPoint, emission_weight, power_heuristic,
+    sample_light,
 };
 use crate::scene::Scene;
 use builder::forward_to_core;
@@ -451,14 +452,8 @@ impl IrradianceCacheIntegrator {
         let mut direct = Vec3::ZERO;
         let le = scene.emitted_at(&surface, -draw.wi);
         if le != Vec3::ZERO && mis && light_samples > 0 {
-            let dist2 = (surface.position - x.position).length_squared();
-            let cos_light = surface.geometric_normal.dot(draw.wi).abs();
-            let pdf_light = scene.lights().pdf_area(surface.triangle) * dist2 / cos_light;
-            let w = if pdf_light.is_finite() {
-                power_heuristic(draw.pdf, light_samples as f32 * pdf_light)
-            } else {
-                0.0
-            };
+            let ray = (x.position, draw.wi);
+            let w = emission_weight(scene, &surface, ray, draw.pdf, light_samples as f32);
             direct = draw.weight * le * w;
         }
         // What the hit reflects, as a level-0 gather ray would bring it back (from the light
@@ -513,12 +508,9 @@ impl IrradianceCacheIntegrator {
         let surface = scene.geometry().surface(&ray, &hit);
         let le = scene.emitted_at(&surface, -draw.wi);
         if le != Vec3::ZERO {
-            let dist2 = (surface.position - x.position).length_squared();
-            let cos_light = surface.geometric_normal.dot(draw.wi).abs();
-            let pdf_light = scene.lights().pdf_area(surface.triangle) * dist2 / cos_light;
-            if pdf_light.is_finite() {
-                value += weight * le * power_heuristic(draw.pdf, pdf_light);
-            }
+            value += weight
+                * le
+                * emission_weight(scene, &surface, (x.position, draw.wi), draw.pdf, 1.0);
         }
         let deeper = PathTracer::new(PathSettings {
             max_depth: depth - 1,
