@@ -7,8 +7,8 @@ use glam::Vec3;
 use irr_geometry::Geometry;
 use irr_integrator::{Integrator, Material, Scene};
 use irr_render::{
-    Camera, IcSettings, Image, IrradianceCacheIntegrator, LeakGuard, LoadedScene, MetricKind,
-    PathSettings, PathTracer, RenderSettings, build_cache, load_scene, render,
+    Aov, Camera, IcSettings, Image, IrradianceCacheIntegrator, LeakGuard, LoadedScene, MetricKind,
+    PathSettings, PathTracer, RenderSettings, build_cache, load_scene, render, render_with_aovs,
 };
 use std::path::Path;
 
@@ -937,10 +937,12 @@ fn records_cover_the_same_screen_area_on_a_slanted_plane() {
 /// takes ρ_d/π·E on the glossy triangles and path-traces the rest of their BSDF (its sample
 /// weighted by f − ρ_d/π), gathers path-trace the light of glossy hits, and light-cache paths
 /// carry light through glossy vertices to the Lambertian ones' deposits; every way, the image
-/// mean must match the path tracer's. Four reflections: enough for each of those routes, short
-/// enough to keep the paths' noise low.
+/// mean must match the path tracer's, and so must the mean of the `glossy-indirect` AOV (the
+/// indirect light through the glossy triangles' f − ρ_d/π: the cache's glossy sample against
+/// the path tracer's first BSDF sample through the residual's share of its weight). Four
+/// reflections: enough for each of those routes, short enough to keep the paths' noise low.
 ///
-/// Tolerance: the image means of K = 8 seeds per integrator are independent; their difference
+/// Tolerance, for either quantity: the means of K = 8 seeds per integrator are independent; their difference
 /// must lie within 5 standard errors of it (each side's sample deviation / √K, combined), plus
 /// 1e-5 of the mean for f32 rounding. The sphere keeps the irradiance nearly the same at every
 /// point (by its symmetry, up to the alternation of the triangles), so interpolation adds no
@@ -999,26 +1001,34 @@ fn glossy_surfaces_converge_to_the_path_tracer() {
         let var = means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (k - 1.0);
         (mean, var / k)
     };
-    let pt: Vec<f64> = (0..8u64)
-        .map(|seed| {
-            let image = render(
-                &scene,
-                &camera,
-                &PathTracer::new(path),
-                &settings(seed, 64),
-                false,
-            )
-            .unwrap_or_else(|e| panic!("{e}"))
-            .image;
-            f64::from(image.mean().x)
-        })
-        .collect();
+    // The image's mean and the glossy-indirect layer's (red channels).
+    let means = |integrator: &dyn Integrator, settings: &RenderSettings| {
+        let out = render_with_aovs(
+            &scene,
+            &camera,
+            integrator,
+            settings,
+            &[Aov::GlossyIndirect],
+            false,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let glossy = out
+            .aovs
+            .get(Aov::GlossyIndirect)
+            .map_or(f32::NAN, |g| g.mean().x);
+        (f64::from(out.image.mean().x), f64::from(glossy))
+    };
+    let (pt, pt_glossy): (Vec<f64>, Vec<f64>) = (0..8u64)
+        .map(|seed| means(&PathTracer::new(path), &settings(seed, 64)))
+        .unzip();
     let (pt_mean, pt_var) = stats(&pt);
+    let (pt_glossy_mean, pt_glossy_var) = stats(&pt_glossy);
+    assert!(pt_glossy_mean > 0.0, "a glossy part: {pt_glossy_mean}");
     for bounce_mode in [
         irr_render::BounceMode::LightCache,
         irr_render::BounceMode::PathTraced,
     ] {
-        let ic: Vec<f64> = (0..8u64)
+        let (ic, ic_glossy): (Vec<f64>, Vec<f64>) = (0..8u64)
             .map(|seed| {
                 let ic = IcSettings {
                     error: 2.0,
@@ -1028,15 +1038,20 @@ fn glossy_surfaces_converge_to_the_path_tracer() {
                     path,
                     ..IcSettings::default()
                 };
-                f64::from(
-                    ic_image(&scene, &camera, ic, &settings(100 + seed, 16))
-                        .0
-                        .mean()
-                        .x,
-                )
+                let settings = settings(100 + seed, 16);
+                means(&built(&scene, &camera, ic, &settings), &settings)
             })
-            .collect();
+            .unzip();
         let (ic_mean, ic_var) = stats(&ic);
+        let (ic_glossy_mean, ic_glossy_var) = stats(&ic_glossy);
+        let glossy_band = 5.0 * (pt_glossy_var + ic_glossy_var).sqrt() + 1e-5 * pt_glossy_mean;
+        println!(
+            "{bounce_mode:?}: glossy-indirect {ic_glossy_mean:.5} vs {pt_glossy_mean:.5} (band {glossy_band:.5})"
+        );
+        assert!(
+            (ic_glossy_mean - pt_glossy_mean).abs() <= glossy_band,
+            "{bounce_mode:?}: glossy-indirect {ic_glossy_mean} vs {pt_glossy_mean}"
+        );
         let band = 5.0 * (pt_var + ic_var).sqrt() + 1e-5 * pt_mean;
         println!(
             "{bounce_mode:?}: cache {ic_mean:.5} vs path {pt_mean:.5} ({:+.3} %, se {:.3} % and {:.3} %)",

@@ -289,7 +289,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub camera: Option<usize>,
     /// Auxiliary images written as further layers of the EXR, comma-separated, any of: albedo,
-    /// normal, depth, emitted, direct, indirect (layers albedo.R/G/B, normal.X/Y/Z, depth.Z,
+    /// normal, depth, emitted, direct, indirect, glossy-indirect (the part of indirect the first
+    /// surface's glossy lobes reflect) (layers albedo.R/G/B, normal.X/Y/Z, depth.Z,
     /// emitted.R/G/B, …; each averaged over the pixel's samples like the colour)
     #[arg(long, value_name = "AOV,...", value_delimiter = ',', value_parser = parse_aov)]
     pub aov: Vec<Aov>,
@@ -1057,7 +1058,7 @@ mod tests {
             .unwrap_or_default();
         assert!(e.contains("--aov") && e.contains("'foo'"), "{e}");
         assert!(
-            e.contains("albedo, normal, depth, emitted, direct, indirect"),
+            e.contains("albedo, normal, depth, emitted, direct, indirect, glossy-indirect"),
             "{e}"
         );
         assert_eq!(

@@ -83,8 +83,7 @@ pub trait Integrator: Sync {
     ) -> Radiance {
         Radiance {
             emitted: self.li(scene, ray, dims, rays),
-            direct: Vec3::ZERO,
-            indirect: Vec3::ZERO,
+            ..Radiance::default()
         }
     }
 

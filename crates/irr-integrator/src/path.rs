@@ -23,6 +23,11 @@
 //! - `indirect`: everything else: light that reflects at least twice (NEE at x₁ and emission at
 //!   x₂ on, paths `L D D+ E`), and **all the background's light that reflects** (paths `L D+ B`,
 //!   the background's once-reflected light `L D B` included: x₀'s BSDF sample escaping).
+//! - `glossy`: the part of `indirect` that x₀ reflects through f − ρ_d/π, the BSDF minus the
+//!   diffuse stand-in ρ_d/π an irradiance cache multiplies its irradiance by (`Bsdf::residual`):
+//!   x₀'s BSDF sample carries the share residual·cos θ/pdf of its weight f·cos θ/pdf, and every
+//!   indirect contribution behind it counts through that share. Only a camera path
+//!   ([`PathTracer::li_split`]) keeps it; it draws no random number.
 //!
 //! So `indirect` is exactly ∫ f(x₀) L_ind cos θ dω, which on a Lambertian x₀ is (ρ(x₀)/π)·E_ind(x₀),
 //! where E_ind is the irradiance at x₀ due to all
@@ -73,10 +78,15 @@ pub struct Radiance {
     pub direct: Vec3,
     /// Light reflected two or more times.
     pub indirect: Vec3,
+    /// Of `indirect`, the part whose last reflection, at the first surface, is by its BSDF
+    /// minus the diffuse stand-in an irradiance cache covers, f − ρ_d/π ([`Bsdf::residual`]):
+    /// the glossy lobes' indirect light (zero on a Lambertian surface; it may be negative where
+    /// the diffuse lobe falls below its stand-in). Not added again by [`Radiance::total`].
+    pub glossy: Vec3,
 }
 
 impl Radiance {
-    /// The sum of the three parts.
+    /// The sum of the three parts (`glossy` is within `indirect`).
     #[inline]
     pub fn total(&self) -> Vec3 {
         self.emitted + self.direct + self.indirect
@@ -90,6 +100,7 @@ impl Add for Radiance {
             emitted: self.emitted + rhs.emitted,
             direct: self.direct + rhs.direct,
             indirect: self.indirect + rhs.indirect,
+            glossy: self.glossy + rhs.glossy,
         }
     }
 }
@@ -350,7 +361,12 @@ impl PathTracer {
             Err(background) => return (background, None),
         };
         let first = FirstHit::at(scene, &surface, wo, t);
-        let mut out = self.reflected(scene, &surface, wo, dims, rays);
+        let mut out = self.walk(
+            scene,
+            Path::new(scene, &surface, wo, *dims, true),
+            dims,
+            rays,
+        );
         out.emitted = emitted;
         (out, Some(first))
     }
@@ -369,7 +385,22 @@ impl PathTracer {
         dims: &mut Dimensions,
         rays: &mut RayCounter,
     ) -> Radiance {
-        let mut path = Path::new(scene, surface, wo, *dims);
+        self.walk(
+            scene,
+            Path::new(scene, surface, wo, *dims, false),
+            dims,
+            rays,
+        )
+    }
+
+    /// Follows `path` to its end; `dims` takes its dimensions' final state.
+    fn walk(
+        &self,
+        scene: &Scene,
+        mut path: Path,
+        dims: &mut Dimensions,
+        rays: &mut RayCounter,
+    ) -> Radiance {
         while let Some(b) = self.begin(scene, &mut path, rays) {
             let occluded = b.shadow.is_some_and(|r| scene.occluded(&r));
             let hit = b.ray.and_then(|r| scene.intersect(&r));
@@ -405,7 +436,7 @@ impl PathTracer {
         let mut paths: Vec<Path> = starts
             .iter()
             .zip(dims.iter())
-            .map(|((surface, wo), d)| Path::new(scene, surface, *wo, *d))
+            .map(|((surface, wo), d)| Path::new(scene, surface, *wo, *d, false))
             .collect();
         // The paths still going, in order, and this bounce's work for each.
         let mut live: Vec<usize> = (0..paths.len()).collect();
@@ -483,8 +514,17 @@ impl PathTracer {
             draw.map_or((Vec3::ZERO, Vec3::ZERO, 0.0), |d| (d.wi, d.weight, d.pdf));
         let ray = (pdf_bsdf > 0.0 && wi.dot(x.ng) > 0.0).then(|| Ray::spawn(x.position, x.ng, wi));
         rays.closest += u64::from(ray.is_some());
+        // The share of that weight the residual f − ρ_d/π carries, at x₀ of a camera path:
+        // (f − ρ_d/π)·cos/pdf, from the draw's own f·cos/pdf (no second evaluation of f).
+        let residual = match draw {
+            Some(d) if path.glossy && path.depth == 0 && !bsdf.is_lambertian() => {
+                d.weight - bsdf.diffuse_reflectance() * (FRAC_1_PI * d.cos / d.pdf)
+            }
+            _ => Vec3::ZERO,
+        };
         Some(Bounce {
             weight,
+            residual,
             nee,
             nee_f,
             nee_pdf_bsdf,
@@ -547,13 +587,23 @@ impl PathTracer {
         let beta = path.beta;
         if path.depth == 0 {
             path.out.direct += beta * contribution;
+            // x₀'s escaping sample through the residual's share of its weight.
+            if b.ray.is_some() && hit.is_none() {
+                path.out.glossy += b.residual * scene.background();
+            }
         } else {
             path.out.indirect += beta * contribution;
+            path.out.glossy += path.glossy_beta * (contribution + escaped);
         }
         path.out.indirect += beta * escaped;
 
         let Some(surface) = next else { return false };
         path.beta *= weight;
+        path.glossy_beta = if path.depth == 0 {
+            b.residual
+        } else {
+            path.glossy_beta * weight
+        };
         path.x = scene.shading_point(&surface, -b.wi);
         path.depth += 1;
         // Russian roulette: past rr_start bounces, continue with probability q = min(1, max β)
@@ -564,26 +614,39 @@ impl PathTracer {
                 return false;
             }
             path.beta /= q;
+            path.glossy_beta /= q;
         }
         true
     }
 }
 
 /// A path between bounces ([`PathTracer::reflected`]): its vertex, its throughput β from the
-/// camera to the vertex, its random dimensions, what it has gathered, and the bounces made.
+/// camera to the vertex, its random dimensions, what it has gathered, and the bounces made;
+/// with `glossy` (a camera path), also the throughput through x₀'s residual f − ρ_d/π (module
+/// docs, `glossy`).
 struct Path {
     x: ShadingPoint,
     beta: Vec3,
+    glossy: bool,
+    glossy_beta: Vec3,
     dims: Dimensions,
     out: Radiance,
     depth: u32,
 }
 
 impl Path {
-    fn new(scene: &Scene, surface: &SurfacePoint, wo: Vec3, dims: Dimensions) -> Path {
+    fn new(
+        scene: &Scene,
+        surface: &SurfacePoint,
+        wo: Vec3,
+        dims: Dimensions,
+        glossy: bool,
+    ) -> Path {
         Path {
             x: scene.shading_point(surface, wo),
             beta: Vec3::ONE,
+            glossy,
+            glossy_beta: Vec3::ZERO,
             dims,
             out: Radiance::default(),
             depth: 0,
@@ -593,9 +656,11 @@ impl Path {
 
 /// The rays of one bounce ([`PathTracer::begin`]) and what `end` needs of it: the light sample
 /// with the BSDF's value and density towards it, its shadow ray, and the BSDF sample (its
-/// weight f·cos/pdf) and its ray (none when the direction is below the surface).
+/// weight f·cos/pdf, at x₀ of a camera path the residual's share of it) and its ray (none when
+/// the direction is below the surface).
 struct Bounce {
     weight: Vec3,
+    residual: Vec3,
     nee: Option<LightArrival>,
     nee_f: Vec3,
     nee_pdf_bsdf: f32,

@@ -20,6 +20,13 @@
 //!   there, light reflected two or more times. Their sum is the colour up to f32 rounding.
 //!   Ambient occlusion has no split: it is all `emitted`. A sample whose colour is NaN or
 //!   infinite counts as black in all three, as in the colour.
+//! - `glossy-indirect`: the part of `indirect` that the first surface reflects through its BSDF
+//!   minus the diffuse stand-in ρ_d/π an irradiance cache multiplies its irradiance by (f −
+//!   ρ_d/π, the glossy lobes and the diffuse lobe's departure from its stand-in): zero on a
+//!   Lambertian surface, and negative where that departure outweighs the lobes. Both
+//!   integrators estimate the same quantity (the cache's glossy sample or radiance records, the
+//!   path tracer's first BSDF sample through the residual's share of its weight), so it scores
+//!   a cache's glossy indirect light apart from its diffuse part (Cycles' "Glossy Indirect").
 //! - `noisy`: with `--denoise`, the colour as rendered; `R`, `G`, `B` then hold the denoised
 //!   colour (Blender's "Noisy Image" pass beside its denoised "Combined"), so a viewer shows the
 //!   denoised image first and keeps the raw one a click away.
@@ -28,7 +35,7 @@
 //! One part (one header), every channel 32-bit float: the colour as `R`, `G`, `B` (what every
 //! reader shows first; Blender calls it "Combined"), and each AOV as `<name>.<channel>`, the
 //! OpenEXR convention for layers inside one part: `albedo.R/G/B`, `normal.X/Y/Z`, `depth.Z`,
-//! `emitted.R/G/B`, `direct.R/G/B`, `indirect.R/G/B`, `noisy.R/G/B`. tev lists them as
+//! `emitted.R/G/B`, `direct.R/G/B`, `indirect.R/G/B`, `glossy-indirect.R/G/B`, `noisy.R/G/B`. tev lists them as
 //! layers, Nuke as layers `albedo`, `normal`, … (and `depth.Z` is Nuke's own depth channel),
 //! and Blender's Image node as passes of the same names (it splits a channel name at its last
 //! two dots into view layer, pass and channel, and reads a three-channel pass with X, Y, Z as a
@@ -53,6 +60,9 @@ pub enum Aov {
     Direct,
     /// Light reflected two or more times (paths `L D D+ E`).
     Indirect,
+    /// Of `Indirect`, what the first surface reflects through its BSDF minus the diffuse stand-in
+    /// (f − ρ_d/π): the glossy lobes' indirect light.
+    GlossyIndirect,
     /// The colour as rendered, before denoising: written beside a denoised colour (`--denoise`),
     /// never requested from a render, so not in [`Aov::ALL`].
     Noisy,
@@ -61,13 +71,14 @@ pub enum Aov {
 impl Aov {
     /// Every AOV a render can make (what `--aov` accepts), in the order they are listed and
     /// written.
-    pub const ALL: [Aov; 6] = [
+    pub const ALL: [Aov; 7] = [
         Aov::Albedo,
         Aov::Normal,
         Aov::Depth,
         Aov::Emitted,
         Aov::Direct,
         Aov::Indirect,
+        Aov::GlossyIndirect,
     ];
 
     /// The name on the command line (`--aov albedo,normal`) and the layer's name in the file.
@@ -79,6 +90,7 @@ impl Aov {
             Aov::Emitted => "emitted",
             Aov::Direct => "direct",
             Aov::Indirect => "indirect",
+            Aov::GlossyIndirect => "glossy-indirect",
             Aov::Noisy => "noisy",
         }
     }
@@ -109,6 +121,11 @@ impl Aov {
             Aov::Emitted => &["emitted.R", "emitted.G", "emitted.B"],
             Aov::Direct => &["direct.R", "direct.G", "direct.B"],
             Aov::Indirect => &["indirect.R", "indirect.G", "indirect.B"],
+            Aov::GlossyIndirect => &[
+                "glossy-indirect.R",
+                "glossy-indirect.G",
+                "glossy-indirect.B",
+            ],
             Aov::Noisy => &["noisy.R", "noisy.G", "noisy.B"],
         }
     }
@@ -119,9 +136,13 @@ impl Aov {
         matches!(self, Aov::Albedo | Aov::Normal | Aov::Depth)
     }
 
-    /// Whether it needs the integrator's split of the colour (emitted, direct, indirect).
+    /// Whether it needs the integrator's split of the colour (emitted, direct, indirect and its
+    /// glossy part).
     pub fn needs_split(self) -> bool {
-        matches!(self, Aov::Emitted | Aov::Direct | Aov::Indirect)
+        matches!(
+            self,
+            Aov::Emitted | Aov::Direct | Aov::Indirect | Aov::GlossyIndirect
+        )
     }
 }
 
@@ -186,7 +207,8 @@ mod tests {
         let e = Aov::from_name("foo").err().unwrap_or_default();
         assert_eq!(
             e,
-            "unknown AOV 'foo'; the valid ones are albedo, normal, depth, emitted, direct, indirect"
+            "unknown AOV 'foo'; the valid ones are albedo, normal, depth, emitted, direct, \
+             indirect, glossy-indirect"
         );
         // A name from a user is escaped in the message.
         let e = Aov::from_name("a\nb").err().unwrap_or_default();

@@ -15,7 +15,8 @@
 //!   rayon pool (each tile hands the integrator its pixels' samples of one index as one batch,
 //!   `Integrator::li_many`), the progress bar and the summary ([`RenderStats`]);
 //!   [`render_with_aovs`] adds auxiliary images ([`Aov`]: albedo, normal, depth, and the
-//!   colour's emitted, direct and indirect parts); [`pixel_samples`] replays one pixel;
+//!   colour's emitted, direct and indirect parts, and the indirect part's glossy share);
+//!   [`pixel_samples`] replays one pixel;
 //!   [`RenderSettings::image_size`] derives a missing width or height from the camera's aspect
 //!   ratio.
 //! - [`build_cache`]: the deterministic parallel passes that build an irradiance cache through an

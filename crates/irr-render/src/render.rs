@@ -637,7 +637,13 @@ fn pixel_with_aovs(
     out: &mut Vec<Vec3>,
 ) -> (Vec3, u64, u32) {
     let wants = Wants::of(aovs);
-    let [mut colour, mut emitted, mut direct, mut indirect] = [Sum3::default(); 4];
+    let [
+        mut colour,
+        mut emitted,
+        mut direct,
+        mut indirect,
+        mut glossy,
+    ] = [Sum3::default(); 5];
     let mut seen = FirstHitSums::default();
     let mut bad = 0;
     let (mut camera_rays, mut origins, mut dims) = (Vec::new(), Vec::new(), Vec::new());
@@ -700,6 +706,7 @@ fn pixel_with_aovs(
                 emitted.add(r.emitted);
                 direct.add(r.direct);
                 indirect.add(r.indirect);
+                glossy.add(r.glossy);
             } else {
                 bad += 1;
             }
@@ -728,6 +735,7 @@ fn pixel_with_aovs(
             Aov::Emitted => emitted.mean(n),
             Aov::Direct => direct.mean(n),
             Aov::Indirect => indirect.mean(n),
+            Aov::GlossyIndirect => glossy.mean(n),
             // Never requested from a render (normalise_aovs keeps Aov::ALL's), but it is the
             // colour as rendered.
             Aov::Noisy => colour.mean(n),

@@ -414,7 +414,8 @@ impl IrradianceCacheIntegrator {
 
 impl IrradianceCacheIntegrator {
     /// The light a glossy x₀ reflects that the cache's ρ_d/π·E does not stand for, by one
-    /// sample of its BSDF (drawn from `dims`): (`direct`, `indirect`). With `mis` (the direct
+    /// sample of its BSDF (drawn from `dims`): (`direct`, `indirect`, `glossy`, the part of
+    /// `indirect` through f − ρ_d/π: all of it unless `whole`). With `mis` (the direct
     /// light's `light_samples` were weighted by [`direct_light`]'s power heuristic), an emitter
     /// that the sampled ray meets counts towards `direct` with the complementary weight; the
     /// light that the point it meets reflects (as a level-0 gather ray brings it back,
@@ -430,23 +431,21 @@ impl IrradianceCacheIntegrator {
         (light_samples, mis): (u32, bool),
         dims: &mut Dimensions,
         rays: &mut RayCounter,
-    ) -> (Vec3, Vec3) {
+    ) -> (Vec3, Vec3, Vec3) {
         let Some(draw) = bsdf.sample(dims.next_2d()) else {
-            return (Vec3::ZERO, Vec3::ZERO);
+            return (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
         };
         if draw.wi.dot(x.ng) <= 0.0 {
-            return (Vec3::ZERO, Vec3::ZERO);
+            return (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
         }
-        let residual = if whole {
-            draw.weight
-        } else {
-            bsdf.residual(draw.wi) * (draw.cos / draw.pdf)
-        };
+        let share = bsdf.residual(draw.wi) * (draw.cos / draw.pdf);
+        let residual = if whole { draw.weight } else { share };
         let ray = Ray::spawn(x.position, x.ng, draw.wi);
         rays.closest += 1;
         let Some(hit) = scene.intersect(&ray) else {
             // The background's light belongs to `indirect`.
-            return (Vec3::ZERO, residual * scene.background());
+            let b = scene.background();
+            return (Vec3::ZERO, residual * b, share * b);
         };
         let surface = scene.geometry().surface(&ray, &hit);
         let mut direct = Vec3::ZERO;
@@ -461,7 +460,7 @@ impl IrradianceCacheIntegrator {
         let key = SampleKey::new(dims.key().bits(dims.position()), GLOSSY_STREAM, 0);
         dims.next_1d();
         let reflected = self.gather_radiance(scene, 0, Some(&surface), draw.wi, key, rays);
-        (direct, residual * reflected)
+        (direct, residual * reflected, share * reflected)
     }
 }
 

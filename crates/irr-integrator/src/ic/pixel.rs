@@ -134,21 +134,23 @@ impl IrradianceCacheIntegrator {
                 .then_some(bsdf);
             let glossy = !bsdf.is_lambertian() && lobe.is_none();
             let mut direct = direct_light(scene, &x, &bsdf, light_samples, glossy, d, rays);
-            let mut indirect = Vec3::ZERO;
+            let (mut indirect, mut glossy_part) = (Vec3::ZERO, Vec3::ZERO);
             // Without a cache level (at most one reflection) no record brings the background
             // that x₀ reflects once (paths `L D B`, `indirect` in the path tracer too): the same
             // BSDF sample does, through the whole BSDF.
             let whole = self.core.levels.is_empty() && scene.background() != Vec3::ZERO;
             if glossy || whole {
-                let (more, rest) =
+                let (more, rest, part) =
                     self.glossy_sample(scene, &x, (&bsdf, whole), (light_samples, glossy), d, rays);
                 direct += more;
                 indirect = rest;
+                glossy_part = part;
             }
             *o = Radiance {
                 emitted,
                 direct,
                 indirect,
+                glossy: glossy_part,
             };
             // The cache holds irradiance, so the (textured) diffuse reflectance of x₀ itself
             // multiplies it, never a record's.
@@ -184,6 +186,7 @@ impl IrradianceCacheIntegrator {
         for p in &pending {
             let q = Query::from(&p.x);
             let mut indirect = p.partial.indirect;
+            let mut glossy = p.partial.glossy;
             if let Some(bsdf) = &p.lobe {
                 let reflected = self.lobe_in_pixel(
                     scene,
@@ -193,7 +196,7 @@ impl IrradianceCacheIntegrator {
                     (&mut memo, &mut guard_rays),
                     &mut lobe_scratch,
                 );
-                indirect += match reflected {
+                let lobe = match reflected {
                     Some(v) => v,
                     // No record with coefficients covers x₀: its lobe is path-traced, and the
                     // BSDF sample's emitter hits count for nothing (its direct light was NEE
@@ -212,10 +215,13 @@ impl IrradianceCacheIntegrator {
                         .1
                     }
                 };
+                indirect += lobe;
+                glossy += lobe;
             }
             if p.albedo == Vec3::ZERO {
                 out[p.index] = Radiance {
                     indirect,
+                    glossy,
                     ..p.partial
                 };
                 continue;
@@ -244,6 +250,7 @@ impl IrradianceCacheIntegrator {
             };
             out[p.index] = Radiance {
                 indirect: indirect + p.albedo * FRAC_1_PI * e,
+                glossy,
                 ..p.partial
             };
         }
