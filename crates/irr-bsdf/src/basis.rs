@@ -121,6 +121,9 @@ pub enum BasisTableError {
     },
     /// The quadrature needs at least 1 node per axis.
     Quadrature(usize),
+    /// A lookup at a roughness whose table rows were not computed (a table built for some
+    /// roughness ranges only: [`GlossyTable::within`]).
+    Untabulated(f32),
 }
 
 impl fmt::Display for BasisTableError {
@@ -135,6 +138,7 @@ impl fmt::Display for BasisTableError {
                 "table resolution {roughness} × {cos_theta}: at least 2 nodes per axis"
             ),
             Self::Quadrature(n) => write!(f, "quadrature of {n} nodes per axis: at least 1"),
+            Self::Untabulated(r) => write!(f, "roughness {r} lies outside the table's ranges"),
         }
     }
 }
@@ -307,6 +311,8 @@ pub struct GlossyTable {
     weighting: Weighting,
     roughness_nodes: usize,
     cos_nodes: usize,
+    /// Which roughness rows hold coefficients ([`GlossyTable::within`]).
+    rows: Vec<bool>,
     /// [roughness][cos θo][k] for b_A, then the same for b_B.
     a: Vec<f32>,
     b: Vec<f32>,
@@ -347,9 +353,26 @@ impl GlossyTable {
     /// [`GlossyTable::new`] for either [`Weighting`], at `(roughness, cos θo)` nodes.
     pub fn with_weighting(
         basis: Basis,
+        nodes: (usize, usize),
+        quadrature_nodes: usize,
+        weighting: Weighting,
+    ) -> Result<Self, BasisTableError> {
+        Self::within(basis, nodes, quadrature_nodes, weighting, &[(0.0, 1.0)])
+    }
+
+    /// [`GlossyTable::with_weighting`] computing only the roughness rows that a lookup at a
+    /// roughness within one of the closed `ranges` reads (the two rows around each such
+    /// roughness): a renderer whose materials reach a few roughness values builds a few rows of
+    /// the table (each row costs `cos_nodes` quadratures). Elsewhere the table holds nothing:
+    /// lookups there are errors ([`BasisTableError::Untabulated`]) and
+    /// [`GlossyTable::reconstruction_error`] is +∞. The rows it computes are the bits a full
+    /// table has.
+    pub fn within(
+        basis: Basis,
         (roughness_nodes, cos_nodes): (usize, usize),
         quadrature_nodes: usize,
         weighting: Weighting,
+        ranges: &[(f32, f32)],
     ) -> Result<Self, BasisTableError> {
         if roughness_nodes < 2 || cos_nodes < 2 {
             return Err(BasisTableError::Resolution {
@@ -357,13 +380,25 @@ impl GlossyTable {
                 cos_theta: cos_nodes,
             });
         }
+        let mut rows = vec![false; roughness_nodes];
+        for &(lo, hi) in ranges {
+            let (first, _) = cell(lo.min(hi), roughness_nodes);
+            let (last, _) = cell(hi.max(lo), roughness_nodes);
+            rows[first..=last + 1].fill(true);
+        }
         let count = basis.coefficient_count();
         let size = roughness_nodes * cos_nodes * count;
         let (mut a, mut b) = (Vec::with_capacity(size), Vec::with_capacity(size));
         let mut error = Vec::with_capacity(roughness_nodes * cos_nodes);
-        for i in 0..roughness_nodes {
+        for (i, &computed) in rows.iter().enumerate() {
             let r = i as f64 / (roughness_nodes - 1) as f64;
             for j in 0..cos_nodes {
+                if !computed {
+                    a.resize(a.len() + count, 0.0);
+                    b.resize(b.len() + count, 0.0);
+                    error.push(f32::INFINITY);
+                    continue;
+                }
                 let c = node_cos(j as f64 / (cos_nodes - 1) as f64);
                 let (ca, cb, e) = lobe_coefficients(basis, r * r, c, quadrature_nodes, weighting)?;
                 a.extend(ca.iter().map(|&x| x as f32));
@@ -376,10 +411,17 @@ impl GlossyTable {
             weighting,
             roughness_nodes,
             cos_nodes,
+            rows,
             a,
             b,
             error,
         })
+    }
+
+    /// Whether a lookup at `roughness` reads computed rows only ([`GlossyTable::within`]).
+    pub fn tabulates(&self, roughness: f32) -> bool {
+        let (i, _) = cell(roughness, self.roughness_nodes);
+        self.rows[i] && self.rows[i + 1]
     }
 
     /// What the table projects (the lobe with or without cos θi).
@@ -394,6 +436,9 @@ impl GlossyTable {
     /// it multiplies weighs it (module docs' "Reconstruction error" table, for HSH), whatever
     /// the table's [`Weighting`].
     pub fn reconstruction_error(&self, roughness: f32, cos_o: f32) -> f32 {
+        if !self.tabulates(roughness) {
+            return f32::INFINITY;
+        }
         let (i, u) = cell(roughness, self.roughness_nodes);
         let (j, v) = cell(theta_axis(cos_o), self.cos_nodes);
         let at = |ii: usize, jj: usize| self.error[ii * self.cos_nodes + jj];
@@ -430,7 +475,7 @@ impl GlossyTable {
                 .into());
             }
         }
-        let corners = self.corners(roughness, cos_o);
+        let corners = self.corners(roughness, cos_o)?;
         for (table, out) in [(&self.a, &mut *a), (&self.b, &mut *b)] {
             out.fill(0.0);
             for &(start, w) in &corners {
@@ -443,18 +488,21 @@ impl GlossyTable {
     }
 
     /// The start of each of the four table entries around (roughness, cos θo) and its bilinear
-    /// weight.
-    fn corners(&self, roughness: f32, cos_o: f32) -> [(usize, f32); 4] {
+    /// weight; an error where those rows were not computed.
+    fn corners(&self, roughness: f32, cos_o: f32) -> Result<[(usize, f32); 4], BasisTableError> {
+        if !self.tabulates(roughness) {
+            return Err(BasisTableError::Untabulated(roughness));
+        }
         let count = self.basis.coefficient_count();
         let (i, u) = cell(roughness, self.roughness_nodes);
         let (j, v) = cell(theta_axis(cos_o), self.cos_nodes);
         let at = |ii: usize, jj: usize| (ii * self.cos_nodes + jj) * count;
-        [
+        Ok([
             (at(i, j), (1.0 - u) * (1.0 - v)),
             (at(i, j + 1), (1.0 - u) * v),
             (at(i + 1, j), u * (1.0 - v)),
             (at(i + 1, j + 1), u * v),
-        ]
+        ])
     }
 
     /// The glossy lobe's coefficients for `material` and cos θo = `cos_o`, per channel:
@@ -477,7 +525,7 @@ impl GlossyTable {
         let f0 = material.specular_f0();
         let df = material.specular_f90() - f0;
         out.fill(Vec3::ZERO);
-        for (start, w) in self.corners(material.roughness(), cos_o) {
+        for (start, w) in self.corners(material.roughness(), cos_o)? {
             let (a, b) = (&self.a[start..start + count], &self.b[start..start + count]);
             let (wa, wb) = (f0 * w, df * w);
             for ((o, ak), bk) in out.iter_mut().zip(a).zip(b) {

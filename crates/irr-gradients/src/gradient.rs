@@ -296,8 +296,84 @@ impl<V: GatherValue> GatherSamples<V> {
         Some(walls(self.strata(), self.distance(), values, &t))
     }
 
+    /// [`GatherSamples::translation_gradient_of`] for `count` quantities at once: `values`
+    /// holds `count` values per cell, `[cell][quantity]`, and `out` receives each quantity's
+    /// gradient, `[quantity]`; the walls' weights are computed once for all of them. Each
+    /// gradient has the bits `translation_gradient_of` gives that quantity alone (the same
+    /// operations in the same order). `None` (and `out` untouched) unless `values` has `count`
+    /// values per cell and `out` has `count` entries.
+    pub fn translation_gradients_of<W: GatherValue>(
+        &self,
+        variant: TranslationGradient,
+        values: &[W],
+        count: usize,
+        out: &mut [[W; 3]],
+    ) -> Option<()> {
+        if values.len() != self.radiance().len() * count || out.len() != count {
+            return None;
+        }
+        let variant = match variant {
+            TranslationGradient::OcclusionFan => TranslationGradient::WardHeckbert,
+            v => v,
+        };
+        let t = Tables::new(self.strata(), variant);
+        walls_many(self.strata(), self.distance(), values, count, &t, out);
+        Some(())
+    }
+
     fn translation_with(&self, t: &Tables) -> [V; 3] {
         walls(self.strata(), self.distance(), self.radiance(), t)
+    }
+}
+
+/// [`walls`] for `count` quantities per cell (`l` is `[cell][quantity]`), into `out`
+/// (`[quantity]`): per quantity, the same operations in the same order as `walls`.
+fn walls_many<W: GatherValue>(
+    strata: &HemisphereStrata,
+    distance: &[f32],
+    l: &[W],
+    count: usize,
+    t: &Tables,
+    out: &mut [[W; 3]],
+) {
+    let n = strata.n() as usize;
+    let inv_r: Vec<f32> = distance.iter().map(|&r| 1.0 / r).collect();
+    let at = |cell: usize| &l[cell * count..(cell + 1) * count];
+    out.fill([W::default(); 3]);
+    let mut row_sums = vec![[W::default(); 3]; count];
+    for j in 0..strata.m() as usize {
+        row_sums.fill([W::default(); 3]);
+        let row = j * n;
+        for k in 0..n {
+            let i = row + k;
+            let prev = row + if k == 0 { n - 1 } else { k - 1 };
+            let w = inv_r[i].max(inv_r[prev]);
+            if w > 0.0 {
+                for ((r, a), b) in row_sums.iter_mut().zip(at(i)).zip(at(prev)) {
+                    let d = (*a - *b) * t.phi_wall[j] * w;
+                    r[0] = r[0] + d * t.v_wall[k][0];
+                    r[1] = r[1] + d * t.v_wall[k][1];
+                }
+            }
+            if j > 0 {
+                let below = i - n;
+                let w = inv_r[i].max(inv_r[below]);
+                if w > 0.0 {
+                    for ((r, a), b) in row_sums.iter_mut().zip(at(i)).zip(at(below)) {
+                        let d = (*a - *b) * w;
+                        let tangent = d * t.theta_wall_tangent[j];
+                        r[0] = r[0] + tangent * t.u_mid[k][0];
+                        r[1] = r[1] + tangent * t.u_mid[k][1];
+                        r[2] = r[2] + d * t.theta_wall_normal[j];
+                    }
+                }
+            }
+        }
+        for (o, r) in out.iter_mut().zip(&row_sums) {
+            o[0] = o[0] + r[0];
+            o[1] = o[1] + r[1];
+            o[2] = o[2] + r[2];
+        }
     }
 }
 
@@ -452,6 +528,29 @@ mod tests {
             );
             let one_more = vec![1.0f32; g.radiance().len() + 1];
             prop_assert_eq!(g.translation_gradient_of(TranslationGradient::WardHeckbert, &one_more), None);
+        }
+
+        /// Many quantities at once give each one's gradient alone, bit for bit: three per cell
+        /// here (the radiance, its square and a cell-index pattern), against
+        /// `translation_gradient_of` on each; wrong lengths are refused.
+        #[test]
+        fn gradients_of_many_quantities_are_each_ones(g in gathers()) {
+            let l = g.radiance();
+            let fields: [Vec<Vec3>; 3] = [
+                l.iter().map(|&x| Vec3::splat(x)).collect(),
+                l.iter().map(|&x| Vec3::new(x * x, -x, 1.0)).collect(),
+                (0..l.len()).map(|i| Vec3::new((i % 7) as f32, (i % 3) as f32 - 1.0, 0.5)).collect(),
+            ];
+            let values: Vec<Vec3> = (0..l.len()).flat_map(|i| fields.iter().map(move |f| f[i])).collect();
+            for variant in [TranslationGradient::WardHeckbert, TranslationGradient::KrivanekGautron, TranslationGradient::OcclusionFan] {
+                let mut out = [[Vec3::NAN; 3]; 3];
+                prop_assert_eq!(g.translation_gradients_of(variant, &values, 3, &mut out), Some(()));
+                for (o, f) in out.iter().zip(&fields) {
+                    prop_assert_eq!(Some(*o), g.translation_gradient_of(variant, f));
+                }
+                prop_assert_eq!(g.translation_gradients_of(variant, &values, 2, &mut out[..2]), None);
+                prop_assert_eq!(g.translation_gradients_of(variant, &values, 3, &mut out[..2]), None);
+            }
         }
 
         /// A constant radiance field has no rotation gradient: the column weights sum to zero

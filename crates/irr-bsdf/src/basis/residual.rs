@@ -49,22 +49,32 @@ impl ResidualTable {
     /// The table for SH of `order` at [`super::DEFAULT_RESOLUTION`]² nodes, each from
     /// [`QUADRATURE_NODES`]² quadrature nodes.
     pub fn sh(order: usize) -> Result<Self, BasisTableError> {
+        Self::sh_within(order, &[(0.0, 1.0)])
+    }
+
+    /// [`ResidualTable::sh`] for lookups at roughness within the closed `ranges` only (the
+    /// glossy part as [`GlossyTable::within`] builds it): what a renderer needs for the
+    /// roughness its materials reach, at a fraction of the cost.
+    pub fn sh_within(order: usize, ranges: &[(f32, f32)]) -> Result<Self, BasisTableError> {
         Self::new(
             order,
             (super::DEFAULT_RESOLUTION, super::DEFAULT_RESOLUTION),
             QUADRATURE_NODES,
+            ranges,
         )
     }
 
     /// The table for SH of `order` at `(roughness, cos θo)` nodes, as [`GlossyTable::new`]
-    /// places them, each from `quadrature_nodes`² nodes.
+    /// places them, each from `quadrature_nodes`² nodes, for roughness within `ranges`
+    /// ([`GlossyTable::within`]).
     pub fn new(
         order: usize,
         nodes: (usize, usize),
         quadrature_nodes: usize,
+        ranges: &[(f32, f32)],
     ) -> Result<Self, BasisTableError> {
         let basis = Basis::sh(order)?;
-        let glossy = GlossyTable::with_weighting(basis, nodes, quadrature_nodes, Weighting::Plain)?;
+        let glossy = GlossyTable::within(basis, nodes, quadrature_nodes, Weighting::Plain, ranges)?;
         let count = basis.coefficient_count();
         let cos_nodes = nodes.1;
         let views: Vec<DVec3> = (0..cos_nodes)

@@ -288,9 +288,11 @@ fn uniform_light_sh_matches_hsh() {
 #[test]
 fn residual_pairs_with_band_limited_light() {
     let order = 4;
-    let fine = ResidualTable::new(order, (6, 6), 384).unwrap_or_else(|e| panic!("{e}"));
-    let coarse =
-        [192, 96].map(|q| ResidualTable::new(order, (6, 6), q).unwrap_or_else(|e| panic!("{e}")));
+    let fine =
+        ResidualTable::new(order, (6, 6), 384, &[(0.0, 1.0)]).unwrap_or_else(|e| panic!("{e}"));
+    let coarse = [192, 96].map(|q| {
+        ResidualTable::new(order, (6, 6), q, &[(0.0, 1.0)]).unwrap_or_else(|e| panic!("{e}"))
+    });
     let basis = fine.basis();
     let count = basis.coefficient_count();
     let h: Vec<f64> = (0..count)
@@ -442,5 +444,41 @@ fn sh_reconstruction_error_table() {
             })
             .collect();
         println!("| {r} | {} |", cells.join(" | "));
+    }
+}
+
+/// A table built for some roughness ranges holds, in the rows it computes, the full table's
+/// bits (the same quadratures), so lookups anywhere within the ranges are the full table's; a
+/// lookup outside them is an error and its reconstruction error +∞, never a silent zero lobe.
+/// Rows at 1/4 spacing (5 nodes): ranges {0.3} and [0.55, 0.6] need rows 1–2 and 2–3.
+#[test]
+fn a_table_within_ranges_is_the_full_table_there() {
+    let basis = Basis::sh(3).unwrap_or_else(|e| panic!("{e}"));
+    let build = |ranges: &[(f32, f32)]| {
+        GlossyTable::within(basis, (5, 4), 8, Weighting::Plain, ranges)
+            .unwrap_or_else(|e| panic!("{e}"))
+    };
+    let full = build(&[(0.0, 1.0)]);
+    let part = build(&[(0.3, 0.3), (0.6, 0.55)]);
+    let count = basis.coefficient_count();
+    let lookup = |t: &GlossyTable, r: f32| {
+        let (mut a, mut b) = (vec![0.0; count], vec![0.0; count]);
+        t.lookup(r, 0.7, &mut a, &mut b).map(|()| (a, b))
+    };
+    for r in [0.25, 0.3, 0.42, 0.5, 0.55, 0.6] {
+        assert!(part.tabulates(r), "{r}");
+        assert_eq!(lookup(&part, r), lookup(&full, r), "{r}");
+        assert_eq!(
+            part.reconstruction_error(r, 0.7).to_bits(),
+            full.reconstruction_error(r, 0.7).to_bits()
+        );
+    }
+    for r in [0.0, 0.2, 0.75, 0.8, 1.0] {
+        assert!(!part.tabulates(r), "{r}");
+        assert_eq!(lookup(&part, r), Err(BasisTableError::Untabulated(r)));
+        assert_eq!(part.reconstruction_error(r, 0.7), f32::INFINITY);
+        let m = MetallicRoughness::new(Vec3::ONE, 1.0, r);
+        let mut out = vec![Vec3::ZERO; count];
+        assert!(part.coefficients(&m, 0.7, &mut out).is_err());
     }
 }

@@ -84,9 +84,19 @@ impl<V: IcValue> Core<V> {
         let d = (hi - lo).length();
         self.diagonal = if d.is_finite() && d > 0.0 { d } else { 1.0 };
         let order = self.settings.radiance_order as usize;
-        let glossy = scene.materials().iter().any(|m| !m.is_lambertian());
-        self.radiance = (order > 0 && glossy && !self.levels.is_empty())
-            .then(|| RadianceCaching::new(order, self.settings.radiance_error).ok())
+        // The roughness each glossy material reaches: its factor, or from 0 to it under a
+        // metallic-roughness texture (whose green channel scales it); the table holds those.
+        let ranges: Vec<(f32, f32)> = scene
+            .materials()
+            .iter()
+            .filter(|m| !m.is_lambertian())
+            .map(|m| match m.metallic_roughness_texture {
+                Some(_) => (0.0, m.roughness),
+                None => (m.roughness, m.roughness),
+            })
+            .collect();
+        self.radiance = (order > 0 && !ranges.is_empty() && !self.levels.is_empty())
+            .then(|| RadianceCaching::new(order, self.settings.radiance_error, &ranges).ok())
             .flatten();
     }
 

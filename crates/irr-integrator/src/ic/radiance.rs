@@ -65,10 +65,15 @@ pub(super) struct RadianceCaching {
 }
 
 impl RadianceCaching {
-    /// The table for SH of `order`, used where the lobe's reconstruction error is at most
-    /// `max_error`.
-    pub(super) fn new(order: usize, max_error: f32) -> Result<Self, BasisTableError> {
-        let table = ResidualTable::sh(order)?;
+    /// The table for SH of `order` at the roughness within `ranges` (a scene's materials'),
+    /// used where the lobe's reconstruction error is at most `max_error` (never outside
+    /// `ranges`, where it is +∞).
+    pub(super) fn new(
+        order: usize,
+        max_error: f32,
+        ranges: &[(f32, f32)],
+    ) -> Result<Self, BasisTableError> {
+        let table = ResidualTable::sh_within(order, ranges)?;
         Ok(Self {
             basis: table.basis(),
             table,
@@ -146,13 +151,14 @@ impl RadianceCaching {
             }
         }
         if let Some(variant) = variant {
-            let mut field = vec![Vec3::ZERO; strata.len()];
-            for k in 0..count {
-                for (f, row) in field.iter_mut().zip(cells.chunks_exact(count)) {
-                    *f = row[k];
-                }
-                if let Some(local) = samples.translation_gradient_of(variant, &field) {
-                    let world = rotate_to_world(&local, frame);
+            // All n² gradients by one walk of the walls (`cells` is [cell][k]).
+            let mut local = vec![[Vec3::ZERO; 3]; count];
+            if samples
+                .translation_gradients_of(variant, &cells, count, &mut local)
+                .is_some()
+            {
+                for (k, l) in local.iter().enumerate() {
+                    let world = rotate_to_world(l, frame);
                     for (axis, g) in world.iter().enumerate() {
                         out[(1 + axis) * count + k] = *g;
                     }
@@ -237,7 +243,7 @@ mod tests {
     use std::f32::consts::TAU;
 
     fn caching(order: usize) -> RadianceCaching {
-        RadianceCaching::new(order, 0.5).unwrap_or_else(|e| panic!("{e}"))
+        RadianceCaching::new(order, 0.5, &[(0.0, 1.0)]).unwrap_or_else(|e| panic!("{e}"))
     }
 
     /// A gather of `strata` whose cell (j, k) brings back `radiance(j, k)` from `distance(j, k)`,
