@@ -57,10 +57,25 @@ fn hessian_render(scene: &Scene, camera: &Camera, settings: &RenderSettings) -> 
     ic_image(scene, camera, ic, settings).0
 }
 
+/// The Hessian cache extrapolating to second order: each record's curvature (1/length²) times
+/// the squared offset from it, a number without unit.
+fn hessian_second_order_render(scene: &Scene, camera: &Camera, settings: &RenderSettings) -> Image {
+    let ic = IcSettings {
+        strata_m: 8,
+        strata_n: 32,
+        metric: MetricKind::Hessian,
+        error: 0.5,
+        second_order: 0.25,
+        ..IcSettings::default()
+    };
+    ic_image(scene, camera, ic, settings).0
+}
+
 /// No record, weight, radius, clamp, octree query or ray offset depends on the unit: the Cornell
 /// box in metres, in millimetres (×1000) and at ×1e-4 gives the same image with the same seed,
 /// for the irradiance cache (with Tabellion & Lamorlette's metric and with the Hessian's, whose
-/// radii (4/|λ|)^¼ scale as √length until the scene's diagonal makes them lengths) and for the
+/// radii (4/|λ|)^¼ scale as √length until the scene's diagonal makes them lengths, with and
+/// without its second-order extrapolation) and for the
 /// path tracer. "The same" is measured against the natural
 /// scale of the images' differences: two renders of the unscaled scene with different seeds.
 /// With the same seed the scaled render follows the same random numbers, so its difference from
@@ -86,6 +101,7 @@ fn units_do_not_change_the_image() {
             ic_render as fn(&Scene, &Camera, &RenderSettings) -> Image,
         ),
         ("hessian cache", hessian_render),
+        ("hessian cache, second order", hessian_second_order_render),
         ("path", path_image),
     ] {
         let base = render_with(&scene, &camera, &settings);

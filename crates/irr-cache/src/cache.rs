@@ -263,7 +263,7 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         let mut mean = WeightedMean::<V>::new();
         self.weighted(p.as_dvec3(), nd, |index, record, candidate, w| {
             if accept(index, record) {
-                mean.add(record, candidate, w);
+                mean.add(record, candidate, w, self.metric.second_order_limit());
             }
         });
         mean.finish()
@@ -312,7 +312,7 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         let mut mean = WeightedMean::<V>::new();
         self.weighted_among(nearby, pd, nd, |id, record, candidate, w| {
             if accept(id, record) {
-                mean.add(record, candidate, w);
+                mean.add(record, candidate, w, self.metric.second_order_limit());
             }
         });
         mean.finish()
@@ -608,20 +608,32 @@ impl<V: CacheValue> WeightedMean<V> {
         }
     }
 
-    /// Adds `record`'s value, corrected to the query of `candidate`, with weight `w`.
+    /// Adds `record`'s value, corrected to the query of `candidate`, with weight `w`; with a
+    /// positive `second_order` limit, also by its curvature.
     #[inline]
-    fn add(&mut self, record: &Record<V>, candidate: &Candidate, w: f64) {
+    fn add(&mut self, record: &Record<V>, candidate: &Candidate, w: f64, second_order: f64) {
         // The rotation: the first-order change of E when the normal turns from nᵢ to n.
         let turn = candidate.record_normal.cross(candidate.query_normal);
         // The translation: from pᵢ to p.
         let step = candidate.offset;
+        // The second-order term ½ Δᵀ(H/E)Δ in the record's tangent frame, clamped: it scales
+        // the value (the Hessian is relative to it).
+        let scale = if second_order > 0.0 && record.curvature != [0.0; 2] {
+            let u = candidate.record_tangent;
+            let v = candidate.record_normal.cross(u);
+            let (du, dv) = (step.dot(u), step.dot(v));
+            let [cu, cv] = record.curvature.map(f64::from);
+            1.0 + (0.5 * (cu * du * du + cv * dv * dv)).clamp(-second_order, second_order)
+        } else {
+            1.0
+        };
         let (e, tg, rg) = (
             record.value.channels(),
             &record.translation_gradient,
             &record.rotation_gradient,
         );
         for (c, acc) in self.sum.as_mut().iter_mut().enumerate() {
-            let mut v = f64::from(e[c]);
+            let mut v = f64::from(e[c]) * scale;
             for axis in 0..3 {
                 v += turn[axis] * f64::from(rg[axis].channels()[c])
                     + step[axis] * f64::from(tg[axis].channels()[c]);

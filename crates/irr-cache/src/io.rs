@@ -9,19 +9,19 @@
 //! | 12 | 4 | value type tag, `u32` ([`CacheValue::TAG`]) |
 //! | 16 | 4 | channels per value, `u32` ([`CacheValue::CHANNELS`]) |
 //! | 20 | 8 | record count n, `u64` |
-//! | 28 | n·4·(13 + 7·C) | the records, each: position (3 `f32`), normal (3), radius (1), unclamped radius (1), minimum radius (1), aspect (1), minor axis (3), value (C), translation gradient (3·C, axis-major), rotation gradient (3·C) |
+//! | 28 | n·4·(15 + 7·C) | the records, each: position (3 `f32`), normal (3), radius (1), unclamped radius (1), minimum radius (1), aspect (1), minor axis (3), curvature (2), value (C), translation gradient (3·C, axis-major), rotation gradient (3·C) |
 //! | end | 8 | FNV-1a 64-bit hash of every byte before it |
 //!
-//! An RGB record takes 136 bytes in the file, as in memory. Only the records are stored; the metric
+//! An RGB record takes 144 bytes in the file, as in memory. Only the records are stored; the metric
 //! is the reader's choice ([`IrradianceCache::read_from`] takes one), so a cache built once can be
 //! reused with another accuracy. Read back with the same metric, the cache is the same: the records
 //! are bit for bit those written (neighbour clamping's changes included), and every octree cell
 //! lists its records in index order whatever the history of the cache (the octree keeps cells
 //! sorted), so interpolation sums in the same order and gives the same bits.
 //!
-//! Version history: 1 stored no unclamped or minimum radius; 2 added them; version 3 (this
-//! one) adds the ellipse of anisotropic records (aspect and minor axis). An older file is
-//! refused with [`CacheFileError::Version`].
+//! Version history: 1 stored no unclamped or minimum radius; 2 added them; 3 added the ellipse
+//! of anisotropic records (aspect and minor axis); version 4 (this one) adds their curvature.
+//! An older file is refused with [`CacheFileError::Version`].
 //!
 //! The checksum is FNV-1a: each byte is XORed into the state, which is then multiplied by an odd
 //! constant, a bijection modulo 2⁶⁴; so two inputs of the same length that differ in exactly one
@@ -38,7 +38,7 @@ use thiserror::Error;
 /// The first eight bytes of every cache file.
 pub const MAGIC: [u8; 8] = *b"IRRCACHE";
 /// The format version this crate writes and reads.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 
 const HEADER_BYTES: usize = 28;
 
@@ -150,7 +150,7 @@ fn read_exact(r: &mut impl Read, buf: &mut [u8]) -> Result<(), CacheFileError> {
 
 /// Number of `f32`s in one record of `V`.
 const fn floats_per_record<V: CacheValue>() -> usize {
-    13 + 7 * V::CHANNELS
+    15 + 7 * V::CHANNELS
 }
 
 fn encode_record<V: CacheValue>(r: &Record<V>, out: &mut Vec<u8>) {
@@ -162,6 +162,7 @@ fn encode_record<V: CacheValue>(r: &Record<V>, out: &mut Vec<u8>) {
     put(r.min_radius);
     put(r.aspect);
     r.tangent.to_array().into_iter().for_each(&mut put);
+    r.curvature.into_iter().for_each(&mut put);
     r.value.channels().iter().copied().for_each(&mut put);
     for g in r.translation_gradient.iter().chain(&r.rotation_gradient) {
         g.channels().iter().copied().for_each(&mut put);
@@ -180,6 +181,7 @@ fn decode_record<V: CacheValue>(bytes: &[u8]) -> Record<V> {
     let min_radius = next();
     let aspect = next();
     let tangent = Vec3::new(next(), next(), next());
+    let curvature = [next(), next()];
     let value = V::from_fn(|_| next());
     let translation_gradient = std::array::from_fn(|_| V::from_fn(|_| next()));
     let rotation_gradient = std::array::from_fn(|_| V::from_fn(|_| next()));
@@ -194,6 +196,7 @@ fn decode_record<V: CacheValue>(bytes: &[u8]) -> Record<V> {
         value,
         translation_gradient,
         rotation_gradient,
+        curvature,
     }
 }
 

@@ -10,7 +10,7 @@
 //! - [`Record`]: position, normal, validity radius R, value E, translation gradient ∂E/∂p and
 //!   rotation gradient ∇ᵣE, each gradient as `[V; 3]` (per world axis), and
 //!   the unclamped and minimum radii that neighbour clamping needs, and for an anisotropic
-//!   record its ellipse (aspect and minor axis). 136 bytes for `Rgb`.
+//!   record its ellipse (aspect and minor axis) and curvature. 144 bytes for `Rgb`.
 //! - [`ErrorMetric`] with [`Ward`], [`TabellionLamorlette`] and [`Hessian`] (elliptical
 //!   records), the shared [`Cuts`] (Ward &
 //!   Heckbert's "in front" test with a tolerance relative to R, the normal-divergence cut with an

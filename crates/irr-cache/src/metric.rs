@@ -88,6 +88,9 @@ pub enum MetricError {
     /// The influence limits in pixels must satisfy 0 < min ≤ max < ∞.
     #[error("the influence limits in pixels must satisfy 0 < min <= max < inf, got [{0}, {1}]")]
     PixelRange(f32, f32),
+    /// The second-order limit must lie in [0, 1].
+    #[error("the second-order limit must lie in [0, 1], got {0}")]
+    SecondOrder(f32),
 }
 
 /// Where a candidate record lies relative to a query point: the numbers every metric needs,
@@ -319,6 +322,13 @@ pub trait ErrorMetric: Clone + std::fmt::Debug + Send + Sync + 'static {
     /// The radius range for a new record at a point where a pixel spans `pixel_spacing` in world
     /// units (unbounded when the spacing is not positive and finite).
     fn radius_limits(&self, pixel_spacing: f32) -> RadiusLimits;
+    /// How far a record's second-order term ([`crate::Record::curvature`]) may move its value
+    /// at a lookup, as a fraction of the value, in [0, 1]; 0 (the default): the curvature is
+    /// ignored and records extrapolate to first order.
+    #[inline]
+    fn second_order_limit(&self) -> f64 {
+        0.0
+    }
 }
 
 /// `x` (computed in `f64`) as the smallest `f32` ≥ x: an influence radius rounded up, so that
@@ -534,6 +544,7 @@ pub struct Hessian {
     inv_chord_10: f64,
     cuts: Cuts,
     pixels: PixelRange,
+    second_order: f32,
 }
 
 impl Hessian {
@@ -548,6 +559,7 @@ impl Hessian {
             inv_chord_10: 1.0 / Angle::from_degrees(10.0).chord(),
             cuts: Cuts::default(),
             pixels: PixelRange::default(),
+            second_order: 0.0,
         })
     }
     /// The same metric with other cuts.
@@ -557,6 +569,18 @@ impl Hessian {
     /// The same metric with other influence limits in pixels.
     pub fn with_pixel_range(self, pixels: PixelRange) -> Self {
         Self { pixels, ..self }
+    }
+    /// The same metric extrapolating records to second order by their curvature (Jarosz et al.
+    /// 2012), the correction ½ Δᵀ(H/E)Δ (relative to the record's value) clamped into
+    /// [−`limit`, `limit`]; 0 turns it off. Errors unless `limit` lies in [0, 1].
+    pub fn with_second_order(self, limit: f32) -> Result<Self, MetricError> {
+        if !(0.0..=1.0).contains(&limit) {
+            return Err(MetricError::SecondOrder(limit));
+        }
+        Ok(Self {
+            second_order: limit,
+            ..self
+        })
     }
     /// The accuracy a.
     pub fn accuracy(&self) -> f32 {
@@ -604,6 +628,11 @@ impl ErrorMetric for Hessian {
     fn radius_limits(&self, pixel_spacing: f32) -> RadiusLimits {
         // Distance scale R: R ∈ [R⁻, R⁺] pixels, as Ward's.
         self.pixels.radius_limits(pixel_spacing, 1.0)
+    }
+
+    #[inline]
+    fn second_order_limit(&self) -> f64 {
+        f64::from(self.second_order)
     }
 }
 

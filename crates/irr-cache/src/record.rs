@@ -7,8 +7,8 @@ use thiserror::Error;
 /// One cached value: where it was computed, how far it may be reused, and its gradients.
 ///
 /// Stored as plain `f32` data (`Vec3` is three `f32`, no padding): an RGB record,
-/// `Record<Rgb>`, takes 4 · (3 + 3 + 1 + 2 + 1 + 3 + 3 + 9 + 9) = **136 bytes**, a scalar
-/// record `Record<f32>` 4 · (3 + 3 + 1 + 2 + 1 + 3 + 1 + 3 + 3) = 80 bytes.
+/// `Record<Rgb>`, takes 4 · (3 + 3 + 1 + 2 + 1 + 3 + 3 + 9 + 9 + 2) = **144 bytes**, a scalar
+/// record `Record<f32>` 4 · (3 + 3 + 1 + 2 + 1 + 3 + 1 + 3 + 3 + 2) = 88 bytes.
 ///
 /// A record may be **anisotropic** (Schwarzhaupt et al. 2012; Radiance ≥ 4.2): an ellipse on its
 /// tangent plane with the major radius R along `normal × tangent` and the minor radius
@@ -56,6 +56,12 @@ pub struct Record<V> {
     pub translation_gradient: [V; 3],
     /// ∇ᵣE, one value per world axis (see the type's docs for the convention).
     pub rotation_gradient: [V; 3],
+    /// The value's relative second derivatives (1/length²) along the minor axis `tangent` and
+    /// along nᵢ × `tangent`: the eigenvalues of the tangent block of H/E, the irradiance
+    /// Hessian relative to the value (Hessian records). A metric whose
+    /// [`crate::ErrorMetric::second_order_limit`] is positive extrapolates by them; zero, or a
+    /// record without a minor axis, extrapolates to first order.
+    pub curvature: [f32; 2],
 }
 
 impl<V: CacheValue> Record<V> {
@@ -72,6 +78,7 @@ impl<V: CacheValue> Record<V> {
             value,
             translation_gradient: [V::zero(); 3],
             rotation_gradient: [V::zero(); 3],
+            curvature: [0.0; 2],
         }
     }
 
@@ -93,6 +100,11 @@ impl<V: CacheValue> Record<V> {
             tangent,
             ..self
         }
+    }
+
+    /// The same record with the given curvature (see [`Record::curvature`]).
+    pub fn with_curvature(self, curvature: [f32; 2]) -> Self {
+        Self { curvature, ..self }
     }
 
     /// The same record with the given gradients (translation, rotation), each per world axis.
@@ -156,6 +168,9 @@ impl<V: CacheValue> Record<V> {
             && self.rotation_gradient.iter().all(finite))
         {
             return Err(InsertError::Gradient);
+        }
+        if !self.curvature.iter().all(|c| c.is_finite()) {
+            return Err(InsertError::Curvature);
         }
         Ok(Self {
             normal,
@@ -254,6 +269,9 @@ pub enum InsertError {
     /// A gradient has a NaN or infinite channel.
     #[error("record gradient is not finite")]
     Gradient,
+    /// A curvature is NaN or infinite.
+    #[error("record curvature is not finite")]
+    Curvature,
     /// The cache holds `u32::MAX` records already.
     #[error("the cache is full (u32::MAX records)")]
     Full,
@@ -266,8 +284,8 @@ mod tests {
 
     #[test]
     fn layout_is_compact() {
-        assert_eq!(size_of::<Record<Rgb>>(), 136);
-        assert_eq!(size_of::<Record<f32>>(), 80);
+        assert_eq!(size_of::<Record<Rgb>>(), 144);
+        assert_eq!(size_of::<Record<f32>>(), 88);
         assert_eq!(align_of::<Record<Rgb>>(), 4);
     }
 

@@ -844,7 +844,7 @@ proptest! {
     fn files_round_trip_bit_for_bit(records in prop::collection::vec(record_strategy(), 0..80)) {
         let cache = cache_of(tl(), &records);
         let bytes = bytes_of(&cache);
-        prop_assert_eq!(bytes.len(), 28 + 136 * records.len() + 8);
+        prop_assert_eq!(bytes.len(), 28 + 144 * records.len() + 8);
         let back = IrradianceCache::<Rgb, _>::read_from(bytes.as_slice(), tl())
             .unwrap_or_else(|e| panic!("{e}"));
         prop_assert_eq!(&bytes_of(&back), &bytes);
@@ -942,14 +942,14 @@ fn foreign_and_wrong_version_files_are_rejected_with_the_reason() {
     assert!(matches!(read(b""), Some(CacheFileError::Truncated)));
 
     // Files of the previous formats (version 1, without the radii neighbour clamping keeps;
-    // version 2, without the ellipses) and of a future one are refused by version, never
-    // misread.
-    for version in [1u32, 2, 4] {
+    // version 2, without the ellipses; version 3, without the curvature) and of a future one
+    // are refused by version, never misread.
+    for version in [1u32, 2, 3, 5] {
         let mut other = bytes.clone();
         other[8..12].copy_from_slice(&version.to_le_bytes());
         let e = read(&other);
         assert!(
-            matches!(e, Some(CacheFileError::Version { found, supported: 3 }) if found == version),
+            matches!(e, Some(CacheFileError::Version { found, supported: 4 }) if found == version),
             "{e:?}"
         );
     }
@@ -998,7 +998,7 @@ fn scalar_and_coefficient_caches_round_trip() {
     ao.insert(Record::new(Vec3::ONE, Vec3::X, 0.5, 0.75))
         .unwrap_or_else(|e| panic!("{e}"));
     let bytes = bytes_of(&ao);
-    assert_eq!(bytes.len(), 28 + 80 + 8);
+    assert_eq!(bytes.len(), 28 + 88 + 8);
     let back = IrradianceCache::<f32, _>::read_from(bytes.as_slice(), ward(0.2))
         .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(back.records(), ao.records());
@@ -1513,6 +1513,64 @@ proptest! {
             }
         }
     }
+}
+
+proptest! {
+    #![proptest_config(config(256))]
+
+    /// Second-order extrapolation: one record with curvature (cu, cv) along its minor axis u and
+    /// along v = n × u, looked up at Δ = s·u + t·v on its plane, gives E·(1 + clamp(½(cu s² +
+    /// cv t²), ±L)), the limit L the metric's. The query point q = u·s + v·t is rounded to f32
+    /// (each component by ≤ 2⁻²⁴ of |s| + |t|) and the axes are f32 unit vectors (off by ~2⁻²⁴),
+    /// so the projections are off by ≲ 3·2⁻²⁴·(|s| + |t|) and the correction ½(cu s² + cv t²)
+    /// by ≲ (|cu s| + |cv t|)·3·2⁻²⁴·(|s| + |t|), times E; then one f32 rounding of the result
+    /// (2⁻²⁴ relative). Asserted with each term doubled. With the limit 0 (the default)
+    /// or without curvature, the value is the record's, bit for bit (first-order lookups
+    /// unchanged).
+    #[test]
+    fn second_order_extrapolation_follows_the_curvature(
+        angle in 0.0f32..6.3, cu in -20.0f32..20.0, cv in -20.0f32..20.0,
+        s in -0.4f32..0.4, t in -0.4f32..0.4, limit in 0.05f32..1.0, e in 0.1f32..10.0,
+    ) {
+        let u = across(Vec3::Z, angle);
+        let v = Vec3::Z.cross(u);
+        let record = Record::new(Vec3::ZERO, Vec3::Z, 1.0, Rgb::new(e, 2.0 * e, 0.5 * e))
+            .with_ellipse(1.0, u)
+            .with_curvature([cu, cv]);
+        let q = u * s + v * t;
+        let second = hessian(1.0).with_second_order(limit).unwrap_or_else(|e| panic!("{e}"));
+        let got = cache_of(second, std::slice::from_ref(&record)).interpolate(q, Vec3::Z).map(|i| i.value);
+        let (ds, dt) = (f64::from(s), f64::from(t));
+        let scale = 1.0 + (0.5 * (f64::from(cu) * ds * ds + f64::from(cv) * dt * dt))
+            .clamp(-f64::from(limit), f64::from(limit));
+        let want: Vec<f64> = record.value.channels().iter().map(|&c| f64::from(c) * scale).collect();
+        let Some(got) = got else { return Err(TestCaseError::fail("no value")) };
+        let eps = f64::from(f32::EPSILON) / 2.0;
+        let moved = (f64::from(cu.abs()) * ds.abs() + f64::from(cv.abs()) * dt.abs()) * 3.0 * eps * (ds.abs() + dt.abs());
+        for ((g, w), c) in got.channels().iter().zip(want).zip(record.value.channels()) {
+            let tol = 2.0 * (moved * f64::from(*c) + eps * w.abs());
+            prop_assert!((f64::from(*g) - w).abs() <= tol, "{g} vs {w} (tolerance {tol:e})");
+        }
+        let first = cache_of(hessian(1.0), std::slice::from_ref(&record)).interpolate(q, Vec3::Z);
+        prop_assert_eq!(first.map(|i| i.value), Some(record.value));
+        let flat = record.with_curvature([0.0; 2]);
+        let plain = cache_of(second, std::slice::from_ref(&flat)).interpolate(q, Vec3::Z);
+        prop_assert_eq!(plain.map(|i| i.value), Some(record.value));
+    }
+}
+
+/// The second-order limit must lie in [0, 1]; a record's curvature must be finite.
+#[test]
+fn second_order_limits_and_curvatures_are_checked() {
+    for bad in [-0.1, 1.5, f32::NAN] {
+        assert!(matches!(
+            hessian(1.0).with_second_order(bad),
+            Err(MetricError::SecondOrder(_))
+        ));
+    }
+    let record = Record::new(Vec3::ZERO, Vec3::Z, 1.0, Rgb::new(1.0, 1.0, 1.0))
+        .with_curvature([f32::INFINITY, 0.0]);
+    assert_eq!(record.validated().err(), Some(InsertError::Curvature));
 }
 
 /// An anisotropic record's minor axis is made perpendicular to its normal and unit; a missing or

@@ -170,6 +170,11 @@ pub struct IcArgs {
     /// (0, 1]; elsewhere its lobe is path-traced. Larger: more points cached, more bias
     #[arg(long, default_value_t = IcSettings::default().radiance_error, allow_negative_numbers = true)]
     pub radiance_error: f32,
+    /// With --metric hessian: extrapolate each record to second order by its curvature (the
+    /// eigenvalues of its relative irradiance Hessian), the correction clamped to this fraction
+    /// of the record's irradiance, in [0, 1] (e.g. 0.1). 0: first order
+    #[arg(long, value_name = "LIMIT", default_value_t = IcSettings::default().second_order, allow_negative_numbers = true)]
+    pub second_order: f32,
     /// Write a second image, <out stem>-records.exr/.png, with every record marked: a dot, and
     /// a ring of its influence radius in the colour of its noise (the estimated relative
     /// standard error of its irradiance: blue 0, green 5 %, yellow 10 %, red 20 % and more)
@@ -231,6 +236,7 @@ impl IcArgs {
             fill_samples: self.fill_samples,
             radiance_order: self.radiance_order,
             radiance_error: self.radiance_error,
+            second_order: self.second_order,
             path: PathSettings {
                 max_depth,
                 ..PathSettings::default()

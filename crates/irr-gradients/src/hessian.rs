@@ -79,6 +79,8 @@ pub struct Curvature {
     pub minor: f64,
     /// The unit tangent (z = 0) along which |λ| = `major`: the record's minor axis.
     pub axis: DVec3,
+    /// The eigenvalues with their signs: along `axis`, then along z × `axis`.
+    pub signed: [f64; 2],
 }
 
 impl Curvature {
@@ -97,12 +99,14 @@ impl Curvature {
                 major: l0.abs(),
                 minor: l1.abs(),
                 axis: u0,
+                signed: [l0, l1],
             }
         } else {
             Self {
                 major: l1.abs(),
                 minor: l0.abs(),
                 axis: u1,
+                signed: [l1, l0],
             }
         }
     }

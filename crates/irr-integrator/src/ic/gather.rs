@@ -352,7 +352,20 @@ impl<V: IcValue> Core<V> {
                 V::from_gathered(samples.irradiance()),
             )
         };
-        (record.with_ellipse(aspect, tangent), major as f32)
+        // The curvature along the minor axis and across it, for second-order lookups
+        // (`IcSettings::second_order`; ignored at lookup otherwise).
+        let curvature = curvature.signed.map(|c| c as f32);
+        let curvature = if curvature.iter().all(|c| c.is_finite()) {
+            curvature
+        } else {
+            [0.0; 2]
+        };
+        (
+            record
+                .with_ellipse(aspect, tangent)
+                .with_curvature(curvature),
+            major as f32,
+        )
     }
 
     /// The candidate of `probe` from its gather.

@@ -57,6 +57,13 @@ impl ErrorMetric for IcMetric {
             Self::Hessian(m) => m.radius_limits(pixel_spacing),
         }
     }
+    #[inline]
+    fn second_order_limit(&self) -> f64 {
+        match self {
+            Self::Hessian(m) => m.second_order_limit(),
+            _ => 0.0,
+        }
+    }
 }
 
 /// Which translation gradient records carry (the rotation gradient comes with either).
@@ -239,6 +246,11 @@ pub struct IcSettings {
     /// roughness and view angle) is at most this; elsewhere the lobe is path-traced. Range:
     /// (0, 1].
     pub radiance_error: f32,
+    /// With the Hessian metric: extrapolate each record's irradiance to second order by its
+    /// curvature (the tangent-plane eigenvalues of its relative Hessian; Jarosz et al. 2012),
+    /// the relative correction ½ Δᵀ(H/E)Δ clamped into [−this, this]. 0 (the default): first
+    /// order. Range: [0, 1], and 0 with the other metrics, whose records have no Hessian.
+    pub second_order: f32,
     /// The path tracer of continuations and of the fallback.
     pub path: PathSettings,
 }
@@ -275,6 +287,7 @@ impl Default for IcSettings {
             fill_samples: false,
             radiance_order: 0,
             radiance_error: 0.1,
+            second_order: 0.0,
             path: PathSettings::default(),
         }
     }
@@ -363,6 +376,18 @@ impl IcSettings {
                 format!("must lie in (0, 1], got {}", self.radiance_error),
             ));
         }
+        if !(0.0..=1.0).contains(&self.second_order) {
+            return Err(setting_error(
+                "--second-order",
+                format!("must lie in [0, 1], got {}", self.second_order),
+            ));
+        }
+        if self.second_order > 0.0 && self.metric != MetricKind::Hessian {
+            return Err(setting_error(
+                "--second-order",
+                "needs --metric hessian (only Hessian records have a curvature)",
+            ));
+        }
         if self.direct_samples == 0 {
             return Err(setting_error("--direct-samples", "must be at least 1"));
         }
@@ -442,7 +467,9 @@ impl IcSettings {
             MetricKind::Hessian => IcMetric::Hessian(
                 Hessian::new(self.error * loosen)
                     .map_err(bad)?
-                    .with_pixel_range(pixels),
+                    .with_pixel_range(pixels)
+                    .with_second_order(self.second_order)
+                    .map_err(|e| setting_error("--second-order", e.to_string()))?,
             ),
         })
     }
@@ -467,7 +494,7 @@ mod tests {
     fn nonsense_settings_name_the_option() {
         let base = IcSettings::default();
         assert!(base.validate().is_ok());
-        let cases: [(IcSettings, &str); 16] = [
+        let cases: [(IcSettings, &str); 18] = [
             (IcSettings { error: 0.0, ..base }, "--error"),
             (
                 IcSettings {
@@ -576,6 +603,21 @@ mod tests {
                     ..base
                 },
                 "--radiance-error",
+            ),
+            (
+                IcSettings {
+                    second_order: 0.25,
+                    ..base
+                },
+                "--second-order",
+            ),
+            (
+                IcSettings {
+                    metric: MetricKind::Hessian,
+                    second_order: 1.5,
+                    ..base
+                },
+                "--second-order",
             ),
         ];
         for (s, option) in cases {

@@ -60,6 +60,7 @@ pub(super) fn convert_record<V: IcValue>(r: &Record<Rgb>) -> Record<V> {
         value: conv(&r.value),
         translation_gradient: r.translation_gradient.each_ref().map(conv),
         rotation_gradient: r.rotation_gradient.each_ref().map(conv),
+        curvature: r.curvature,
     }
 }
 
@@ -80,5 +81,6 @@ pub(super) fn to_rgb_record<V: IcValue>(r: &Record<V>) -> Record<Rgb> {
         value: conv(&r.value),
         translation_gradient: r.translation_gradient.each_ref().map(conv),
         rotation_gradient: r.rotation_gradient.each_ref().map(conv),
+        curvature: r.curvature,
     }
 }
