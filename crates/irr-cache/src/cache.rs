@@ -260,10 +260,10 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         if !p.is_finite() {
             return None;
         }
-        let mut mean = WeightedMean::<V>::new();
+        let mut mean = WeightedMean::<V>::new(self.metric.second_order_limit());
         self.weighted(p.as_dvec3(), nd, |index, record, candidate, w| {
             if accept(index, record) {
-                mean.add(record, candidate, w, self.metric.second_order_limit());
+                mean.add(record, candidate, w);
             }
         });
         mean.finish()
@@ -309,10 +309,10 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         mut accept: impl FnMut(RecordId, &Record<V>) -> bool,
     ) -> Option<Interpolation<V>> {
         let (pd, nd) = query(p, n)?;
-        let mut mean = WeightedMean::<V>::new();
+        let mut mean = WeightedMean::<V>::new(self.metric.second_order_limit());
         self.weighted_among(nearby, pd, nd, |id, record, candidate, w| {
             if accept(id, record) {
-                mean.add(record, candidate, w, self.metric.second_order_limit());
+                mean.add(record, candidate, w);
             }
         });
         mean.finish()
@@ -597,33 +597,45 @@ struct WeightedMean<V: CacheValue> {
     sum: V::Wide,
     total_weight: f64,
     count: u32,
+    /// The metric's [`ErrorMetric::second_order_limit`].
+    second_order: f64,
+}
+
+/// 1 + ½ Δᵀ(H/E)Δ, the second-order term in `record`'s tangent frame (its curvature along the
+/// minor axis u and along nᵢ × u) for the offset of `candidate`, the term clamped into
+/// ±`limit`: the factor on the record's value (the Hessian is relative to it).
+#[inline(never)]
+fn second_order_scale<V: CacheValue>(record: &Record<V>, candidate: &Candidate, limit: f64) -> f64 {
+    if record.curvature == [0.0; 2] {
+        return 1.0;
+    }
+    let u = candidate.record_tangent;
+    let v = candidate.record_normal.cross(u);
+    let (du, dv) = (candidate.offset.dot(u), candidate.offset.dot(v));
+    let [cu, cv] = record.curvature.map(f64::from);
+    1.0 + (0.5 * (cu * du * du + cv * dv * dv)).clamp(-limit, limit)
 }
 
 impl<V: CacheValue> WeightedMean<V> {
-    fn new() -> Self {
+    fn new(second_order: f64) -> Self {
         Self {
             sum: V::wide_zero(),
             total_weight: 0.0,
             count: 0,
+            second_order,
         }
     }
 
     /// Adds `record`'s value, corrected to the query of `candidate`, with weight `w`; with a
-    /// positive `second_order` limit, also by its curvature.
+    /// positive second-order limit, also by its curvature.
     #[inline]
-    fn add(&mut self, record: &Record<V>, candidate: &Candidate, w: f64, second_order: f64) {
+    fn add(&mut self, record: &Record<V>, candidate: &Candidate, w: f64) {
         // The rotation: the first-order change of E when the normal turns from nᵢ to n.
         let turn = candidate.record_normal.cross(candidate.query_normal);
         // The translation: from pᵢ to p.
         let step = candidate.offset;
-        // The second-order term ½ Δᵀ(H/E)Δ in the record's tangent frame, clamped: it scales
-        // the value (the Hessian is relative to it).
-        let scale = if second_order > 0.0 && record.curvature != [0.0; 2] {
-            let u = candidate.record_tangent;
-            let v = candidate.record_normal.cross(u);
-            let (du, dv) = (step.dot(u), step.dot(v));
-            let [cu, cv] = record.curvature.map(f64::from);
-            1.0 + (0.5 * (cu * du * du + cv * dv * dv)).clamp(-second_order, second_order)
+        let scale = if self.second_order > 0.0 {
+            second_order_scale(record, candidate, self.second_order)
         } else {
             1.0
         };
@@ -633,7 +645,10 @@ impl<V: CacheValue> WeightedMean<V> {
             &record.rotation_gradient,
         );
         for (c, acc) in self.sum.as_mut().iter_mut().enumerate() {
-            let mut v = f64::from(e[c]) * scale;
+            let mut v = f64::from(e[c]);
+            if scale != 1.0 {
+                v *= scale;
+            }
             for axis in 0..3 {
                 v += turn[axis] * f64::from(rg[axis].channels()[c])
                     + step[axis] * f64::from(tg[axis].channels()[c]);
