@@ -170,6 +170,10 @@ pub struct IcArgs {
     /// (0, 1]; elsewhere its lobe is path-traced. Larger: more points cached, more bias
     #[arg(long, default_value_t = IcSettings::default().radiance_error, allow_negative_numbers = true)]
     pub radiance_error: f32,
+    /// With --radiance-order: give every coefficient a translation gradient, by which lookups
+    /// extrapolate (off by default: measured noisier; docs/performance.md, "Radiance caching")
+    #[arg(long)]
+    pub radiance_gradients: bool,
     /// With --metric hessian: extrapolate each record to second order by its curvature (the
     /// eigenvalues of its relative irradiance Hessian), the correction clamped to this fraction
     /// of the record's irradiance, in [0, 1] (e.g. 0.1). 0: first order
@@ -236,6 +240,7 @@ impl IcArgs {
             fill_samples: self.fill_samples,
             radiance_order: self.radiance_order,
             radiance_error: self.radiance_error,
+            radiance_gradients: self.radiance_gradients,
             second_order: self.second_order,
             path: PathSettings {
                 max_depth,

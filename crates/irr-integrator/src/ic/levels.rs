@@ -96,7 +96,10 @@ impl<V: IcValue> Core<V> {
             })
             .collect();
         self.radiance = (order > 0 && !ranges.is_empty() && !self.levels.is_empty())
-            .then(|| RadianceCaching::new(order, self.settings.radiance_error, &ranges).ok())
+            .then(|| {
+                let gradients = self.settings.radiance_gradients;
+                RadianceCaching::new(order, self.settings.radiance_error, &ranges, gradients).ok()
+            })
             .flatten();
     }
 

@@ -33,16 +33,20 @@
 //! only on the point, so it is deterministic.
 //!
 //! # Gradients
-//! Each coefficient has its translation gradient (as Křivánek et al. 2005 give one): the gather's
-//! walls move with the point as for the irradiance, and a wall between two cells changes
-//! c_k by the difference of their values L·Y_k, so irr-gradients' estimator of the records'
-//! translation gradient (`--gradients`), given each cell's mean of L·Y_k in place of its
-//! radiance, gives ∇c_k. A lookup extrapolates each record's coefficients to the query
-//! point before it rotates them. No rotation gradient: the rotation into the query's frame
-//! is exact.
+//! With [`IcSettings::radiance_gradients`], each coefficient has its translation gradient (as
+//! Křivánek et al. 2005 give one): the gather's walls move with the point as for the
+//! irradiance, and a wall between two cells changes c_k by the difference of their values
+//! L·Y_k, so irr-gradients' estimator of the records' translation gradient (`--gradients`),
+//! given each cell's mean of L·Y_k in place of its radiance, gives ∇c_k. A lookup then
+//! extrapolates each record's coefficients to the query point before it rotates them. Off by
+//! default: the high-order coefficients' gradients are noisy (nothing caps them, unlike the
+//! irradiance's), and on a rough metal floor they tripled the glossy light's error
+//! (docs/performance.md, "Radiance caching"). No rotation gradient: the rotation into the
+//! query's frame is exact.
 //!
 //! [`IcSettings::radiance_order`]: super::IcSettings::radiance_order
 //! [`IcSettings::radiance_error`]: super::IcSettings::radiance_error
+//! [`IcSettings::radiance_gradients`]: super::IcSettings::radiance_gradients
 
 use crate::bsdf::Bsdf;
 use glam::{Mat3, Vec3};
@@ -62,22 +66,27 @@ pub(super) struct RadianceCaching {
     table: ResidualTable,
     basis: Basis,
     max_error: f32,
+    /// Whether records keep a translation gradient per coefficient (module docs, "Gradients").
+    gradients: bool,
 }
 
 impl RadianceCaching {
     /// The table for SH of `order` at the roughness within `ranges` (a scene's materials'),
     /// used where the lobe's reconstruction error is at most `max_error` (never outside
-    /// `ranges`, where it is +∞).
+    /// `ranges`, where it is +∞); with `gradients`, records keep each coefficient's translation
+    /// gradient.
     pub(super) fn new(
         order: usize,
         max_error: f32,
         ranges: &[(f32, f32)],
+        gradients: bool,
     ) -> Result<Self, BasisTableError> {
         let table = ResidualTable::sh_within(order, ranges)?;
         Ok(Self {
             basis: table.basis(),
             table,
             max_error,
+            gradients,
         })
     }
 
@@ -101,10 +110,14 @@ impl RadianceCaching {
         }
     }
 
-    /// Values stored per record: the n² coefficients, then their translation gradients along
-    /// world x, y and z (n² each).
+    /// Values stored per record: the n² coefficients, then, with gradients, their translation
+    /// gradients along world x, y and z (n² each).
     pub(super) fn stride(&self) -> usize {
-        4 * self.count()
+        if self.gradients {
+            4 * self.count()
+        } else {
+            self.count()
+        }
     }
 
     /// A record's stored values (`stride()` of them) from its gather: the coefficients of the
@@ -150,7 +163,7 @@ impl RadianceCaching {
                 *o += *v * cell_weight;
             }
         }
-        if let Some(variant) = variant {
+        if let Some(variant) = variant.filter(|_| self.gradients) {
             // All n² gradients by one walk of the walls (`cells` is [cell][k]).
             let mut local = vec![[Vec3::ZERO; 3]; count];
             if samples
@@ -184,13 +197,17 @@ impl RadianceCaching {
         if stored.len() != self.stride() || moved.len() != count {
             return;
         }
-        let (c, g) = stored.split_at(count);
-        let (gx, rest) = g.split_at(count);
-        let (gy, gz) = rest.split_at(count);
-        for ((((m, c), x), y), z) in moved.iter_mut().zip(c).zip(gx).zip(gy).zip(gz) {
-            *m = *c + *x * offset.x + *y * offset.y + *z * offset.z;
-        }
-        let stored: &[Vec3] = moved;
+        let stored: &[Vec3] = if self.gradients {
+            let (c, g) = stored.split_at(count);
+            let (gx, rest) = g.split_at(count);
+            let (gy, gz) = rest.split_at(count);
+            for ((((m, c), x), y), z) in moved.iter_mut().zip(c).zip(gx).zip(gy).zip(gz) {
+                *m = *c + *x * offset.x + *y * offset.y + *z * offset.z;
+            }
+            moved
+        } else {
+            stored
+        };
         // Normals within 2⁻²⁰ of each other (a flat surface's interpolated normals, equal up
         // to rounding) share the frame to that order: no rotation.
         if (record_normal - frame.n).length_squared() < 1e-12 {
@@ -243,7 +260,7 @@ mod tests {
     use std::f32::consts::TAU;
 
     fn caching(order: usize) -> RadianceCaching {
-        RadianceCaching::new(order, 0.5, &[(0.0, 1.0)]).unwrap_or_else(|e| panic!("{e}"))
+        RadianceCaching::new(order, 0.5, &[(0.0, 1.0)], true).unwrap_or_else(|e| panic!("{e}"))
     }
 
     /// A gather of `strata` whose cell (j, k) brings back `radiance(j, k)` from `distance(j, k)`,
@@ -393,6 +410,39 @@ mod tests {
                 .unwrap_or_else(|e| panic!("{e}"));
             assert!((a - b).abs().max_element() < 1e-4, "{a} vs {b}");
         }
+    }
+
+    /// Without gradients a record stores its n² coefficients alone, and a lookup adds them
+    /// unextrapolated (the same bits whatever the offset); the projection's coefficients are
+    /// those it makes with gradients.
+    #[test]
+    fn without_gradients_records_hold_the_coefficients_alone() {
+        let with = caching(3);
+        let without =
+            RadianceCaching::new(3, 0.5, &[(0.0, 1.0)], false).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(without.stride(), without.count());
+        let strata = HemisphereStrata::new(4, 12).unwrap_or_else(|e| panic!("{e}"));
+        let radiance = |j: u32, k: u32| Vec3::new(1.0 + (k % 3) as f32, 0.5 * j as f32, 1.0);
+        let (samples, log) = gather(strata, radiance, |j, k| 0.5 + ((j + k) % 4) as f32);
+        let frame = Frame::from_normal(Vec3::Z);
+        let variant = Some(TranslationGradient::WardHeckbert);
+        let c = without.project(&samples, &log, &frame, variant);
+        assert_eq!(c.len(), without.count());
+        assert_eq!(
+            c[..],
+            with.project(&samples, &log, &frame, variant)[..with.count()]
+        );
+        let count = without.count();
+        let mut sum = vec![Vec3::ZERO; count];
+        let (mut moved, mut turned) = (vec![Vec3::ZERO; count], vec![Vec3::ZERO; count]);
+        without.accumulate(
+            (&c, Vec3::Z, Vec3::new(3.0, -2.0, 0.0)),
+            &frame,
+            1.0,
+            &mut sum,
+            (&mut moved, &mut turned),
+        );
+        assert_eq!(sum, c);
     }
 
     /// A uniform sky's coefficients reflect the residual's integral against L cos θ = cos θ:

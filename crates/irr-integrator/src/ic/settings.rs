@@ -246,6 +246,11 @@ pub struct IcSettings {
     /// roughness and view angle) is at most this; elsewhere the lobe is path-traced. Range:
     /// (0, 1].
     pub radiance_error: f32,
+    /// With radiance caching: each coefficient also gets its translation gradient (the
+    /// irradiance's walls, `--gradients`' variant), by which lookups extrapolate. Default: off
+    /// (docs/performance.md, "Radiance caching": on a rough metal floor the gradients triple the
+    /// glossy light's error and bias it upward as κ tightens).
+    pub radiance_gradients: bool,
     /// With the Hessian metric: extrapolate each record's irradiance to second order by its
     /// curvature (the tangent-plane eigenvalues of its relative Hessian; Jarosz et al. 2012),
     /// the relative correction ½ Δᵀ(H/E)Δ clamped into [−this, this]. 0 (the default): first
@@ -287,6 +292,7 @@ impl Default for IcSettings {
             fill_samples: false,
             radiance_order: 0,
             radiance_error: 0.1,
+            radiance_gradients: false,
             second_order: 0.0,
             path: PathSettings::default(),
         }
