@@ -45,30 +45,25 @@ fn ic_render(scene: &Scene, camera: &Camera, settings: &RenderSettings) -> Image
 }
 
 /// The cache with the Hessian metric: elliptical records whose radii come from the irradiance
-/// Hessian (1/length²) and the scene's diagonal.
-fn hessian_render(scene: &Scene, camera: &Camera, settings: &RenderSettings) -> Image {
-    let ic = IcSettings {
+/// Hessian (1/length²) and the scene's diagonal; with `second_order`, each record's curvature
+/// (1/length²) times the squared offset from it, a number without unit, extrapolates it.
+fn hessian_ic(second_order: f32) -> IcSettings {
+    IcSettings {
         strata_m: 8,
         strata_n: 32,
         metric: MetricKind::Hessian,
         error: 0.5,
+        second_order,
         ..IcSettings::default()
-    };
-    ic_image(scene, camera, ic, settings).0
+    }
 }
 
-/// The Hessian cache extrapolating to second order: each record's curvature (1/length²) times
-/// the squared offset from it, a number without unit.
+fn hessian_render(scene: &Scene, camera: &Camera, settings: &RenderSettings) -> Image {
+    ic_image(scene, camera, hessian_ic(0.0), settings).0
+}
+
 fn hessian_second_order_render(scene: &Scene, camera: &Camera, settings: &RenderSettings) -> Image {
-    let ic = IcSettings {
-        strata_m: 8,
-        strata_n: 32,
-        metric: MetricKind::Hessian,
-        error: 0.5,
-        second_order: 0.25,
-        ..IcSettings::default()
-    };
-    ic_image(scene, camera, ic, settings).0
+    ic_image(scene, camera, hessian_ic(0.25), settings).0
 }
 
 /// No record, weight, radius, clamp, octree query or ray offset depends on the unit: the Cornell
