@@ -273,10 +273,11 @@ fn uniform_light_sh_matches_hsh() {
 }
 
 /// The residual's coefficients pair exactly with a band-limited function: for h of SH order n
-/// on the sphere (standing for L cos θi), Σ c_k r_k = ∫_{S²} h·r_n = ∫_{H²} h (f − ρ_d/π) dωi,
-/// since r_n is r's projection and h lies in the projected space. So the table's answer must
-/// match a direct quadrature of the right side (f from `eval_lobes`, ρ_d from
-/// `diffuse_albedo`) to the two quadratures' errors, each estimated by halving its grid, plus
+/// on the sphere, Σ c_k r_k = ∫_{S²} h·r_n = ∫_{S²} h·r, since r_n is the projection of r (the
+/// residual continued below the horizon by its mirror image) and h lies in the projected space;
+/// folding the lower hemisphere onto the upper, that is ∫_{H²} (h(wi) + h(w̄i)) (f − ρ_d/π) dωi
+/// with w̄i = (x, y, −z). So the table's answer must match a direct quadrature of the right
+/// side (f from `eval_lobes`, ρ_d from `diffuse_albedo`) to the two quadratures' errors, each estimated by halving its grid, plus
 /// f32 rounding (sums of 16 products: 1e-5 of the scale). The table's microfacet grid (384²
 /// nodes) converges to first order only, and irregularly, since without the cosine the lobe
 /// jumps to zero at the horizon, which cuts its cells (measured at roughness 0.8, cos θo 0.31:
@@ -318,10 +319,13 @@ fn residual_pairs_with_band_limited_light() {
             for k in 0..columns {
                 let p = TAU * (k as f64 + 0.5) / columns as f64;
                 let wi = DVec3::new(s * p.cos(), s * p.sin(), z);
-                basis
-                    .eval_f64(wi, &mut values)
-                    .unwrap_or_else(|e| panic!("{e}"));
-                let hv: f64 = values.iter().zip(&h).map(|(a, b)| a * b).sum();
+                let mut hv = 0.0;
+                for w in [wi, DVec3::new(wi.x, wi.y, -wi.z)] {
+                    basis
+                        .eval_f64(w, &mut values)
+                        .unwrap_or_else(|e| panic!("{e}"));
+                    hv += values.iter().zip(&h).map(|(a, b)| a * b).sum::<f64>();
+                }
                 let f = m.eval(to_f32(wo), to_f32(wi)).as_dvec3();
                 sum += (f - stand_in) * (hv * weight);
             }
@@ -360,6 +364,50 @@ fn residual_pairs_with_band_limited_light() {
                 "{m:?} cos {cos_o}: {got} vs {want} ({err} > {tol})"
             );
         }
+    }
+}
+
+/// The residual's coefficients are its mirror continuation's: those with l + m odd are zero
+/// (exactly: multiplied by 0), so the reconstruction takes the same value at wi and at its
+/// mirror image (x, y, −z); up to f32 rounding of sums of n² products, asserted at 1e-5 of the
+/// coefficients' largest magnitude times n².
+#[test]
+fn residual_is_continued_by_its_mirror_image() {
+    let order = 5;
+    let table =
+        ResidualTable::new(order, (6, 6), 48, &[(0.0, 1.0)]).unwrap_or_else(|e| panic!("{e}"));
+    let basis = table.basis();
+    let count = basis.coefficient_count();
+    let m = MetallicRoughness::with_specular(Vec3::new(0.7, 0.5, 0.3), 0.4, 0.6, 0.8);
+    let mut r = vec![Vec3::ZERO; count];
+    table
+        .coefficients(&m, 0.35, &mut r)
+        .unwrap_or_else(|e| panic!("{e}"));
+    for l in 0..order {
+        for mm in -(l as isize)..=(l as isize) {
+            if (l as isize + mm).rem_euclid(2) == 1 {
+                assert_eq!(r[irr_sh::index(l, mm)], Vec3::ZERO, "({l}, {mm})");
+            }
+        }
+    }
+    let scale = r
+        .iter()
+        .map(|c| c.abs().max_element())
+        .fold(0.0f32, f32::max);
+    let mut values = vec![0.0f32; count];
+    for wi in [Vec3::new(0.3, -0.2, 0.93), Vec3::new(-0.7, 0.6, 0.39)] {
+        let wi = wi.normalize();
+        let at = |w: Vec3, values: &mut [f32]| {
+            basis.eval(w, values).unwrap_or_else(|e| panic!("{e}"));
+            r.iter()
+                .zip(values.iter())
+                .map(|(c, y)| *c * *y)
+                .sum::<Vec3>()
+        };
+        let up = at(wi, &mut values);
+        let down = at(Vec3::new(wi.x, wi.y, -wi.z), &mut values);
+        let tol = 1e-5 * scale * count as f32;
+        assert!((up - down).abs().max_element() <= tol, "{up} vs {down}");
     }
 }
 
