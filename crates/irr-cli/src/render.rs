@@ -170,10 +170,12 @@ pub struct IcArgs {
     /// (0, 1]; elsewhere its lobe is path-traced. Larger: more points cached, more bias
     #[arg(long, default_value_t = IcSettings::default().radiance_error, allow_negative_numbers = true)]
     pub radiance_error: f32,
-    /// With --radiance-order: give every coefficient a translation gradient, by which lookups
-    /// extrapolate (off by default: measured noisier; docs/performance.md, "Radiance caching")
-    #[arg(long)]
-    pub radiance_gradients: bool,
+    /// With --radiance-order: the coefficients of the first BANDS bands (BANDS² of them) get
+    /// translation gradients (capped as the irradiance's), by which lookups extrapolate them;
+    /// 0..=N, N: every coefficient (0 by default: measured to add error and bias;
+    /// docs/performance.md, "Radiance caching")
+    #[arg(long, value_name = "BANDS", default_value_t = IcSettings::default().radiance_gradients)]
+    pub radiance_gradients: u32,
     /// With --metric hessian: extrapolate each record to second order by its curvature (the
     /// eigenvalues of its relative irradiance Hessian), the correction clamped to this fraction
     /// of the record's irradiance, in [0, 1] (e.g. 0.1). 0: first order

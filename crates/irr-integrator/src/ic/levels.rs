@@ -97,7 +97,7 @@ impl<V: IcValue> Core<V> {
             .collect();
         self.radiance = (order > 0 && !ranges.is_empty() && !self.levels.is_empty())
             .then(|| {
-                let gradients = self.settings.radiance_gradients;
+                let gradients = self.settings.radiance_gradients as usize;
                 RadianceCaching::new(order, self.settings.radiance_error, &ranges, gradients).ok()
             })
             .flatten();
@@ -193,13 +193,16 @@ impl<V: IcValue> Core<V> {
             stats.guard_rays += guard;
             let l = &mut self.levels[level];
             match l.cache.insert_with_radius(record, &c.inputs) {
-                Ok((id, _)) => {
+                Ok((id, placement)) => {
                     debug_assert_eq!(id as usize, l.guard.len());
                     l.guard.push(c.guard);
                     l.noise.push(c.noise);
                     // Coefficients stay aligned with the ids: a record of the first level has
                     // them whenever radiance caching is on (`complete`).
-                    if let Some(coefficients) = c.radiance {
+                    if let Some(mut coefficients) = c.radiance {
+                        if let Some(r) = &self.radiance {
+                            r.cap_gradients(&mut coefficients, &placement.gradient_scale);
+                        }
                         l.radiance.extend(coefficients);
                     }
                     stats.inserted += 1;

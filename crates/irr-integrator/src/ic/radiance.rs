@@ -33,16 +33,19 @@
 //! only on the point, so it is deterministic.
 //!
 //! # Gradients
-//! With [`IcSettings::radiance_gradients`], each coefficient has its translation gradient (as
-//! Křivánek et al. 2005 give one): the gather's walls move with the point as for the
-//! irradiance, and a wall between two cells changes c_k by the difference of their values
-//! L·Y_k, so irr-gradients' estimator of the records' translation gradient (`--gradients`),
-//! given each cell's mean of L·Y_k in place of its radiance, gives ∇c_k. A lookup then
-//! extrapolates each record's coefficients to the query point before it rotates them. Off by
-//! default: the high-order coefficients' gradients are noisy (nothing caps them, unlike the
-//! irradiance's), and on a rough metal floor they tripled the glossy light's error
-//! (docs/performance.md, "Radiance caching"). No rotation gradient: the rotation into the
-//! query's frame is exact.
+//! With [`IcSettings::radiance_gradients`] = b, the coefficients of the first b bands (b² of
+//! them) have their translation gradients (as Křivánek et al. 2005 give them): the gather's
+//! walls move with the point as for the irradiance, and a wall between two cells changes c_k by
+//! the difference of their values L·Y_k, so irr-gradients' estimator of the records' translation
+//! gradient (`--gradients`), given each cell's mean of L·Y_k in place of its radiance, gives
+//! ∇c_k. When the record is inserted they are scaled, channel by channel, by the irradiance
+//! record's gradient cap (irr-cache's radius pipeline, step 5: where the minimum radius raised R
+//! above E/‖∇ₜE‖): ∇c₀ is the irradiance's gradient times Y₀, so c₀ then moves over R by no
+//! more than its value, as the irradiance does. A lookup extrapolates each record's
+//! coefficients to the query point before it rotates them. Uncapped, a few records near walls
+//! extrapolated the floor's glossy light far below zero. Off by default: capped, on a rough
+//! metal floor they move its glossy bias by +0.4 % at 7 % more error (docs/performance.md,
+//! "Radiance caching"). No rotation gradient: the rotation into the query's frame is exact.
 //!
 //! [`IcSettings::radiance_order`]: super::IcSettings::radiance_order
 //! [`IcSettings::radiance_error`]: super::IcSettings::radiance_error
@@ -66,27 +69,29 @@ pub(super) struct RadianceCaching {
     table: ResidualTable,
     basis: Basis,
     max_error: f32,
-    /// Whether records keep a translation gradient per coefficient (module docs, "Gradients").
-    gradients: bool,
+    /// How many of the first coefficients (the lowest bands') keep a translation gradient
+    /// (module docs, "Gradients"): bands², at most n².
+    gradients: usize,
 }
 
 impl RadianceCaching {
     /// The table for SH of `order` at the roughness within `ranges` (a scene's materials'),
     /// used where the lobe's reconstruction error is at most `max_error` (never outside
-    /// `ranges`, where it is +∞); with `gradients`, records keep each coefficient's translation
-    /// gradient.
+    /// `ranges`, where it is +∞); records keep the translation gradients of the coefficients of
+    /// the first `gradient_bands` bands (0: none; `order` or more: all).
     pub(super) fn new(
         order: usize,
         max_error: f32,
         ranges: &[(f32, f32)],
-        gradients: bool,
+        gradient_bands: usize,
     ) -> Result<Self, BasisTableError> {
         let table = ResidualTable::sh_within(order, ranges)?;
+        let basis = table.basis();
         Ok(Self {
-            basis: table.basis(),
+            gradients: gradient_bands.min(order).pow(2),
+            basis,
             table,
             max_error,
-            gradients,
         })
     }
 
@@ -110,22 +115,18 @@ impl RadianceCaching {
         }
     }
 
-    /// Values stored per record: the n² coefficients, then, with gradients, their translation
-    /// gradients along world x, y and z (n² each).
+    /// Values stored per record: the n² coefficients, then the translation gradients of the
+    /// first g of them (g = bands², module docs) along world x, y and z (g each).
     pub(super) fn stride(&self) -> usize {
-        if self.gradients {
-            4 * self.count()
-        } else {
-            self.count()
-        }
+        self.count() + 3 * self.gradients
     }
 
     /// A record's stored values (`stride()` of them) from its gather: the coefficients of the
     /// cosine-weighted radiance of its rays `log` (every ray, including those of super-sampled
     /// cells and those below the geometric surface, which brought back nothing) in the gather's
-    /// frame, then, with `variant`, each coefficient's translation gradient in world space by
-    /// the same walls as the irradiance's (irr-gradients' `translation_gradient_of`, on the
-    /// gather `samples` whose rays these are; zero without).
+    /// frame, then, with `variant`, the first g coefficients' translation gradients in world
+    /// space by the same walls as the irradiance's (irr-gradients' `translation_gradients_of`,
+    /// on the gather `samples` whose rays these are; zero without).
     pub(super) fn project(
         &self,
         samples: &GatherSamples<Vec3>,
@@ -163,22 +164,51 @@ impl RadianceCaching {
                 *o += *v * cell_weight;
             }
         }
-        if let Some(variant) = variant.filter(|_| self.gradients) {
-            // All n² gradients by one walk of the walls (`cells` is [cell][k]).
-            let mut local = vec![[Vec3::ZERO; 3]; count];
+        let graded = self.gradients;
+        if let Some(variant) = variant.filter(|_| graded > 0) {
+            // The g gradients by one walk of the walls, on the cells' first g values.
+            let firsts: Vec<Vec3> = if graded == count {
+                cells
+            } else {
+                cells
+                    .chunks_exact(count)
+                    .flat_map(|row| row[..graded].iter().copied())
+                    .collect()
+            };
+            let mut local = vec![[Vec3::ZERO; 3]; graded];
             if samples
-                .translation_gradients_of(variant, &cells, count, &mut local)
+                .translation_gradients_of(variant, &firsts, graded, &mut local)
                 .is_some()
             {
                 for (k, l) in local.iter().enumerate() {
                     let world = rotate_to_world(l, frame);
                     for (axis, g) in world.iter().enumerate() {
-                        out[(1 + axis) * count + k] = *g;
+                        out[count + axis * graded + k] = *g;
                     }
                 }
             }
         }
         out
+    }
+
+    /// Scales a record's coefficient gradients (`stored`, `stride()` values) by the irradiance
+    /// record's gradient cap, channel by channel (irr-cache's `Placement::gradient_scale`):
+    /// the zeroth coefficient is the irradiance's own times Y₀, so over the record's radius
+    /// it then moves by no more than its value, as the irradiance does; the others move with it.
+    pub(super) fn cap_gradients(&self, stored: &mut [Vec3], scale: &[f32]) {
+        let s = Vec3::new(
+            scale.first().copied().unwrap_or(1.0),
+            scale.get(1).copied().unwrap_or(1.0),
+            scale.get(2).copied().unwrap_or(1.0),
+        );
+        if s == Vec3::ONE {
+            return;
+        }
+        if let Some(gradients) = stored.get_mut(self.count()..) {
+            for g in gradients {
+                *g *= s;
+            }
+        }
     }
 
     /// Adds `weight` times a record's coefficients, extrapolated by their gradients to the
@@ -197,10 +227,12 @@ impl RadianceCaching {
         if stored.len() != self.stride() || moved.len() != count {
             return;
         }
-        let stored: &[Vec3] = if self.gradients {
+        let graded = self.gradients;
+        let stored: &[Vec3] = if graded > 0 {
             let (c, g) = stored.split_at(count);
-            let (gx, rest) = g.split_at(count);
-            let (gy, gz) = rest.split_at(count);
+            let (gx, rest) = g.split_at(graded);
+            let (gy, gz) = rest.split_at(graded);
+            moved.copy_from_slice(c);
             for ((((m, c), x), y), z) in moved.iter_mut().zip(c).zip(gx).zip(gy).zip(gz) {
                 *m = *c + *x * offset.x + *y * offset.y + *z * offset.z;
             }
@@ -260,7 +292,7 @@ mod tests {
     use std::f32::consts::TAU;
 
     fn caching(order: usize) -> RadianceCaching {
-        RadianceCaching::new(order, 0.5, &[(0.0, 1.0)], true).unwrap_or_else(|e| panic!("{e}"))
+        RadianceCaching::new(order, 0.5, &[(0.0, 1.0)], order).unwrap_or_else(|e| panic!("{e}"))
     }
 
     /// A gather of `strata` whose cell (j, k) brings back `radiance(j, k)` from `distance(j, k)`,
@@ -412,37 +444,73 @@ mod tests {
         }
     }
 
-    /// Without gradients a record stores its n² coefficients alone, and a lookup adds them
-    /// unextrapolated (the same bits whatever the offset); the projection's coefficients are
-    /// those it makes with gradients.
+    /// With the gradients of the first b bands only, a record stores its n² coefficients and
+    /// 3b² gradients, the same bits as the full projection's (each quantity's walls are walked
+    /// by the same operations in the same order); a lookup extrapolates those b² coefficients
+    /// and adds the others as stored. b = 0: the coefficients alone, whatever the offset.
     #[test]
-    fn without_gradients_records_hold_the_coefficients_alone() {
-        let with = caching(3);
-        let without =
-            RadianceCaching::new(3, 0.5, &[(0.0, 1.0)], false).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(without.stride(), without.count());
+    fn records_keep_the_gradients_of_the_first_bands() {
+        let full = caching(3);
+        let count = full.count();
         let strata = HemisphereStrata::new(4, 12).unwrap_or_else(|e| panic!("{e}"));
         let radiance = |j: u32, k: u32| Vec3::new(1.0 + (k % 3) as f32, 0.5 * j as f32, 1.0);
         let (samples, log) = gather(strata, radiance, |j, k| 0.5 + ((j + k) % 4) as f32);
         let frame = Frame::from_normal(Vec3::Z);
         let variant = Some(TranslationGradient::WardHeckbert);
-        let c = without.project(&samples, &log, &frame, variant);
-        assert_eq!(c.len(), without.count());
-        assert_eq!(
-            c[..],
-            with.project(&samples, &log, &frame, variant)[..with.count()]
-        );
-        let count = without.count();
-        let mut sum = vec![Vec3::ZERO; count];
-        let (mut moved, mut turned) = (vec![Vec3::ZERO; count], vec![Vec3::ZERO; count]);
-        without.accumulate(
-            (&c, Vec3::Z, Vec3::new(3.0, -2.0, 0.0)),
-            &frame,
-            1.0,
-            &mut sum,
-            (&mut moved, &mut turned),
-        );
-        assert_eq!(sum, c);
+        let all = full.project(&samples, &log, &frame, variant);
+        assert!(all[count..].iter().any(|g| *g != Vec3::ZERO));
+        let offset = Vec3::new(3.0, -2.0, 0.5);
+        for bands in 0..=2 {
+            let rc = RadianceCaching::new(3, 0.5, &[(0.0, 1.0)], bands)
+                .unwrap_or_else(|e| panic!("{e}"));
+            let g = bands * bands;
+            assert_eq!(rc.stride(), count + 3 * g);
+            let c = rc.project(&samples, &log, &frame, variant);
+            assert_eq!(c.len(), rc.stride());
+            assert_eq!(c[..count], all[..count]);
+            for axis in 0..3 {
+                let start = count + axis * count;
+                assert_eq!(
+                    c[count + axis * g..count + (axis + 1) * g],
+                    all[start..start + g]
+                );
+            }
+            let mut sum = vec![Vec3::ZERO; count];
+            let (mut moved, mut turned) = (vec![Vec3::ZERO; count], vec![Vec3::ZERO; count]);
+            rc.accumulate(
+                (&c, Vec3::Z, offset),
+                &frame,
+                1.0,
+                &mut sum,
+                (&mut moved, &mut turned),
+            );
+            for (k, s) in sum.iter().enumerate() {
+                let want = if k < g {
+                    let at = |axis: usize| c[count + axis * g + k];
+                    c[k] + at(0) * offset.x + at(1) * offset.y + at(2) * offset.z
+                } else {
+                    c[k]
+                };
+                assert_eq!(*s, want, "bands {bands}, coefficient {k}");
+            }
+        }
+    }
+
+    /// The irradiance's gradient cap scales every stored gradient channel by channel and
+    /// leaves the coefficients as they were (exact products).
+    #[test]
+    fn the_cap_scales_the_gradients_alone() {
+        let rc = RadianceCaching::new(3, 0.5, &[(0.0, 1.0)], 2).unwrap_or_else(|e| panic!("{e}"));
+        let stored: Vec<Vec3> = (0..rc.stride())
+            .map(|k| Vec3::new(k as f32, 1.0 - k as f32, 0.5))
+            .collect();
+        let mut capped = stored.clone();
+        rc.cap_gradients(&mut capped, &[0.5, 1.0, 0.25, 1.0]);
+        let count = rc.count();
+        assert_eq!(capped[..count], stored[..count]);
+        for (c, s) in capped[count..].iter().zip(&stored[count..]) {
+            assert_eq!(*c, *s * Vec3::new(0.5, 1.0, 0.25));
+        }
     }
 
     /// A uniform sky's coefficients reflect the residual's integral against L cos θ = cos θ:

@@ -246,11 +246,13 @@ pub struct IcSettings {
     /// roughness and view angle) is at most this; elsewhere the lobe is path-traced. Range:
     /// (0, 1].
     pub radiance_error: f32,
-    /// With radiance caching: each coefficient also gets its translation gradient (the
-    /// irradiance's walls, `--gradients`' variant), by which lookups extrapolate. Default: off
-    /// (docs/performance.md, "Radiance caching": on a rough metal floor the gradients triple the
-    /// glossy light's error and bias it upward as κ tightens).
-    pub radiance_gradients: bool,
+    /// With radiance caching: the coefficients of the first this many bands (this² of them)
+    /// also get their translation gradients (the irradiance's walls, `--gradients`' variant),
+    /// by which lookups extrapolate them, scaled by the irradiance record's gradient cap.
+    /// 0 (the default): none; `radiance_order`: every coefficient. Range:
+    /// 0..=`radiance_order` (docs/performance.md, "Radiance caching": on a rough metal floor
+    /// they add error and move the glossy light's bias up, past zero at the tightest κ).
+    pub radiance_gradients: u32,
     /// With the Hessian metric: extrapolate each record's irradiance to second order by its
     /// curvature (the tangent-plane eigenvalues of its relative Hessian; Jarosz et al. 2012),
     /// the relative correction ½ Δᵀ(H/E)Δ clamped into [−this, this]. 0 (the default): first
@@ -292,7 +294,7 @@ impl Default for IcSettings {
             fill_samples: false,
             radiance_order: 0,
             radiance_error: 0.1,
-            radiance_gradients: false,
+            radiance_gradients: 0,
             second_order: 0.0,
             path: PathSettings::default(),
         }
@@ -380,6 +382,15 @@ impl IcSettings {
             return Err(setting_error(
                 "--radiance-error",
                 format!("must lie in (0, 1], got {}", self.radiance_error),
+            ));
+        }
+        if self.radiance_gradients > self.radiance_order {
+            return Err(setting_error(
+                "--radiance-gradients",
+                format!(
+                    "must lie in 0..=--radiance-order ({}), got {}",
+                    self.radiance_order, self.radiance_gradients
+                ),
             ));
         }
         if !(0.0..=1.0).contains(&self.second_order) {
@@ -500,7 +511,7 @@ mod tests {
     fn nonsense_settings_name_the_option() {
         let base = IcSettings::default();
         assert!(base.validate().is_ok());
-        let cases: [(IcSettings, &str); 18] = [
+        let cases: [(IcSettings, &str); 19] = [
             (IcSettings { error: 0.0, ..base }, "--error"),
             (
                 IcSettings {
@@ -609,6 +620,14 @@ mod tests {
                     ..base
                 },
                 "--radiance-error",
+            ),
+            (
+                IcSettings {
+                    radiance_order: 4,
+                    radiance_gradients: 5,
+                    ..base
+                },
+                "--radiance-gradients",
             ),
             (
                 IcSettings {
