@@ -142,42 +142,36 @@ impl RadianceCaching {
                 *c += 1;
             }
         }
-        // Each cell's mean of L·Y_k over its rays, [cell][k].
-        let mut cells = vec![Vec3::ZERO; strata.len() * count];
+        // c_k = Σ_cells (π/MN) mean(L·Y_k), the irradiance's estimator, summed ray by ray; the
+        // graded coefficients' cell means, [cell][k < g], also kept for their gradients' walls
+        // (only those: n² per cell would be a megabyte a record at order 10).
+        let cell_weight = PI / strata.len() as f32;
+        let graded = if variant.is_some() { self.gradients } else { 0 };
+        let mut out = vec![Vec3::ZERO; self.stride()];
+        let mut cells = vec![Vec3::ZERO; strata.len() * graded];
         let mut values = vec![0.0f32; count];
         for &(cell, w, value) in log {
             let samples = per_cell.get(cell as usize).copied().unwrap_or(0);
             if samples == 0 || value == Vec3::ZERO || self.basis.eval(w, &mut values).is_err() {
                 continue;
             }
-            let start = cell as usize * count;
-            let weighted = value / samples as f32;
-            for (o, y) in cells[start..start + count].iter_mut().zip(&values) {
-                *o += weighted * *y;
+            let mean = value / samples as f32;
+            let share = mean * cell_weight;
+            for (o, y) in out[..count].iter_mut().zip(&values) {
+                *o += share * *y;
+            }
+            let start = cell as usize * graded;
+            if let Some(row) = cells.get_mut(start..start + graded) {
+                for (o, y) in row.iter_mut().zip(&values) {
+                    *o += mean * *y;
+                }
             }
         }
-        // c_k = Σ_cells (π/MN) mean(L·Y_k): the irradiance's estimator, cell by cell.
-        let cell_weight = PI / strata.len() as f32;
-        let mut out = vec![Vec3::ZERO; self.stride()];
-        for row in cells.chunks_exact(count) {
-            for (o, v) in out[..count].iter_mut().zip(row) {
-                *o += *v * cell_weight;
-            }
-        }
-        let graded = self.gradients;
         if let Some(variant) = variant.filter(|_| graded > 0) {
-            // The g gradients by one walk of the walls, on the cells' first g values.
-            let firsts: Vec<Vec3> = if graded == count {
-                cells
-            } else {
-                cells
-                    .chunks_exact(count)
-                    .flat_map(|row| row[..graded].iter().copied())
-                    .collect()
-            };
+            // The g gradients by one walk of the walls.
             let mut local = vec![[Vec3::ZERO; 3]; graded];
             if samples
-                .translation_gradients_of(variant, &firsts, graded, &mut local)
+                .translation_gradients_of(variant, &cells, graded, &mut local)
                 .is_some()
             {
                 for (k, l) in local.iter().enumerate() {
