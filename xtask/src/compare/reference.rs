@@ -5,7 +5,7 @@ use irr_render::{Image, LoadedScene, PathSettings, RenderSettings, write_exr_and
 use std::path::{Path, PathBuf};
 
 use super::metrics::metrics;
-use super::path_render;
+use super::{Layer, path_render};
 
 /// The seed of every measured run. The reference's halves and the cache's noise estimate draw
 /// seeds of their own ([`REFERENCE_SEEDS`], [`NOISE_SEEDS`]): a run that shared a half's seed
@@ -25,25 +25,36 @@ pub const RENDERER_DIGEST: &str = env!("IRR_RENDERER_DIGEST");
 
 /// What decides the reference's pixels, as text (written beside the image, and hashed into
 /// its file name): every byte the scene was read from, the size, the samples, the seeds, the
-/// path tracer's settings and the renderer's source.
-pub fn reference_key(loaded: &LoadedScene, width: u32, height: u32, spp: u32) -> String {
-    format!(
+/// path tracer's settings, the renderer's source and the layer (named unless the image itself).
+pub fn reference_key(
+    loaded: &LoadedScene,
+    width: u32,
+    height: u32,
+    spp: u32,
+    layer: Layer,
+) -> String {
+    let mut key = format!(
         "scene digest {:016x}; {width}x{height}; {spp} spp as 2 halves, seeds {REFERENCE_SEEDS:?}; \
          {:?}; renderer source {RENDERER_DIGEST}",
         loaded.digest,
         PathSettings::default()
-    )
+    );
+    if let Some(aov) = layer.aov() {
+        key.push_str(&format!("; layer {aov}"));
+    }
+    key
 }
 
-/// The reference image (mean of two halves) and its own relMSE, from the cache or rendered.
+/// The reference image (mean of two halves; its `layer`) and its own relMSE, from the cache
+/// or rendered (unless `fresh`).
 pub fn reference(
     loaded: &LoadedScene,
     base: &RenderSettings,
     spp: u32,
     cache_dir: &Path,
-    fresh: bool,
+    (fresh, layer): (bool, Layer),
 ) -> Result<(Image, f64, PathBuf), String> {
-    let key = reference_key(loaded, base.width, base.height, spp);
+    let key = reference_key(loaded, base.width, base.height, spp, layer);
     let hash = irr_render::fingerprint(&[key.as_bytes()]);
     let path = cache_dir.join(format!("reference-{hash:016x}.exr"));
     let noise_path = cache_dir.join(format!("reference-{hash:016x}.noise"));
@@ -70,8 +81,8 @@ pub fn reference(
         seed,
         ..*base
     });
-    let (ia, ..) = path_render(loaded, &a, false)?;
-    let (ib, ..) = path_render(loaded, &b, false)?;
+    let (ia, ..) = path_render(loaded, &a, false, layer)?;
+    let (ib, ..) = path_render(loaded, &b, false, layer)?;
     let pixels = ia
         .pixels()
         .iter()
@@ -116,7 +127,7 @@ mod tests {
             .unwrap_or_else(|e| panic!("{e}"));
         let b = irr_render::load_scene(&root.join("assets/indirect-room.gltf"))
             .unwrap_or_else(|e| panic!("{e}"));
-        let key = reference_key(&a, 48, 48, 512);
+        let key = reference_key(&a, 48, 48, 512, Layer::Colour);
         assert!(
             key.contains(RENDERER_DIGEST) && RENDERER_DIGEST.len() == 16,
             "{key}"
@@ -127,9 +138,11 @@ mod tests {
         );
         assert!(key.contains(&format!("{REFERENCE_SEEDS:?}")), "{key}");
         for other in [
-            reference_key(&a, 48, 40, 512),
-            reference_key(&a, 48, 48, 1024),
-            reference_key(&b, 48, 48, 512),
+            reference_key(&a, 48, 40, 512, Layer::Colour),
+            reference_key(&a, 48, 48, 1024, Layer::Colour),
+            reference_key(&b, 48, 48, 512, Layer::Colour),
+            reference_key(&a, 48, 48, 512, Layer::Indirect),
+            reference_key(&a, 48, 48, 512, Layer::GlossyIndirect),
         ] {
             assert_ne!(key, other);
         }
