@@ -9,7 +9,8 @@
 //! 2. Runs, all with seed [`RUN_SEED`]: the path tracer over spp, raw and denoised by OIDN; the
 //!    irradiance cache along its κ ladder, raw and denoised; the Hessian metric's ladder (its
 //!    accuracy a with the strata, beside the κ ladder); on a scene with glossy materials, the
-//!    κ ladder with radiance records for the glossy lobes and other orders and thresholds
+//!    κ ladder with radiance records for the glossy lobes (raw and denoised) and other orders
+//!    and thresholds
 //!    (module `radiance` of irr-integrator's cache); and the cache's ablations (other
 //!    strata, gradients, clamping, bounce modes, radius statistic, adaptive gathers). A
 //!    denoised run's time includes the auxiliary images and the denoiser.
@@ -557,7 +558,7 @@ fn jobs(args: &CompareArgs, denoiser: bool, glossy: bool) -> Result<Vec<Job>, St
     }
     for sw in sweep
         .iter()
-        .filter(|s| denoiser && s.group == Group::Ladder)
+        .filter(|s| denoiser && matches!(s.group, Group::Ladder | Group::Radiance))
     {
         out.push(cache_job(sw, Method::CacheDenoised, args.denoised_ic_spp));
     }
