@@ -1167,6 +1167,26 @@ fn rayon_threads(threads: usize) -> usize {
 mod tests {
     use super::*;
 
+    /// `--quick` with the tests' small sample counts, every other option at its default.
+    fn quick_args() -> CompareArgs {
+        CompareArgs {
+            scenes: Vec::new(),
+            width: 48,
+            height: 48,
+            quick: true,
+            fresh: false,
+            reference_spp: None,
+            threads: 0,
+            ic_spp: 16,
+            denoised_ic_spp: 4,
+            direct_samples: 1,
+            only: None,
+            extra: Vec::new(),
+            publish: false,
+            layer: Layer::Colour,
+        }
+    }
+
     #[test]
     fn the_readme_section_is_replaced_between_its_markers() {
         let readme = "# irr\n<!-- compare:box -->\nold\n<!-- /compare:box -->\nend\n";
@@ -1190,20 +1210,10 @@ mod tests {
         let root = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
         let workspace = crate::workspace_root().unwrap_or_else(|e| panic!("{e}"));
         let args = CompareArgs {
-            scenes: Vec::new(),
-            width: 48,
-            height: 48,
-            quick: true,
-            fresh: false,
             reference_spp: Some(256),
-            threads: 0,
-            ic_spp: 16,
-            denoised_ic_spp: 4,
-            direct_samples: 1,
             only: Some("path spp=".into()),
-            extra: Vec::new(),
-            publish: false,
             layer: Layer::GlossyIndirect,
+            ..quick_args()
         };
         let path = workspace.join("assets").join("glossy-room.gltf");
         let report = compare(&args, &path, root.path()).unwrap_or_else(|e| panic!("{e}"));
@@ -1235,22 +1245,7 @@ mod tests {
         let root = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
         let workspace = crate::workspace_root().unwrap_or_else(|e| panic!("{e}"));
         for scene in DEFAULT_SCENES {
-            let args = CompareArgs {
-                scenes: Vec::new(),
-                width: 48,
-                height: 48,
-                quick: true,
-                fresh: false,
-                reference_spp: None,
-                threads: 0,
-                ic_spp: 16,
-                denoised_ic_spp: 4,
-                direct_samples: 1,
-                only: None,
-                extra: Vec::new(),
-                publish: false,
-                layer: Layer::Colour,
-            };
+            let args = quick_args();
             let path = workspace.join("assets").join(scene);
             let report = compare(&args, &path, root.path()).unwrap_or_else(|e| panic!("{e}"));
             let mut files = vec![

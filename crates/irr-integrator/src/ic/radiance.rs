@@ -187,8 +187,9 @@ impl RadianceCaching {
 
     /// Scales a record's coefficient gradients (`stored`, `stride()` values) by the irradiance
     /// record's gradient cap, channel by channel (irr-cache's `Placement::gradient_scale`):
-    /// the zeroth coefficient is the irradiance's own times Y₀, so over the record's radius
-    /// it then moves by no more than its value, as the irradiance does; the others move with it.
+    /// with Ward & Heckbert's gradients (the default `--gradients`) the zeroth coefficient's is
+    /// the irradiance's own times Y₀, so over the record's radius c₀ then moves by no more than
+    /// its value, as the irradiance does; the others move with it.
     pub(super) fn cap_gradients(&self, stored: &mut [Vec3], scale: &[f32]) {
         let s = Vec3::new(
             scale.first().copied().unwrap_or(1.0),
