@@ -141,6 +141,11 @@ pub struct IcArgs {
     /// Light samples per camera hit for the direct light (≥ 1)
     #[arg(long, default_value_t = IcSettings::default().direct_samples)]
     pub direct_samples: u32,
+    /// BSDF samples per camera hit for a path-traced glossy lobe that carries all of the
+    /// surface's reflection (a metal), 1 to 256; a lobe carrying the share p of the albedo
+    /// takes ⌈p·this⌉. Each adds a ray; the camera sample's other work is shared
+    #[arg(long, default_value_t = IcSettings::default().glossy_samples)]
+    pub glossy_samples: u32,
     /// Adaptive gathers: the target relative standard error of a record's irradiance (e.g.
     /// 0.05), estimated from its strata; a gather above it spends more rays on its noisiest
     /// strata. Deeper levels loosen it as they loosen --error. 0: one ray per stratum
@@ -236,6 +241,7 @@ impl IcArgs {
             light_cache_cell: self.light_cache_cell,
             cached_bounces: self.bounces,
             direct_samples: self.direct_samples,
+            glossy_samples: self.glossy_samples,
             gather_error: self.gather_error,
             pixel_error: self.pixel_error,
             gather_budget: self.gather_budget,

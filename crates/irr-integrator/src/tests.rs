@@ -509,7 +509,8 @@ fn directional_albedo(m: &irr_bsdf::MetallicRoughness, wo: Vec3, n: usize) -> f6
 /// the radiance towards the camera is Le (1 + A(wo)), A the directional albedo at the hit's wo
 /// (by quadrature, `directional_albedo`). This checks the light sampling, the BSDF sampling and
 /// their power-heuristic weights for glossy lobes together, in the path tracer and in the
-/// cache's direct light (two light samples against one BSDF sample). Tolerance: 6 standard
+/// cache's direct light (two light samples against one BSDF sample, and against ⌈p·5⌉ BSDF
+/// samples with `glossy_samples` 5: the weights must use the counts). Tolerance: 6 standard
 /// errors (module docs) plus the quadrature's error, taken as the whole difference between 256²
 /// and 512² cells (second-order midpoint rule: the 512² error is about a third of it).
 #[test]
@@ -528,14 +529,19 @@ fn glossy_furnace_one_bounce() {
             rr_start: 5,
         };
         let pt = PathTracer::new(path);
-        // The cache's direct light: its light samples weighted against the BSDF sample it also
-        // traces for the glossy lobe (no cache level at one bounce).
-        let mut ic = crate::IrradianceCacheIntegrator::new(crate::IcSettings {
-            path,
-            ..crate::IcSettings::default()
-        })
-        .unwrap_or_else(|e| panic!("{e}"));
-        ic.preprocess(&s);
+        // The cache's direct light: its light samples weighted against the BSDF samples it
+        // also traces for the glossy lobe (no cache level at one bounce).
+        let ic = |glossy_samples| {
+            let mut ic = crate::IrradianceCacheIntegrator::new(crate::IcSettings {
+                path,
+                glossy_samples,
+                ..crate::IcSettings::default()
+            })
+            .unwrap_or_else(|e| panic!("{e}"));
+            ic.preprocess(&s);
+            ic
+        };
+        let (one, split) = (ic(1), ic(5));
         // From off-centre, at the wall nearly head-on, obliquely and at a grazing angle.
         let origin = Vec3::new(1.2, 0.0, 0.0);
         for (k, dir) in [
@@ -559,7 +565,7 @@ fn glossy_furnace_one_bounce() {
             let mut rays = RayCounter::default();
             let expected = f64::from(le) * (1.0 + fine);
             let quad_err = f64::from(le) * (fine - coarse).abs();
-            for integrator in [&pt as &dyn Integrator, &ic] {
+            for integrator in [&pt as &dyn Integrator, &one, &split] {
                 let est = estimate(20_000, |i| {
                     let key = SampleKey::new(11, u64::from(i), k as u64);
                     integrator.li(&s, &ray, &mut Dimensions::new(key), &mut rays)

@@ -83,8 +83,8 @@ pub use guard::GuardRecord;
 pub use light_cache::{LightCache, LightCacheCounts, LightDeposit, LightPathTracer, MIN_DEPOSITS};
 pub use radius::{HORIZON_CUT_COS, surface_spacing};
 pub use settings::{
-    BounceMode, GradientMode, IcMetric, IcSettings, IcSettingsError, LeakGuard, MAX_RADIANCE_ORDER,
-    MetricKind, RadiusStatistic,
+    BounceMode, GradientMode, IcMetric, IcSettings, IcSettingsError, LeakGuard, MAX_GLOSSY_SAMPLES,
+    MAX_RADIANCE_ORDER, MetricKind, RadiusStatistic,
 };
 pub use value::IcValue;
 
@@ -150,20 +150,20 @@ pub fn direct_nee(
     dims: &mut Dimensions,
     rays: &mut RayCounter,
 ) -> Vec3 {
-    direct_light(scene, x, &Bsdf::at(scene, x), samples, false, dims, rays)
+    direct_light(scene, x, &Bsdf::at(scene, x), samples, 0, dims, rays)
 }
 
-/// [`direct_nee`] for the BSDF `bsdf` at `x`. With `mis`, each light sample of an emitting
-/// triangle is weighted by the power heuristic against one BSDF sample (Veach 1997, eq. 9.13
-/// with sample counts: w = (n·p_light)² / ((n·p_light)² + p_bsdf²) for n light samples), and
-/// the caller adds the BSDF sample's emitter hit with the complementary weight
-/// ([`IrradianceCacheIntegrator::glossy_sample`]).
+/// [`direct_nee`] for the BSDF `bsdf` at `x`. With `bsdf_samples` = m > 0, each light sample of
+/// an emitting triangle is weighted by the power heuristic against the m BSDF samples (Veach
+/// 1997, eq. 9.13 with sample counts: w = (n·p_light)² / ((n·p_light)² + (m·p_bsdf)²) for n
+/// light samples), and the caller adds each BSDF sample's emitter hit with the complementary
+/// weight ([`IrradianceCacheIntegrator::glossy_lobe`]); with 0, no weighting.
 fn direct_light(
     scene: &Scene,
     x: &ShadingPoint,
     bsdf: &Bsdf,
     samples: u32,
-    mis: bool,
+    bsdf_samples: u32,
     dims: &mut Dimensions,
     rays: &mut RayCounter,
 ) -> Vec3 {
@@ -173,9 +173,9 @@ fn direct_light(
     let mut sum = Vec3::ZERO;
     for _ in 0..samples {
         if let Some(nee) = sample_light(scene, x, dims, rays) {
-            let w = if mis && !nee.delta {
+            let w = if bsdf_samples > 0 && !nee.delta {
                 let n_pdf = samples as f32 * nee.pdf;
-                power_heuristic(n_pdf, bsdf.pdf(nee.wi))
+                power_heuristic(n_pdf, bsdf_samples as f32 * bsdf.pdf(nee.wi))
             } else {
                 1.0
             };
@@ -413,11 +413,50 @@ impl IrradianceCacheIntegrator {
 }
 
 impl IrradianceCacheIntegrator {
+    /// How many BSDF samples a camera hit with `bsdf` spends on its path-traced lobe:
+    /// ⌈K·p⌉ for `IcSettings::glossy_samples` = K and p the share of its albedo the cache's
+    /// ρ_d/π·E leaves out (`Bsdf::residual_probability`): the lobe's variance scales as p², so
+    /// samples in proportion to p spend a budget where it removes the most (Neyman's
+    /// allocation, for light of similar relative variation). K on a metal; one on a rough
+    /// white dielectric seen head-on (p = 0.05).
+    fn lobe_samples(&self, bsdf: &Bsdf) -> u32 {
+        let k = self.core.settings.glossy_samples.max(1);
+        let p = bsdf.residual_probability();
+        ((k as f32 * p).ceil() as u32).clamp(1, k)
+    }
+
+    /// [`IrradianceCacheIntegrator::glossy_sample`] averaged over `lobe_samples` BSDF samples
+    /// (lobe splitting: each costs a ray and a light-cache lookup, while the camera sample's
+    /// shading, records and direct light are shared); with `mis`, the emitter hits are weighted
+    /// against `light_samples` light samples as [`direct_light`] weighs those against all of
+    /// them.
+    fn glossy_lobe(
+        &self,
+        scene: &Scene,
+        x: &ShadingPoint,
+        (bsdf, whole): (&Bsdf, bool),
+        (light_samples, mis): (u32, bool),
+        dims: &mut Dimensions,
+        rays: &mut RayCounter,
+    ) -> (Vec3, Vec3, Vec3) {
+        let count = self.lobe_samples(bsdf);
+        let samples = (light_samples, if mis { count } else { 0 });
+        let mut sum = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+        for _ in 0..count {
+            let (direct, indirect, glossy) =
+                self.glossy_sample(scene, x, (bsdf, whole), samples, dims, rays);
+            sum = (sum.0 + direct, sum.1 + indirect, sum.2 + glossy);
+        }
+        let inverse = 1.0 / count as f32;
+        (sum.0 * inverse, sum.1 * inverse, sum.2 * inverse)
+    }
+
     /// The light a glossy x₀ reflects that the cache's ρ_d/π·E does not stand for, by one
     /// sample of its BSDF (drawn from `dims`): (`direct`, `indirect`, `glossy`, the part of
-    /// `indirect` through f − ρ_d/π: all of it unless `whole`). With `mis` (the direct
-    /// light's `light_samples` were weighted by [`direct_light`]'s power heuristic), an emitter
-    /// that the sampled ray meets counts towards `direct` with the complementary weight; the
+    /// `indirect` through f − ρ_d/π: all of it unless `whole`). With `bsdf_samples` = m > 0
+    /// (the direct light's `light_samples` were weighted by [`direct_light`]'s power heuristic
+    /// against m BSDF samples, this one of them), an emitter that the sampled ray meets counts
+    /// towards `direct` with the complementary weight; the
     /// light that the point it meets reflects (as a level-0 gather ray brings it back,
     /// `gather_radiance`: from the light cache by default), or the background, counts towards
     /// `indirect` through the residual BSDF f − ρ_d/π (`Bsdf::residual`), so that with ρ_d/π·E from the
@@ -428,7 +467,7 @@ impl IrradianceCacheIntegrator {
         scene: &Scene,
         x: &ShadingPoint,
         (bsdf, whole): (&Bsdf, bool),
-        (light_samples, mis): (u32, bool),
+        (light_samples, bsdf_samples): (u32, u32),
         dims: &mut Dimensions,
         rays: &mut RayCounter,
     ) -> (Vec3, Vec3, Vec3) {
@@ -450,9 +489,11 @@ impl IrradianceCacheIntegrator {
         let surface = scene.geometry().surface(&ray, &hit);
         let mut direct = Vec3::ZERO;
         let le = scene.emitted_at(&surface, -draw.wi);
-        if le != Vec3::ZERO && mis && light_samples > 0 {
+        if le != Vec3::ZERO && bsdf_samples > 0 && light_samples > 0 {
             let ray = (x.position, draw.wi);
-            let w = emission_weight(scene, &surface, ray, draw.pdf, light_samples as f32);
+            // With m BSDF samples the heuristic weighs m·p_bsdf (`direct_light`).
+            let pdf = bsdf_samples as f32 * draw.pdf;
+            let w = emission_weight(scene, &surface, ray, pdf, light_samples as f32);
             direct = draw.weight * le * w;
         }
         // What the hit reflects, as a level-0 gather ray would bring it back (from the light

@@ -133,7 +133,8 @@ impl IrradianceCacheIntegrator {
                 .is_some_and(|r| r.covers(&bsdf))
                 .then_some(bsdf);
             let glossy = !bsdf.is_lambertian() && lobe.is_none();
-            let mut direct = direct_light(scene, &x, &bsdf, light_samples, glossy, d, rays);
+            let mis = if glossy { self.lobe_samples(&bsdf) } else { 0 };
+            let mut direct = direct_light(scene, &x, &bsdf, light_samples, mis, d, rays);
             let (mut indirect, mut glossy_part) = (Vec3::ZERO, Vec3::ZERO);
             // Without a cache level (at most one reflection) no record brings the background
             // that x₀ reflects once (paths `L D B`, `indirect` in the path tracer too): the same
@@ -141,7 +142,7 @@ impl IrradianceCacheIntegrator {
             let whole = self.core.levels.is_empty() && scene.background() != Vec3::ZERO;
             if glossy || whole {
                 let (more, rest, part) =
-                    self.glossy_sample(scene, &x, (&bsdf, whole), (light_samples, glossy), d, rays);
+                    self.glossy_lobe(scene, &x, (&bsdf, whole), (light_samples, glossy), d, rays);
                 direct += more;
                 indirect = rest;
                 glossy_part = part;
@@ -204,7 +205,7 @@ impl IrradianceCacheIntegrator {
                     None => {
                         let light_samples = self.core.settings.direct_samples;
                         let d = &mut dims[p.index];
-                        self.glossy_sample(
+                        self.glossy_lobe(
                             scene,
                             &p.x,
                             (bsdf, false),
