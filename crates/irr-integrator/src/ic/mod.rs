@@ -23,13 +23,14 @@
 //! The cache holds irradiance, which stands exactly for a Lambertian surface's reflection only.
 //! On a glossy x₀ (the glTF metallic-roughness model, module `bsdf`) the cache supplies
 //! ρ_d/π·E_ind with ρ_d the diffuse lobe's directional albedo (irr-bsdf's `diffuse_albedo`,
-//! exact under uniform light), and one sample of x₀'s BSDF per camera sample supplies the rest:
-//! the light its ray's hit reflects, brought back as a level-0 gather ray brings it (from the
+//! exact under uniform light), and ⌈p·K⌉ samples of x₀'s BSDF per camera sample supply the rest
+//! (`IcSettings::glossy_samples` = K, p the residual's share of the albedo, `lobe_samples`):
+//! the light each ray's hit reflects, brought back as a level-0 gather ray brings it (from the
 //! light cache by default), weighted by the residual f − ρ_d/π (which holds the glossy lobe and
 //! the diffuse lobe's departure from its stand-in, and may be negative), so that the two
 //! together estimate ∫ f L_ind cos and the image converges to the path tracer's (with the
-//! light cache, as its cells shrink). The same sample's emitter hit joins the direct light by multiple importance
-//! sampling against the light samples. A gather ray that hits a glossy surface takes ρ_d/π·Ē
+//! light cache, as its cells shrink). The same samples' emitter hits join the direct light by
+//! multiple importance sampling against the light samples (with both sample counts). A gather ray that hits a glossy surface takes ρ_d/π·Ē
 //! from the light cache (which glossy vertices fill too) and, with the probability
 //! `Bsdf::residual_probability` (weighted by its inverse), one path-traced sample of the same
 //! residual (`residual`); with the other bounce modes it path-traces the hit's light with the

@@ -249,7 +249,8 @@ pub struct IcSettings {
     /// Radiance caching (Křivánek et al. 2005) for glossy lobes: the order n of the real
     /// spherical harmonics (n² coefficients per colour) in which each first-level record also
     /// stores the cosine-weighted incoming radiance of its gather. 0: off (every glossy lobe
-    /// path-traced by one BSDF sample per camera sample). Range: 0..=[`MAX_RADIANCE_ORDER`].
+    /// path-traced by [`IcSettings::glossy_samples`]' BSDF samples per camera sample). Range:
+    /// 0..=[`MAX_RADIANCE_ORDER`].
     pub radiance_order: u32,
     /// With radiance caching: a glossy shading point uses the records only where its lobe's
     /// relative L2 reconstruction error in the basis (irr-bsdf's `ResidualTable`, by
