@@ -509,7 +509,7 @@ fn directional_albedo(m: &irr_bsdf::MetallicRoughness, wo: Vec3, n: usize) -> f6
 /// the radiance towards the camera is Le (1 + A(wo)), A the directional albedo at the hit's wo
 /// (by quadrature, `directional_albedo`). This checks the light sampling, the BSDF sampling and
 /// their power-heuristic weights for glossy lobes together, in the path tracer and in the
-/// cache's direct light (two light samples against one BSDF sample, and against ⌈p·5⌉ BSDF
+/// cache's direct light (two light samples against one BSDF sample, and against ⌈p²·5⌉ BSDF
 /// samples with `glossy_samples` 5: the weights must use the counts). Tolerance: 6 standard
 /// errors (module docs) plus the quadrature's error, taken as the whole difference between 256²
 /// and 512² cells (second-order midpoint rule: the 512² error is about a third of it).

@@ -23,7 +23,7 @@
 //! The cache holds irradiance, which stands exactly for a Lambertian surface's reflection only.
 //! On a glossy x₀ (the glTF metallic-roughness model, module `bsdf`) the cache supplies
 //! ρ_d/π·E_ind with ρ_d the diffuse lobe's directional albedo (irr-bsdf's `diffuse_albedo`,
-//! exact under uniform light), and ⌈p·K⌉ samples of x₀'s BSDF per camera sample supply the rest
+//! exact under uniform light), and ⌈p²·K⌉ samples of x₀'s BSDF per camera sample supply the rest
 //! (`IcSettings::glossy_samples` = K, p the residual's share of the albedo, `lobe_samples`):
 //! the light each ray's hit reflects, brought back as a level-0 gather ray brings it (from the
 //! light cache by default), weighted by the residual f − ρ_d/π (which holds the glossy lobe and
@@ -415,15 +415,17 @@ impl IrradianceCacheIntegrator {
 
 impl IrradianceCacheIntegrator {
     /// How many BSDF samples a camera hit with `bsdf` spends on its path-traced lobe:
-    /// ⌈K·p⌉ for `IcSettings::glossy_samples` = K and p the share of its albedo the cache's
-    /// ρ_d/π·E leaves out (`Bsdf::residual_probability`): the lobe's variance scales as p², so
-    /// samples in proportion to p spend a budget where it removes the most (Neyman's
-    /// allocation, for light of similar relative variation). K on a metal; one on a rough
-    /// white dielectric seen head-on (p = 0.05).
+    /// ⌈K·p²⌉ for `IcSettings::glossy_samples` = K and p the share of its albedo the cache's
+    /// ρ_d/π·E leaves out (`Bsdf::residual_probability`): K on a metal, one on a rough
+    /// dielectric unless seen at a grazing angle. Splitting pays where the lobe's variance
+    /// (∝ p²) is most of the pixel's; the efficiency-optimal factor (√(cost ratio × V_lobe /
+    /// V_rest)) would grow as p where the rest's variance is alike, but measured, p² reaches
+    /// the same error sooner than p on both glossy test scenes (docs/performance.md, "Glossy
+    /// lobes: more samples per camera sample").
     fn lobe_samples(&self, bsdf: &Bsdf) -> u32 {
         let k = self.core.settings.glossy_samples.max(1);
         let p = bsdf.residual_probability();
-        ((k as f32 * p).ceil() as u32).clamp(1, k)
+        ((k as f32 * p * p).ceil() as u32).clamp(1, k)
     }
 
     /// [`IrradianceCacheIntegrator::glossy_sample`] averaged over `lobe_samples` BSDF samples

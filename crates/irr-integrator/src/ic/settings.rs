@@ -198,11 +198,11 @@ pub struct IcSettings {
     pub direct_samples: u32,
     /// BSDF samples per camera hit for a glossy lobe that is path-traced (the light the cache's
     /// ρ_d/π·E leaves out) where that lobe carries all of the surface's reflection (a metal);
-    /// a lobe carrying the share p of its albedo takes ⌈p·this⌉ (one on a rough white
-    /// dielectric seen head-on). Averaged: each costs one ray and a light-cache lookup, a
+    /// a lobe carrying the share p of its albedo takes ⌈p²·this⌉ (one on a rough white
+    /// dielectric unless seen at a grazing angle). Averaged: each costs one ray and a light-cache lookup, a
     /// fraction of a camera sample, whose shading, records and direct light they share; the
     /// direct light's MIS weighs the light samples against all of them. Default: 8: on a
-    /// rough metal floor 2.7× less error than one at equal time, on the glossy room a tie
+    /// rough metal floor 2.9× less error than one at equal time, on the glossy room a tie
     /// (docs/performance.md, "Glossy lobes: more samples per camera sample"). Range:
     /// 1..=[`MAX_GLOSSY_SAMPLES`].
     pub glossy_samples: u32,
