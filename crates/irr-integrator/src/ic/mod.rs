@@ -465,12 +465,12 @@ impl IrradianceCacheIntegrator {
     /// `indirect` through f − ρ_d/π: all of it unless `whole`). With `bsdf_samples` = m > 0
     /// (the direct light's `light_samples` were weighted by [`direct_light`]'s power heuristic
     /// against m BSDF samples, this one of them), an emitter that the sampled ray meets counts
-    /// towards `direct` with the complementary weight; the
-    /// light that the point it meets reflects (as a level-0 gather ray brings it back,
-    /// `gather_radiance`: from the light cache by default), or the background, counts towards
-    /// `indirect` through the residual BSDF f − ρ_d/π (`Bsdf::residual`), so that with ρ_d/π·E from the
-    /// cache x₀ reflects ∫ f L_ind cos exactly in expectation: the image converges to the path
-    /// tracer's. With `whole` (no cache level supplies ρ_d/π·E) through the whole BSDF instead.
+    /// towards `direct` with the complementary weight. The light that the point it meets
+    /// reflects (as a level-0 gather ray brings it back, `gather_radiance`: from the light cache
+    /// by default), or the background, counts towards `indirect` through the residual BSDF
+    /// f − ρ_d/π (`Bsdf::residual`), so that with ρ_d/π·E from the cache x₀ reflects
+    /// ∫ f L_ind cos exactly in expectation: the image converges to the path tracer's. With
+    /// `whole` (no cache level supplies ρ_d/π·E) through the whole BSDF instead.
     fn glossy_sample(
         &self,
         scene: &Scene,
