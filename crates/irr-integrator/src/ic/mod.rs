@@ -30,8 +30,9 @@
 //! the diffuse lobe's departure from its stand-in, and may be negative), so that the two
 //! together estimate ∫ f L_ind cos and the image converges to the path tracer's (with the
 //! light cache, as its cells shrink). The same samples' emitter hits join the direct light by
-//! multiple importance sampling against the light samples (with both sample counts). A gather ray that hits a glossy surface takes ρ_d/π·Ē
-//! from the light cache (which glossy vertices fill too) and, with the probability
+//! multiple importance sampling against the light samples (with both sample counts). A gather
+//! ray that hits a glossy surface takes ρ_d/π·Ē from the light cache (which glossy vertices
+//! fill too) and, with the probability
 //! `Bsdf::residual_probability` (weighted by its inverse), one path-traced sample of the same
 //! residual (`residual`); with the other bounce modes it path-traces the hit's light with the
 //! whole BSDF.
@@ -417,11 +418,11 @@ impl IrradianceCacheIntegrator {
     /// How many BSDF samples a camera hit with `bsdf` spends on its path-traced lobe:
     /// ⌈K·p²⌉ for `IcSettings::glossy_samples` = K and p the share of its albedo the cache's
     /// ρ_d/π·E leaves out (`Bsdf::residual_probability`): K on a metal, one on a rough
-    /// dielectric unless seen at a grazing angle; K with radiance records (below). Splitting pays where the lobe's variance
-    /// (∝ p²) is most of the pixel's; the efficiency-optimal factor (√(cost ratio × V_lobe /
-    /// V_rest)) would grow as p where the rest's variance is alike, but measured, p² reaches
-    /// the same error sooner than p on both glossy test scenes (docs/performance.md, "Glossy
-    /// lobes: more samples per camera sample").
+    /// dielectric unless seen at a grazing angle; K with radiance records (below). Splitting
+    /// pays where the lobe's variance (∝ p²) is most of the pixel's; the efficiency-optimal
+    /// factor (√(cost ratio × V_lobe / V_rest)) would grow as p where the rest's variance is
+    /// alike, but measured, p² reaches the same error sooner than p on both glossy test scenes
+    /// (docs/performance.md, "Glossy lobes: more samples per camera sample").
     fn lobe_samples(&self, bsdf: &Bsdf) -> u32 {
         let k = self.core.settings.glossy_samples.max(1);
         // With radiance records the lobes left to sample are those beyond the records' order,
