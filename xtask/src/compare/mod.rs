@@ -313,7 +313,8 @@ fn radiance_sweep(base: IcSettings) -> Vec<Sweep> {
 }
 
 /// The irradiance-cache settings of the sweep: the ladder, then the ablations; with `glossy`
-/// (the scene has a glossy material), radiance caching's rows.
+/// (the scene has a glossy material), one lobe sample a camera sample (`glossy-samples=1`) and
+/// radiance caching's rows.
 fn ic_sweep(quick: bool, glossy: bool) -> Vec<Sweep> {
     let base = IcSettings::default();
     let mut out: Vec<Sweep> = ladder(quick)
@@ -461,6 +462,17 @@ fn ic_sweep(quick: bool, glossy: bool) -> Vec<Sweep> {
         });
     }
     if glossy {
+        // The path-traced glossy lobes with one sample a camera sample, as before
+        // `--glossy-samples`, so that every glossy report shows what the split lobes buy.
+        out.push(Sweep {
+            label: "glossy-samples=1".into(),
+            group: Group::Variant,
+            kappa: base.error,
+            settings: IcSettings {
+                glossy_samples: 1,
+                ..base
+            },
+        });
         out.extend(radiance_sweep(base));
     }
     out
