@@ -728,6 +728,41 @@ impl CacheBuilder for IrradianceCacheIntegrator {
 mod tests {
     use super::*;
     use crate::tests::{first_surface, furnace, sphere_with_light};
+    use irr_bsdf::MetallicRoughness;
+    use irr_sampling::Frame;
+
+    /// Without radiance records a path-traced lobe takes ⌈p²·K⌉ BSDF samples: K on a metal
+    /// (p = 1), one on a rough white dielectric seen head-on (p = 0.05), never fewer as the view
+    /// grows grazing (Schlick's F, so p, grows towards the horizon), always within 1..=K.
+    #[test]
+    fn lobe_samples_follow_the_residuals_share() {
+        let k = 8;
+        let ic = IrradianceCacheIntegrator::new(IcSettings {
+            glossy_samples: k,
+            ..IcSettings::default()
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+        let glossy = |material, cos_o: f32| Bsdf::Glossy {
+            material,
+            frame: Frame::from_normal(Vec3::Z),
+            wo: Vec3::new((1.0 - cos_o * cos_o).sqrt(), 0.0, cos_o),
+        };
+        let metal = MetallicRoughness::new(Vec3::new(1.0, 0.77, 0.34), 1.0, 0.3);
+        let dielectric = MetallicRoughness::new(Vec3::splat(0.8), 0.0, 1.0);
+        assert_eq!(ic.lobe_samples(&glossy(metal, 0.7)), k);
+        assert_eq!(ic.lobe_samples(&glossy(dielectric, 1.0)), 1);
+        let mut last = 1;
+        for i in (1..=20).rev() {
+            let n = ic.lobe_samples(&glossy(dielectric, i as f32 / 20.0));
+            assert!(
+                (last..=k).contains(&n),
+                "cos θo {}: {n} after {last}",
+                i as f32 / 20.0
+            );
+            last = n;
+        }
+        assert!(last > 1, "a grazing view's lobe takes more than one sample");
+    }
 
     /// In cached mode a gather ray whose hit the next level does not cover brings back a
     /// path-traced continuation, whose own light sample is the hit's direct light: the light
