@@ -435,21 +435,21 @@ impl IrradianceCacheIntegrator {
         ((k as f32 * p * p).ceil() as u32).clamp(1, k)
     }
 
-    /// [`IrradianceCacheIntegrator::glossy_sample`] averaged over `lobe_samples` BSDF samples
-    /// (lobe splitting: each costs a ray and a light-cache lookup, while the camera sample's
-    /// shading, records and direct light are shared); with `mis`, the emitter hits are weighted
-    /// against `light_samples` light samples as [`direct_light`] weighs those against all of
-    /// them.
+    /// [`IrradianceCacheIntegrator::glossy_sample`] averaged over `count` BSDF samples (the
+    /// caller's `lobe_samples`, which it also weighs its direct light against; lobe splitting:
+    /// each costs a ray and a light-cache lookup, while the camera sample's shading, records and
+    /// direct light are shared); with `mis`, the emitter hits are weighted against
+    /// `light_samples` light samples as [`direct_light`] weighs those against all of them.
     fn glossy_lobe(
         &self,
         scene: &Scene,
         x: &ShadingPoint,
         (bsdf, whole): (&Bsdf, bool),
-        (light_samples, mis): (u32, bool),
+        (light_samples, count, mis): (u32, u32, bool),
         dims: &mut Dimensions,
         rays: &mut RayCounter,
     ) -> (Vec3, Vec3, Vec3) {
-        let count = self.lobe_samples(bsdf);
+        let count = count.max(1);
         let samples = (light_samples, if mis { count } else { 0 });
         let mut sum = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
         for _ in 0..count {

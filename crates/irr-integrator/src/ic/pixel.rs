@@ -133,16 +133,23 @@ impl IrradianceCacheIntegrator {
                 .is_some_and(|r| r.covers(&bsdf))
                 .then_some(bsdf);
             let glossy = !bsdf.is_lambertian() && lobe.is_none();
-            let mis = if glossy { self.lobe_samples(&bsdf) } else { 0 };
-            let mut direct = direct_light(scene, &x, &bsdf, light_samples, mis, d, rays);
-            let (mut indirect, mut glossy_part) = (Vec3::ZERO, Vec3::ZERO);
             // Without a cache level (at most one reflection) no record brings the background
             // that x₀ reflects once (paths `L D B`, `indirect` in the path tracer too): the same
-            // BSDF sample does, through the whole BSDF.
+            // BSDF samples do, through the whole BSDF.
             let whole = self.core.levels.is_empty() && scene.background() != Vec3::ZERO;
+            // How many BSDF samples the lobe takes, once for the MIS weights and the samples.
+            let count = if glossy || whole {
+                self.lobe_samples(&bsdf)
+            } else {
+                0
+            };
+            let mis = if glossy { count } else { 0 };
+            let mut direct = direct_light(scene, &x, &bsdf, light_samples, mis, d, rays);
+            let (mut indirect, mut glossy_part) = (Vec3::ZERO, Vec3::ZERO);
             if glossy || whole {
+                let samples = (light_samples, count, glossy);
                 let (more, rest, part) =
-                    self.glossy_lobe(scene, &x, (&bsdf, whole), (light_samples, glossy), d, rays);
+                    self.glossy_lobe(scene, &x, (&bsdf, whole), samples, d, rays);
                 direct += more;
                 indirect = rest;
                 glossy_part = part;
@@ -209,7 +216,7 @@ impl IrradianceCacheIntegrator {
                             scene,
                             &p.x,
                             (bsdf, false),
-                            (light_samples, false),
+                            (light_samples, self.lobe_samples(bsdf), false),
                             d,
                             rays,
                         )
