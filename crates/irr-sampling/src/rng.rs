@@ -79,6 +79,9 @@ impl PixelKeys {
 /// unrelated to the independent values' hashes.
 const SEQUENCE_TAG: u64 = 0x50b0_1000_0000_0001;
 
+/// Mixed into a key's hash for its sub-samples ([`SampleKey::subsample`]).
+const SUBSAMPLE_TAG: u64 = 0x5b5a_3b1e_0000_0001;
+
 impl SampleKey {
     /// The key of sample `index` of `stream` under `seed`: independent uniform values per
     /// dimension.
@@ -130,6 +133,32 @@ impl SampleKey {
         Self {
             sequence: None,
             ..self
+        }
+    }
+
+    /// Sub-sample `j` of `2^bits` that split this sample (`j < 2^bits`, `bits` ≤ 16), such as
+    /// the K BSDF samples a camera hit spends on one glossy lobe. In a pixel's sequence it is
+    /// sample `index·2^bits + j`: the sub-samples of one sample are one aligned block of the
+    /// sequence, which the shuffle keeps aligned, so together they are a (0, bits, 2)-net in
+    /// each dimension (stratified against each other, not K independent points), and those of
+    /// the pixel's first 2ᵐ samples a (0, m + bits, 2)-net. Independent values are rehashed
+    /// with `j`. Sub-sample 0 of 1 (`bits` 0) is the sample itself.
+    #[inline]
+    pub fn subsample(self, j: u32, bits: u32) -> Self {
+        debug_assert!(
+            bits <= 16 && u64::from(j) < 1u64 << bits,
+            "sub-sample {j} of 2^{bits}"
+        );
+        if bits == 0 {
+            return self;
+        }
+        Self {
+            hashed: mix64(self.hashed.wrapping_add(GAMMA) ^ SUBSAMPLE_TAG ^ u64::from(j)),
+            // reverse(index·2^bits + j) = reverse(index) ≫ bits | reverse(j): j < 2^bits
+            // fills the top `bits` bits once reversed (indices past 2³² − 1 wrap).
+            sequence: self
+                .sequence
+                .map(|(seed, reversed)| (seed, (reversed >> bits) | j.reverse_bits())),
         }
     }
 
@@ -257,6 +286,39 @@ mod tests {
         assert_eq!(forward, from_threads);
     }
 
+    /// The K = 2^k sub-samples of one camera sample are a (0, k, 2)-net in a pixel dimension
+    /// (one point in each elementary interval of every shape), and those of the first 2ᵐ
+    /// samples together a (0, m + k, 2)-net. Exact: no tolerance.
+    #[test]
+    fn subsamples_of_a_sample_are_a_net() {
+        let cells = |points: &[Vec2], m: u32| {
+            (0..=m).all(|j| {
+                let (nx, ny) = (1u32 << j, 1u32 << (m - j));
+                let mut seen = vec![false; 1 << m];
+                points.iter().all(|p| {
+                    let cell = (p.x * nx as f32) as u32 * ny + (p.y * ny as f32) as u32;
+                    !std::mem::replace(&mut seen[cell as usize], true)
+                })
+            })
+        };
+        for (seed, dim) in [(1u64, 1u32), (7, 5), (u64::MAX, 40)] {
+            for k in 0..=5u32 {
+                for m in 0..=3u32 {
+                    let mut all = Vec::new();
+                    for i in 0..1u64 << m {
+                        let key = SampleKey::pixel(seed, 3, 4, i);
+                        let own: Vec<Vec2> = (0..1 << k)
+                            .map(|j| key.subsample(j, k).uniform_2d(dim))
+                            .collect();
+                        assert!(cells(&own, k), "seed {seed}, k {k}, sample {i}");
+                        all.extend(own);
+                    }
+                    assert!(cells(&all, m + k), "seed {seed}, k {k}, m {m}");
+                }
+            }
+        }
+    }
+
     #[test]
     fn cursor_matches_direct_indexing() {
         let key = SampleKey::pixel(9, 10, 11, 12);
@@ -305,6 +367,28 @@ mod tests {
         fn pixel_keys_are_distinct_streams(seed: u64, x: u32, y: u32) {
             prop_assume!(x != y);
             prop_assert_ne!(SampleKey::pixel(seed, x, y, 0), SampleKey::pixel(seed, y, x, 0));
+        }
+
+        /// Sub-sample j of 2^bits of a pixel's sample i is the sequence's sample i·2^bits + j
+        /// in every dimension from 1 on; sub-sample 0 of 1 is the sample itself.
+        #[test]
+        fn subsamples_are_the_sequences_finer_samples(seed: u64, x: u32, y: u32, index in 0u32..1 << 20, bits in 0u32..=8, j: u32, dim in 1u32..64) {
+            let j = j & ((1 << bits) - 1);
+            let sub = SampleKey::pixel(seed, x, y, u64::from(index)).subsample(j, bits);
+            let finer = SampleKey::pixel(seed, x, y, u64::from((index << bits) | j));
+            prop_assert_eq!(sub.uniform_2d(dim), finer.uniform_2d(dim));
+            prop_assert_eq!(sub.uniform(dim), finer.uniform(dim));
+            let key = SampleKey::pixel(seed, x, y, u64::from(index));
+            prop_assert_eq!(key.subsample(0, 0), key);
+        }
+
+        /// Sub-samples draw unrelated independent values (dimension 0, and keys without a
+        /// sequence): distinct 64-bit hashes for distinct j.
+        #[test]
+        fn subsamples_rehash_the_independent_values(seed: u64, stream: u64, index: u64, a in 0u32..256, b in 0u32..256) {
+            prop_assume!(a != b);
+            let key = SampleKey::new(seed, stream, index);
+            prop_assert_ne!(key.subsample(a, 8).bits(0), key.subsample(b, 8).bits(0));
         }
 
         /// A pixel's dimensions from 1 on are points of its sequence: sample `index` of

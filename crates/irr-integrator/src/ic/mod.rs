@@ -24,7 +24,8 @@
 //! On a glossy x₀ (the glTF metallic-roughness model, module `bsdf`) the cache supplies
 //! ρ_d/π·E_ind with ρ_d the diffuse lobe's directional albedo (irr-bsdf's `diffuse_albedo`,
 //! exact under uniform light), and ⌈p²·K⌉ samples of x₀'s BSDF per camera sample supply the rest
-//! (`IcSettings::glossy_samples` = K, p the residual's share of the albedo, `lobe_samples`):
+//! (`IcSettings::glossy_samples` = K, p the residual's share of the albedo, `lobe_samples`;
+//! sub-samples of the camera sample's, stratified together, `SampleKey::subsample`):
 //! the light each ray's hit reflects, brought back as a level-0 gather ray brings it (from the
 //! light cache by default), weighted by the residual f − ρ_d/π (which holds the glossy lobe and
 //! the diffuse lobe's departure from its stand-in, and may be negative), so that the two
@@ -452,11 +453,20 @@ impl IrradianceCacheIntegrator {
         let count = count.max(1);
         let samples = (light_samples, if mis { count } else { 0 });
         let mut sum = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
-        for _ in 0..count {
+        // The samples split the camera sample (`SampleKey::subsample`): in a pixel's sequence
+        // they are one aligned block, a net over the lobe's sample square rather than `count`
+        // independent points, and with the other camera samples' a net again.
+        let bits = count.next_power_of_two().trailing_zeros();
+        let (key, first) = (dims.key(), dims.position());
+        let mut last = first;
+        for j in 0..count {
+            let mut own = Dimensions::starting_at(key.subsample(j, bits), first);
             let (direct, indirect, glossy) =
-                self.glossy_sample(scene, x, (bsdf, whole), samples, dims, rays);
+                self.glossy_sample(scene, x, (bsdf, whole), samples, &mut own, rays);
             sum = (sum.0 + direct, sum.1 + indirect, sum.2 + glossy);
+            last = last.max(own.position());
         }
+        *dims = Dimensions::starting_at(key, last);
         let inverse = 1.0 / count as f32;
         (sum.0 * inverse, sum.1 * inverse, sum.2 * inverse)
     }
