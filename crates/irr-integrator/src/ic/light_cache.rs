@@ -43,16 +43,22 @@ use crate::bsdf::Bsdf;
 use crate::integrator::RayCounter;
 use crate::path::{ShadingPoint, emission_weight, power_heuristic, sample_light};
 use crate::scene::Scene;
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use irr_geometry::Ray;
-use irr_sampling::SampleKey;
 use irr_sampling::rng::Dimensions;
+use irr_sampling::{Frame, SampleKey};
 use rustc_hash::FxHashMap;
 
 /// The fewest deposits a cell must hold to be used. Below it the cell's mean rests on a few
 /// paths, shared by every gather ray that hits the cell, and a path-traced continuation (one
 /// path, but independent per ray) is the better estimate.
 pub const MIN_DEPOSITS: u32 = 8;
+
+/// The width, in cells, of the box by which [`LightCache::irradiance_filtered`] filters the
+/// cells: on the glossy room (docs/performance.md, "Filtered light-cache reads") one cell
+/// lowered the glossy error 15 %, two 30 %, three 34 %, four 32 % and six 22 %, the sharper
+/// lobes' error rising from three on (their reflections blur).
+pub const FILTER_CELLS: f32 = 2.0;
 
 /// The least probability that a light-cache path goes on past `rr_start` vertices (see
 /// [`trace_light_path`]): each step's weight 1/q stays at most 2.
@@ -97,11 +103,22 @@ impl CellKey {
     }
 }
 
-/// One path vertex's estimate of the irradiance at its point, filed under its cell.
+/// The most reflections deeper than a gather ray's hit at which a cell can be read
+/// ([`LightCache::irradiance_filtered`]'s `deeper`). A deposit's window holds the light of
+/// `max_depth` − 2 reflections after its vertex, as a gather ray's hit may reflect; a point m
+/// reflections further from the camera may reflect m fewer, so each deposit also keeps what
+/// the last `DEEPER_READS` vertices of its window brought, and a read m deeper leaves out the
+/// last m. Deeper than this, the reader path-traces.
+pub const DEEPER_READS: usize = 2;
+
+/// One path vertex's estimate of the irradiance at its point, filed under its cell, and the
+/// parts of it the last vertices of its window brought (`tails[t]`: the vertex t before the
+/// window's last; see [`DEEPER_READS`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightDeposit {
     key: CellKey,
     irradiance: Vec3,
+    tails: [Vec3; DEEPER_READS],
 }
 
 /// A cell's running sums (in f64: a cell may take millions of deposits), and the sum of its
@@ -109,6 +126,7 @@ pub struct LightDeposit {
 #[derive(Clone, Copy, Debug, Default)]
 struct CellSums {
     sum: DVec3,
+    tails: [DVec3; DEEPER_READS],
     squares: f64,
     count: u32,
 }
@@ -181,6 +199,9 @@ impl LightCache {
             let c = self.cells.entry(d.key).or_default();
             let e = d.irradiance.as_dvec3();
             c.sum += e;
+            for (sum, tail) in c.tails.iter_mut().zip(d.tails) {
+                *sum += tail.as_dvec3();
+            }
             c.squares += luminance(e).powi(2);
             c.count += 1;
         }
@@ -188,8 +209,41 @@ impl LightCache {
 
     /// The mean irradiance deposited in `x`'s cell, if it holds at least [`MIN_DEPOSITS`].
     pub fn irradiance(&self, x: &ShadingPoint) -> Option<Vec3> {
-        let c = self.cells.get(&self.key(x))?;
-        (c.count >= MIN_DEPOSITS).then(|| (c.sum / f64::from(c.count)).as_vec3())
+        self.mean(&self.key(x), 0)
+    }
+
+    /// The cell mean read at x moved by (`u` − ½)·[`FILTER_CELLS`] cells along x's tangents,
+    /// or x's own cell's where the moved point's cell is too sparse: over uniform `u`, the
+    /// cell means filtered by a box [`FILTER_CELLS`] cells wide on x's tangent plane
+    /// (stochastic filtering). A lobe's samples near one point then read several cells rather
+    /// than one, so a cell's frozen noise, which all of them would share, averages down with
+    /// the samples (to 5/12 of its variance per axis for a box two cells wide), and the mean
+    /// read is the cell means' smooth interpolation rather than a staircase. The box shrinks
+    /// with the cells, so what it blurs vanishes as they do.
+    ///
+    /// For a point `deeper` reflections further from the camera than a gather ray's hit, the
+    /// means leave out the light of as many reflections at the end of each deposit's window, so
+    /// that what the point reflects obeys the depth limit ([`DEEPER_READS`] at most: `None`
+    /// beyond).
+    pub fn irradiance_filtered(&self, x: &ShadingPoint, u: Vec2, deeper: usize) -> Option<Vec3> {
+        let frame = Frame::from_normal(x.ns);
+        let d = (u - Vec2::splat(0.5)) * (FILTER_CELLS / self.inv_cell);
+        let moved = CellKey::of(
+            x.position + frame.s * d.x + frame.t * d.y,
+            x.ns,
+            self.inv_cell,
+        );
+        self.mean(&moved, deeper)
+            .or_else(|| self.mean(&self.key(x), deeper))
+    }
+
+    /// The mean of cell `key` without the last `deeper` vertices' parts of its deposits, if it
+    /// holds at least [`MIN_DEPOSITS`] and `deeper` ≤ [`DEEPER_READS`].
+    fn mean(&self, key: &CellKey, deeper: usize) -> Option<Vec3> {
+        let c = self.cells.get(key)?;
+        let tails = c.tails.get(..deeper)?;
+        let sum = tails.iter().fold(c.sum, |sum, t| sum - *t);
+        (c.count >= MIN_DEPOSITS).then(|| (sum / f64::from(c.count)).as_vec3())
     }
 
     /// The relative standard error of the used cells' means (luminance), their root mean
@@ -257,6 +311,8 @@ pub const DEPOSITS_PER_PATH: usize = 16;
 /// One depositing vertex's estimate while the path goes on.
 struct Slot {
     key: CellKey,
+    /// The parts of `irradiance` from the last vertices of the window ([`LightDeposit`]).
+    tails: [Vec3; DEEPER_READS],
     /// What turns radiance arriving at the current vertex along its drawn direction into the
     /// slot's irradiance: cos θ/(pdf·q) of the slot's own draw times f·cos θ/(pdf·q) of each
     /// later vertex's draw up to the current one.
@@ -265,6 +321,16 @@ struct Slot {
     /// Black vertices reflect nothing, so no gather reads their cell for them: not deposited
     /// (their walk ends there, so their estimate would lack its indirect part).
     deposit: bool,
+}
+
+impl Slot {
+    /// Adds light `v` that the vertex `before_last` vertices before the window's last brought.
+    fn take(&mut self, before_last: usize, v: Vec3) {
+        self.irradiance += v;
+        if let Some(tail) = self.tails.get_mut(before_last) {
+            *tail += v;
+        }
+    }
 }
 
 /// What tracing a light cache's paths needs ([`LightCache::tracer`]): its cells' size and the
@@ -338,7 +404,8 @@ fn trace_light_path(
     let add = |slots: &mut Vec<Slot>, j: usize, light: Vec3| {
         for (k, slot) in slots.iter_mut().enumerate() {
             if j - k <= after {
-                slot.irradiance += slot.factor * light;
+                let v = slot.factor * light;
+                slot.take(after - (j - k), v);
             }
         }
     };
@@ -374,6 +441,7 @@ fn trace_light_path(
         if j < DEPOSITS_PER_PATH {
             slots.push(Slot {
                 key: CellKey::of(x.position, x.ns, inv_cell),
+                tails: [Vec3::ZERO; DEEPER_READS],
                 factor: Vec3::ZERO,
                 irradiance: Vec3::ZERO,
                 // Black vertices reflect nothing (their walk ends there, so their estimate
@@ -395,9 +463,10 @@ fn trace_light_path(
             let reflected = bsdf.eval(a.wi) * irradiance;
             for (k, slot) in slots.iter_mut().enumerate() {
                 if k == j {
-                    slot.irradiance += irradiance;
+                    slot.take(after, irradiance);
                 } else if j - k <= after {
-                    slot.irradiance += slot.factor * reflected;
+                    let v = slot.factor * reflected;
+                    slot.take(after - (j - k), v);
                 }
             }
         }
@@ -443,6 +512,7 @@ fn trace_light_path(
         .map(|s| LightDeposit {
             key: s.key,
             irradiance: s.irradiance,
+            tails: s.tails,
         })
         .collect()
 }
@@ -454,6 +524,115 @@ mod tests {
     use crate::tests::{assert_close, first_surface, furnace, scene};
     use irr_sampling::sample_uniform_sphere;
     use std::f32::consts::PI;
+
+    /// A deposit read m reflections deeper (its window's last m vertices' parts left out) is
+    /// the deposit a depth limit m lower gives, from the same random numbers: the walk's prefix
+    /// is the same, only the windows shrink. Tolerance: f32 rounding of sums of at most 64
+    /// terms of one sign, 64·2⁻²⁴ relative, doubled.
+    #[test]
+    fn a_deeper_read_is_a_lower_depth_limit() {
+        let scene = furnace(Vec3::ZERO, 0.7, 1.0);
+        let inv_cell = 4.0;
+        for i in 0..200u64 {
+            let key = SampleKey::new(8, i, 0);
+            let d = sample_uniform_sphere(SampleKey::new(9, i, 0).uniform_2d(0));
+            let trace = |max_depth| {
+                let ray = Ray::new(Vec3::ZERO, d);
+                let mut rays = RayCounter::default();
+                trace_light_path(inv_cell, &scene, &ray, key, (max_depth, 3), &mut rays)
+            };
+            let full = trace(8);
+            for m in 1..=DEEPER_READS {
+                let shorter = trace(8 - m as u32);
+                assert_eq!(full.len(), shorter.len(), "path {i}, {m} deeper");
+                for (a, b) in full.iter().zip(&shorter) {
+                    let left = a.irradiance - a.tails[..m].iter().sum::<Vec3>();
+                    let bound = 2.0 * 64.0 * f32::EPSILON / 2.0 * a.irradiance.max_element();
+                    assert!(
+                        (left - b.irradiance).abs().max_element() <= bound,
+                        "path {i}, {m} deeper: {left} vs {}",
+                        b.irradiance
+                    );
+                }
+            }
+        }
+    }
+
+    /// The filtered read of a point at a cell's centre on a floor, over a fine grid of `u`,
+    /// weighs the cells of its tangent plane (the floor's tangents are the grid's x and z
+    /// axes) by a box two cells wide: ¼, ½, ¼ along each axis, and never a cell above or
+    /// below. Cell (a, b) holds 1 + a + 3b + 9ab + 5a², whose mean under those weights is
+    /// 1 + 5·½ = 3.5 (a box offset from the point moves the odd terms, one of another width the
+    /// a² term's ½); the layers above and below hold 1000.
+    /// Tolerance: the midpoint grid of 64² points puts exactly 16, 32, 16 of 64 in each
+    /// column's thirds (the offsets −1…1 cells cross cell borders at ±½), so only f32 sums'
+    /// rounding remains.
+    #[test]
+    fn a_filtered_read_weighs_the_neighbouring_cells_by_a_box() {
+        let inv = 4.0;
+        let mut cache = LightCache::new(1.0 / inv);
+        let centre = Vec3::new(0.125, 0.01, 0.125);
+        let value = |a: i32, b: i32| (1 + a + 3 * b + 9 * a * b + 5 * a * a) as f32;
+        for a in -2..=2 {
+            for b in -2..=2 {
+                for (y, v) in [(0.01, value(a, b)), (0.26, 1000.0), (-0.24, 1000.0)] {
+                    let p = Vec3::new(centre.x + a as f32 / inv, y, centre.z + b as f32 / inv);
+                    let key = CellKey::of(p, Vec3::Y, inv);
+                    for _ in 0..MIN_DEPOSITS {
+                        cache.add_path(&[LightDeposit {
+                            key,
+                            irradiance: Vec3::splat(v),
+                            tails: [Vec3::ZERO; DEEPER_READS],
+                        }]);
+                    }
+                }
+            }
+        }
+        let x = ShadingPoint {
+            position: centre,
+            ng: Vec3::Y,
+            ns: Vec3::Y,
+            triangle: 0,
+            b1: 0.0,
+            b2: 0.0,
+            wo: Vec3::Y,
+        };
+        let n = 64;
+        let mut sum = 0.0f64;
+        for i in 0..n {
+            for j in 0..n {
+                let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                let e = cache
+                    .irradiance_filtered(&x, u, 0)
+                    .unwrap_or_else(|| panic!("cells around the point"));
+                assert!(e.x < 500.0, "u {u}: a cell of another layer");
+                sum += f64::from(e.x);
+            }
+        }
+        let mean = sum / f64::from(n * n);
+        assert!((mean - 3.5).abs() < 1e-6, "mean read {mean}");
+        // An empty neighbourhood falls back to the point's own cell.
+        let lone = ShadingPoint {
+            position: Vec3::new(10.1, 0.01, 10.1),
+            ..x
+        };
+        let key = cache.key(&lone);
+        for _ in 0..MIN_DEPOSITS {
+            cache.add_path(&[LightDeposit {
+                key,
+                irradiance: Vec3::splat(7.0),
+                tails: [Vec3::ZERO; DEEPER_READS],
+            }]);
+        }
+        assert_eq!(
+            cache.irradiance_filtered(&lone, Vec2::new(0.01, 0.99), 0),
+            Some(Vec3::splat(7.0))
+        );
+        assert_eq!(
+            cache.irradiance_filtered(&lone, Vec2::ZERO, DEEPER_READS + 1),
+            None
+        );
+    }
 
     /// Every deposit is an unbiased estimate of the irradiance at its vertex, with the depth
     /// limit: in a white furnace (a closed sphere that emits Le from both faces and reflects ρ)
@@ -690,6 +869,7 @@ mod tests {
             cache.add_path(&[LightDeposit {
                 key: cache.key(&x),
                 irradiance: Vec3::splat(i as f32),
+                tails: [Vec3::ZERO; DEEPER_READS],
             }]);
         }
         let mean = (MIN_DEPOSITS - 1) as f32 / 2.0;

@@ -100,7 +100,7 @@ use crate::path::{
 use crate::scene::Scene;
 use builder::forward_to_core;
 use gather::Traced;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use guard::Query;
 use irr_cache::{IrradianceCache, Rgb};
 use irr_geometry::{Ray, SurfacePoint};
@@ -298,7 +298,9 @@ impl IrradianceCacheIntegrator {
         if !(self.path_traced(level) && scene.geometry().streams()) {
             return traced
                 .iter()
-                .map(|(hit, w, k)| self.gather_radiance(scene, level, hit.as_ref(), *w, *k, rays))
+                .map(|(hit, w, k)| {
+                    self.gather_radiance(scene, level, hit.as_ref(), *w, (*k, None), rays)
+                })
                 .collect();
         }
         // The same dimensions `gather_radiance` gives each continuation.
@@ -347,13 +349,17 @@ impl IrradianceCacheIntegrator {
 
     /// What a gather ray of `level` brings back from `hit` travelling against `w`: what the
     /// hit point reflects (its emission excluded), or the background if the ray hit nothing.
+    /// With `lobe` (a camera hit's lobe sample, and the point of the unit square it draws for
+    /// the read) the light cache is read filtered (`LightCache::irradiance_filtered`), and a
+    /// glossy hit's residual goes on through the light cache (`residual`): a lobe's samples
+    /// gather near a few points, where one cell's frozen noise, or one path, would show.
     fn gather_radiance(
         &self,
         scene: &Scene,
         level: usize,
         hit: Option<&SurfacePoint>,
         w: Vec3,
-        key: SampleKey,
+        (key, lobe): (SampleKey, Option<Vec2>),
         rays: &mut RayCounter,
     ) -> Vec3 {
         let Some(surface) = hit else {
@@ -374,7 +380,12 @@ impl IrradianceCacheIntegrator {
             if lambertian && albedo == Vec3::ZERO {
                 return Vec3::ZERO;
             }
-            if let Some(e) = self.light.irradiance(&x) {
+            let read = match lobe {
+                // `level` reflections deeper than a gather ray's hit (`residual`).
+                Some(u) => self.light.irradiance_filtered(&x, u, level),
+                None => self.light.irradiance(&x),
+            };
+            if let Some(e) = read {
                 if lambertian {
                     return albedo * FRAC_1_PI * e;
                 }
@@ -386,7 +397,9 @@ impl IrradianceCacheIntegrator {
                 if dims.next_1d() >= p {
                     return shared;
                 }
-                return shared + self.residual(scene, level, &x, &bsdf, &mut dims, rays) / p;
+                let residual =
+                    self.residual(scene, level, (&x, &bsdf), lobe.is_some(), &mut dims, rays);
+                return shared + residual / p;
             }
         }
         // Cached: NEE at the hit plus its indirect light from the next level's cache. Where that
@@ -517,10 +530,13 @@ impl IrradianceCacheIntegrator {
             direct = draw.weight * le * w;
         }
         // What the hit reflects, as a level-0 gather ray would bring it back (from the light
-        // cache by default: a cell's mean rather than one path), with randomness of its own.
+        // cache by default: filtered cell means rather than one path), with randomness of its
+        // own but for the filter's point, stratified with the lobe's other samples.
+        let filter = dims.next_2d();
         let key = SampleKey::new(dims.key().bits(dims.position()), GLOSSY_STREAM, 0);
         dims.next_1d();
-        let reflected = self.gather_radiance(scene, 0, Some(&surface), draw.wi, key, rays);
+        let lobe = (key, Some(filter));
+        let reflected = self.gather_radiance(scene, 0, Some(&surface), draw.wi, lobe, rays);
         (direct, residual * reflected, share * reflected)
     }
 }
@@ -530,13 +546,17 @@ impl IrradianceCacheIntegrator {
     /// (`Bsdf::residual`), the part a light-cache cell's ρ_d/π·Ē leaves out: one light sample
     /// and one BSDF sample, weighted by the power heuristic for the emitters' light, and the
     /// light the BSDF sample's hit reflects, path-traced one reflection deeper than the
-    /// gather's own continuation (`continuation(level)` counts the reflection at `x`).
+    /// gather's own continuation (`continuation(level)` counts the reflection at `x`). For a
+    /// `lobe` sample's hit, that light comes back as a gather ray of the next level brings it,
+    /// from the light cache's filtered cells (recursively, for a glossy hit): a path there
+    /// costs a ray per reflection, and its noise, weighted by 1/p, dominated the glossy room's
+    /// lobes (docs/performance.md, "Filtered light-cache reads").
     fn residual(
         &self,
         scene: &Scene,
         level: usize,
-        x: &ShadingPoint,
-        bsdf: &Bsdf,
+        (x, bsdf): (&ShadingPoint, &Bsdf),
+        lobe: bool,
         dims: &mut Dimensions,
         rays: &mut RayCounter,
     ) -> Vec3 {
@@ -571,6 +591,14 @@ impl IrradianceCacheIntegrator {
             value += weight
                 * le
                 * emission_weight(scene, &surface, (x.position, draw.wi), draw.pdf, 1.0);
+        }
+        if lobe {
+            let filter = dims.next_2d();
+            let key = SampleKey::new(dims.key().bits(dims.position()), GLOSSY_STREAM, 1);
+            dims.next_1d();
+            let read = (key, Some(filter));
+            let r = self.gather_radiance(scene, level + 1, Some(&surface), draw.wi, read, rays);
+            return value + weight * r;
         }
         let deeper = PathTracer::new(PathSettings {
             max_depth: depth - 1,
@@ -791,8 +819,14 @@ mod tests {
         for k in 0..64 {
             let key = SampleKey::new(9, k, 0);
             let mut gathered = RayCounter::default();
-            let value =
-                ic.gather_radiance(&scene, 0, Some(&hit), ray.direction, key, &mut gathered);
+            let value = ic.gather_radiance(
+                &scene,
+                0,
+                Some(&hit),
+                ray.direction,
+                (key, None),
+                &mut gathered,
+            );
             let mut traced = RayCounter::default();
             let mut dims = Dimensions::starting_at(key, 1);
             let r =
@@ -819,7 +853,14 @@ mod tests {
         let hit = first_surface(&scene, &ray);
         let key = SampleKey::new(9, 1, 0);
         let mut gathered = RayCounter::default();
-        let value = ic.gather_radiance(&scene, 0, Some(&hit), ray.direction, key, &mut gathered);
+        let value = ic.gather_radiance(
+            &scene,
+            0,
+            Some(&hit),
+            ray.direction,
+            (key, None),
+            &mut gathered,
+        );
         let mut traced = RayCounter::default();
         let mut dims = Dimensions::starting_at(key, 1);
         let r = ic
@@ -847,7 +888,8 @@ mod tests {
             .irradiance(&x)
             .unwrap_or_else(|| panic!("the hit's cell holds {MIN_DEPOSITS} deposits"));
         let mut read = RayCounter::default();
-        let value = ic.gather_radiance(&scene, 0, Some(&hit), ray.direction, key, &mut read);
+        let value =
+            ic.gather_radiance(&scene, 0, Some(&hit), ray.direction, (key, None), &mut read);
         assert_eq!(value, Vec3::splat(0.6) * FRAC_1_PI * e);
         assert_eq!(read, RayCounter::default());
     }
