@@ -26,7 +26,10 @@
 //! A gather ray that hits a Lambertian x₁ brings back (ρ(x₁)/π)·Ē(cell of x₁): no light sample
 //! and no continuation at all. On a glossy x₁ it brings back (ρ_d/π)·Ē plus, with the
 //! probability `Bsdf::residual_probability` and weighted by its inverse, one path-traced sample
-//! of the residual f − ρ_d/π (module `ic`, "Glossy surfaces"). A cell with fewer than [`MIN_DEPOSITS`] deposits is not used: the
+//! of the residual f − ρ_d/π (module `ic`, "Glossy surfaces"). A camera hit's lobe samples,
+//! which gather near a few points, read the cells filtered ([`LightCache::irradiance_filtered`]),
+//! and their glossy hits' residuals go on through the cache, reading one or two reflections
+//! deeper ([`DEEPER_READS`]). A cell with fewer than [`MIN_DEPOSITS`] deposits is not used: the
 //! gather ray path-traces its continuation as in `BounceMode::PathTraced`, so no light is lost
 //! where the camera's paths never went.
 //!

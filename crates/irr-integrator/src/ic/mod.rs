@@ -27,7 +27,9 @@
 //! (`IcSettings::glossy_samples` = K, p the residual's share of the albedo, `lobe_samples`;
 //! sub-samples of the camera sample's, stratified together, `SampleKey::subsample`):
 //! the light each ray's hit reflects, brought back as a level-0 gather ray brings it (from the
-//! light cache by default), weighted by the residual f − ρ_d/π (which holds the glossy lobe and
+//! light cache by default: its cells filtered by a box two cells wide, and a glossy hit's own
+//! residual continued through the cache, `gather_radiance`'s `lobe` read), weighted by the
+//! residual f − ρ_d/π (which holds the glossy lobe and
 //! the diffuse lobe's departure from its stand-in, and may be negative), so that the two
 //! together estimate ∫ f L_ind cos and the image converges to the path tracer's (with the
 //! light cache, as its cells shrink). The same samples' emitter hits join the direct light by
