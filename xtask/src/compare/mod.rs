@@ -309,6 +309,19 @@ fn radiance_sweep(base: IcSettings) -> Vec<Sweep> {
             },
         });
     }
+    // The records with the lobes beyond them split further: the sharp lobes' noise is then
+    // what is left of a pixel's (docs/performance.md, "Filtered light-cache reads").
+    out.push(Sweep {
+        label: format!("radiance-order=10 radiance-error={RADIANCE_ERROR} glossy-samples=32"),
+        group: Group::Variant,
+        kappa: base.error,
+        settings: IcSettings {
+            radiance_order: 10,
+            radiance_error: RADIANCE_ERROR,
+            glossy_samples: 32,
+            ..base
+        },
+    });
     out
 }
 
