@@ -58,9 +58,10 @@ use rustc_hash::FxHashMap;
 pub const MIN_DEPOSITS: u32 = 8;
 
 /// The width, in cells, of the box by which [`LightCache::irradiance_filtered`] filters the
-/// cells: on the glossy room (docs/performance.md, "Filtered light-cache reads") one cell
-/// lowered the glossy error 15 %, two 30 %, three 34 %, four 32 % and six 22 %, the sharper
-/// lobes' error rising from three on (their reflections blur).
+/// cells: on the glossy room with order-10 records and 16 lobe samples (docs/performance.md,
+/// "Filtered light-cache reads") one cell lowered the glossy error 15 %, two 30 %, three 34 %,
+/// four 32 % and six 22 %, the sharper lobes' error rising from three on (their reflections
+/// blur).
 pub const FILTER_CELLS: f32 = 2.0;
 
 /// The least probability that a light-cache path goes on past `rr_start` vertices (see
@@ -528,6 +529,19 @@ mod tests {
     use irr_sampling::sample_uniform_sphere;
     use std::f32::consts::PI;
 
+    /// A point of a floor (normal +Y) seen from above.
+    fn floor_point(position: Vec3) -> ShadingPoint {
+        ShadingPoint {
+            position,
+            ng: Vec3::Y,
+            ns: Vec3::Y,
+            triangle: 0,
+            b1: 0.0,
+            b2: 0.0,
+            wo: Vec3::Y,
+        }
+    }
+
     /// A deposit read m reflections deeper (its window's last m vertices' parts left out) is
     /// the deposit a depth limit m lower gives, from the same random numbers: the walk's prefix
     /// is the same, only the windows shrink. Tolerance: f32 rounding of sums of at most 64
@@ -591,15 +605,7 @@ mod tests {
                 }
             }
         }
-        let x = ShadingPoint {
-            position: centre,
-            ng: Vec3::Y,
-            ns: Vec3::Y,
-            triangle: 0,
-            b1: 0.0,
-            b2: 0.0,
-            wo: Vec3::Y,
-        };
+        let x = floor_point(centre);
         let n = 64;
         let mut sum = 0.0f64;
         for i in 0..n {
@@ -615,10 +621,7 @@ mod tests {
         let mean = sum / f64::from(n * n);
         assert!((mean - 3.5).abs() < 1e-6, "mean read {mean}");
         // An empty neighbourhood falls back to the point's own cell.
-        let lone = ShadingPoint {
-            position: Vec3::new(10.1, 0.01, 10.1),
-            ..x
-        };
+        let lone = floor_point(Vec3::new(10.1, 0.01, 10.1));
         let key = cache.key(&lone);
         for _ in 0..MIN_DEPOSITS {
             cache.add_path(&[LightDeposit {
@@ -858,15 +861,7 @@ mod tests {
         assert_ne!(a, CellKey::of(Vec3::new(0.1, 0.0, 0.1), Vec3::X, inv));
         assert_ne!(a, CellKey::of(Vec3::new(0.3, 0.0, 0.1), Vec3::Y, inv));
         let mut cache = LightCache::new(0.25);
-        let x = ShadingPoint {
-            position: Vec3::new(0.1, 0.0, 0.1),
-            ng: Vec3::Y,
-            ns: Vec3::Y,
-            triangle: 0,
-            b1: 0.0,
-            b2: 0.0,
-            wo: Vec3::Y,
-        };
+        let x = floor_point(Vec3::new(0.1, 0.0, 0.1));
         for i in 0..MIN_DEPOSITS {
             assert_eq!(cache.irradiance(&x), None, "{i} deposits");
             cache.add_path(&[LightDeposit {
