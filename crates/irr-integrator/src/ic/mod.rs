@@ -771,6 +771,17 @@ mod tests {
     use irr_bsdf::MetallicRoughness;
     use irr_sampling::Frame;
 
+    /// What a level-0 gather ray (not a lobe sample's read) brings back from `hit` along `w`.
+    fn gather(
+        ic: &IrradianceCacheIntegrator,
+        scene: &Scene,
+        (hit, w): (&SurfacePoint, Vec3),
+        key: SampleKey,
+        rays: &mut RayCounter,
+    ) -> Vec3 {
+        ic.gather_radiance(scene, 0, Some(hit), w, (key, None), rays)
+    }
+
     /// Without radiance records a path-traced lobe takes ⌈p²·K⌉ BSDF samples: K on a metal
     /// (p = 1), one on a rough white dielectric seen head-on (p = 0.05), never fewer as the view
     /// grows grazing (Schlick's F, so p, grows towards the horizon), always within 1..=K.
@@ -821,14 +832,7 @@ mod tests {
         for k in 0..64 {
             let key = SampleKey::new(9, k, 0);
             let mut gathered = RayCounter::default();
-            let value = ic.gather_radiance(
-                &scene,
-                0,
-                Some(&hit),
-                ray.direction,
-                (key, None),
-                &mut gathered,
-            );
+            let value = gather(&ic, &scene, (&hit, ray.direction), key, &mut gathered);
             let mut traced = RayCounter::default();
             let mut dims = Dimensions::starting_at(key, 1);
             let r =
@@ -855,14 +859,7 @@ mod tests {
         let hit = first_surface(&scene, &ray);
         let key = SampleKey::new(9, 1, 0);
         let mut gathered = RayCounter::default();
-        let value = ic.gather_radiance(
-            &scene,
-            0,
-            Some(&hit),
-            ray.direction,
-            (key, None),
-            &mut gathered,
-        );
+        let value = gather(&ic, &scene, (&hit, ray.direction), key, &mut gathered);
         let mut traced = RayCounter::default();
         let mut dims = Dimensions::starting_at(key, 1);
         let r = ic
@@ -890,8 +887,7 @@ mod tests {
             .irradiance(&x)
             .unwrap_or_else(|| panic!("the hit's cell holds {MIN_DEPOSITS} deposits"));
         let mut read = RayCounter::default();
-        let value =
-            ic.gather_radiance(&scene, 0, Some(&hit), ray.direction, (key, None), &mut read);
+        let value = gather(&ic, &scene, (&hit, ray.direction), key, &mut read);
         assert_eq!(value, Vec3::splat(0.6) * FRAC_1_PI * e);
         assert_eq!(read, RayCounter::default());
     }
