@@ -145,6 +145,17 @@ const FALLBACK_STREAM: u64 = 0x1c_fa11;
 /// The stream of the keys of a glossy x₀'s BSDF-sample continuations (`glossy_sample`).
 const GLOSSY_STREAM: u64 = 0x6c_0551;
 
+/// A lobe sample's read of the light cache (`gather_radiance`'s `lobe`), drawn from `dims`: the
+/// filter's point in the unit square (stratified with the lobe's other samples where `dims` is
+/// a pixel's) and a key of its own, `index` telling the camera hit's read (0) from a glossy
+/// hit's residual's (1).
+fn lobe_read(dims: &mut Dimensions, index: u64) -> (SampleKey, Option<Vec2>) {
+    let filter = dims.next_2d();
+    let key = SampleKey::new(dims.key().bits(dims.position()), GLOSSY_STREAM, index);
+    dims.next_1d();
+    (key, Some(filter))
+}
+
 /// Direct light at `x` by next-event estimation alone: the mean of `samples` light samples of
 /// f·Le·cos θ / pdf (unbiased: the light sampler reaches every point of every emitting triangle
 /// and every punctual light; the background's light is not direct, see the module docs).
@@ -534,10 +545,7 @@ impl IrradianceCacheIntegrator {
         // What the hit reflects, as a level-0 gather ray would bring it back (from the light
         // cache by default: filtered cell means rather than one path), with randomness of its
         // own but for the filter's point, stratified with the lobe's other samples.
-        let filter = dims.next_2d();
-        let key = SampleKey::new(dims.key().bits(dims.position()), GLOSSY_STREAM, 0);
-        dims.next_1d();
-        let lobe = (key, Some(filter));
+        let lobe = lobe_read(dims, 0);
         let reflected = self.gather_radiance(scene, 0, Some(&surface), draw.wi, lobe, rays);
         (direct, residual * reflected, share * reflected)
     }
@@ -595,10 +603,7 @@ impl IrradianceCacheIntegrator {
                 * emission_weight(scene, &surface, (x.position, draw.wi), draw.pdf, 1.0);
         }
         if lobe {
-            let filter = dims.next_2d();
-            let key = SampleKey::new(dims.key().bits(dims.position()), GLOSSY_STREAM, 1);
-            dims.next_1d();
-            let read = (key, Some(filter));
+            let read = lobe_read(dims, 1);
             let r = self.gather_radiance(scene, level + 1, Some(&surface), draw.wi, read, rays);
             return value + weight * r;
         }
