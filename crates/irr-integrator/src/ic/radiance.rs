@@ -236,16 +236,19 @@ impl RadianceCaching {
         } else {
             stored
         };
-        // Normals within 2⁻²⁰ of each other (a flat surface's interpolated normals, equal up
-        // to rounding) share the frame to that order: no rotation.
-        if (record_normal - frame.n).length_squared() < 1e-12 {
+        // Frames whose axes agree within 2⁻²⁰ (a flat surface's interpolated normals, equal up
+        // to rounding) are one frame to that order: no rotation. Frames, not normals: two
+        // normals equal up to the sign of a zero z (a wall facing ±x) have tangents turned by
+        // π about them (`Frame::from_normal` flips across n.z = 0), and must rotate.
+        let record = Frame::from_normal(record_normal);
+        let close = |a: Vec3, b: Vec3| (a - b).length_squared() < 1e-12;
+        if close(record.n, frame.n) && close(record.s, frame.s) && close(record.t, frame.t) {
             for (s, c) in sum.iter_mut().zip(stored) {
                 *s += *c * weight;
             }
             return;
         }
         // R = F_qᵀ F_r: the record frame's axes in the query's frame (irr-sh's convention).
-        let record = Frame::from_normal(record_normal);
         let rotation = Mat3::from_cols(
             frame.to_local(record.s),
             frame.to_local(record.t),
@@ -427,6 +430,47 @@ mod tests {
             (&mut moved, &mut turned),
         );
         for d in [Vec3::new(0.2, 0.1, 0.97), Vec3::new(-0.5, 0.4, 0.77)] {
+            let d = d.normalize();
+            let a = rc
+                .basis
+                .reconstruct(&stored[..count], record.to_local(d))
+                .unwrap_or_else(|e| panic!("{e}"));
+            let b = rc
+                .basis
+                .reconstruct(&sum, frame.to_local(d))
+                .unwrap_or_else(|e| panic!("{e}"));
+            assert!((a - b).abs().max_element() < 1e-4, "{a} vs {b}");
+        }
+    }
+
+    /// A wall facing +x: normals (1, 0, +0) and (1, 0, −0) are equal as vectors, but
+    /// `Frame::from_normal` gives them tangents turned by π about the normal (it flips across
+    /// n.z = 0). A record made under one and read under the other must still reconstruct the
+    /// same radiance in every world direction, which needs the rotation (odd m negated).
+    /// Tolerance: the rotation by π is exact to f32 rounding of coefficients of size ≤ 1
+    /// summed over at most 2·order + 1 terms per band, far below 1e-4; the unrotated
+    /// coefficients miss by twice the odd-m part, here of order 1.
+    #[test]
+    fn records_rotate_between_frames_of_signed_zero_normals() {
+        let rc = caching(4);
+        let count = rc.count();
+        let mut stored: Vec<Vec3> = (0..count)
+            .map(|k| Vec3::splat(((k * 3 % 7) as f32 - 3.0) / 4.0))
+            .collect();
+        stored.resize(rc.stride(), Vec3::ZERO);
+        let (plus, minus) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 0.0, -0.0));
+        let (record, frame) = (Frame::from_normal(plus), Frame::from_normal(minus));
+        assert_ne!(record.s, frame.s, "the frames differ: the case under test");
+        let mut sum = vec![Vec3::ZERO; count];
+        let (mut moved, mut turned) = (vec![Vec3::ZERO; count], vec![Vec3::ZERO; count]);
+        rc.accumulate(
+            (&stored, plus, Vec3::ZERO),
+            &frame,
+            1.0,
+            &mut sum,
+            (&mut moved, &mut turned),
+        );
+        for d in [Vec3::new(0.9, 0.3, 0.2), Vec3::new(0.5, -0.4, 0.6)] {
             let d = d.normalize();
             let a = rc
                 .basis
