@@ -66,9 +66,7 @@ pub mod ic;
 mod integrator;
 mod light;
 pub mod path;
-mod punctual;
 mod scene;
-mod texture;
 
 pub use ao::{AmbientOcclusion, AoSettings};
 pub use bsdf::{Bsdf, BsdfDraw};
@@ -80,16 +78,18 @@ pub use ic::{
 };
 pub use integrator::{Batching, FirstHit, Integrator, PIXEL_BATCH, RayCounter, first_hit};
 pub use irr_bsdf::luminance;
+pub use irr_scene::{
+    AlphaMode, Filter, Incidence, Material, PunctualLight, Sampler, TexCoords, Texture,
+    TextureError, TextureRef, TooManyAttributeTriangles, TooManyTexCoords, VertexAttribute,
+    VertexColours, VertexTangents, Wrap,
+};
 pub use light::{LightSample, LightSampler};
 pub use path::{PathSettings, PathTracer, Radiance};
-pub use punctual::{Incidence, PunctualLight};
-pub use scene::{AlphaMode, Material, Scene, SceneError, coverage_sample};
-pub use texture::{
-    Filter, Sampler, TexCoords, Texture, TextureError, TextureRef, TooManyAttributeTriangles,
-    TooManyTexCoords, VertexAttribute, VertexColours, VertexTangents, Wrap,
-};
+pub use scene::{Scene, SceneError, coverage_sample};
 
 #[cfg(test)]
 mod light_tests;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod texture_tests;

@@ -8,11 +8,11 @@
 //! nothing. (For a textured emitter, `Scene` passes Le = the emission factor × the texture's
 //! mean: the choice only, the sampled point's radiance is read from the texture.)
 
-use crate::punctual::PunctualLight;
-use crate::scene::Material;
 use glam::{Vec2, Vec3};
 use irr_geometry::Geometry;
 use irr_sampling::{sample_uniform_triangle, uniform_triangle_pdf};
+use irr_scene::Material;
+use irr_scene::PunctualLight;
 
 /// A light chosen by [`LightSampler::sample`].
 #[derive(Clone, Copy, Debug)]

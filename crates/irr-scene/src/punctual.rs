@@ -92,7 +92,7 @@ impl PunctualLight {
     }
 
     /// A spot light at `position` shining along `direction` (normalised here), with glTF's cone
-    /// angles in radians (0 ≤ `inner` ≤ `outer` ≤ π/2; [`crate::Scene::with_lights`] refuses
+    /// angles in radians (0 ≤ `inner` ≤ `outer` ≤ π/2; irr-integrator's `Scene::with_lights` refuses
     /// cosines outside that range).
     pub fn spot(position: Vec3, direction: Vec3, intensity: Vec3, inner: f32, outer: f32) -> Self {
         // The f32 nearest π/2 lies 4.4e-8 above it, so its cosine is −4.4e-8: an angle up to
