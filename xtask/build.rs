@@ -8,11 +8,14 @@
 use std::path::{Path, PathBuf};
 
 /// The crates whose source decides a reference's pixels.
-const RENDERER: [&str; 6] = [
+const RENDERER: [&str; 9] = [
     "irr-geometry",
     "irr-sampling",
+    "irr-sh",
+    "irr-bsdf",
     "irr-cache",
     "irr-gradients",
+    "irr-scene",
     "irr-integrator",
     "irr-render",
 ];

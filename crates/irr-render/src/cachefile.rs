@@ -55,15 +55,15 @@
 //! settings is the cache a single process builds shard by shard and joins the same way (irr-cache
 //! files a record list the same whatever its history).
 
-use crate::digest::Fnv;
 use crate::error::RenderError;
-use crate::files::{open_regular, read_prefix};
 use crate::output::write_file_atomically;
 use glam::Vec3;
 use irr_cache::{IrradianceCache, Record, Rgb};
 use irr_integrator::{
     CacheBuilder, CachedLevel, GuardRecord, IcSettings, IrradianceCacheIntegrator,
 };
+use irr_scene::Fnv;
+use irr_scene::{open_regular, read_prefix};
 use std::path::{Path, PathBuf};
 
 /// The first eight bytes of a cache file.

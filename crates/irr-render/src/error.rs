@@ -1,6 +1,10 @@
 //! [`RenderError`]: every way loading, rendering or writing can fail, each displayed as one line
 //! that names the file (or the option) and the problem.
 
+use irr_scene::LoadError;
+#[cfg(test)]
+use irr_scene::is_unprintable;
+pub(crate) use irr_scene::one_line;
 use std::path::{Path, PathBuf};
 
 /// An error from loading a scene, checking settings, rendering or writing the output.
@@ -71,60 +75,20 @@ pub enum RenderError {
     },
 }
 
-/// Squeezes a message onto one line that is safe to print: line breaks become `; `, and every
-/// other character that a terminal would act on rather than show (see [`is_unprintable`]) is
-/// written as a `\u{..}` escape, so a name from a file cannot move the cursor, ring the bell,
-/// retitle the window or reorder the text.
-pub(crate) fn one_line(message: impl std::fmt::Display) -> String {
-    let text = message.to_string();
-    let mut out = String::with_capacity(text.len());
-    for part in text
-        .split(['\n', '\r'])
-        .map(str::trim)
-        .filter(|p| !p.is_empty())
-    {
-        if !out.is_empty() {
-            out.push_str("; ");
-        }
-        for c in part.chars() {
-            if is_unprintable(c) {
-                out.extend(c.escape_unicode());
-            } else {
-                out.push(c);
-            }
+/// A load error keeps its kind and its one-line message.
+impl From<LoadError> for RenderError {
+    fn from(e: LoadError) -> Self {
+        match e {
+            LoadError::Read { path, source } => Self::Read { path, source },
+            LoadError::Parse { path, problem } => Self::Parse { path, problem },
+            LoadError::Scene { path, problem } => Self::Scene { path, problem },
         }
     }
-    out
-}
-
-/// Control characters (C0, DEL, C1: ESC, BEL, tab, …) and the invisible format characters that
-/// change how text around them is shown (zero-width characters, bidirectional embeddings,
-/// overrides and isolates, the byte-order mark).
-pub(crate) fn is_unprintable(c: char) -> bool {
-    c.is_control()
-        || matches!(
-            c,
-            '\u{00AD}'
-                | '\u{061C}'
-                | '\u{180E}'
-                | '\u{200B}'..='\u{200F}'
-                | '\u{2028}'..='\u{202E}'
-                | '\u{2060}'..='\u{206F}'
-                | '\u{FEFF}'
-                | '\u{FFF9}'..='\u{FFFB}'
-        )
 }
 
 impl RenderError {
     pub(crate) fn scene(path: &Path, problem: impl std::fmt::Display) -> Self {
         Self::Scene {
-            path: path.to_path_buf(),
-            problem: one_line(problem),
-        }
-    }
-
-    pub(crate) fn parse(path: &Path, problem: impl std::fmt::Display) -> Self {
-        Self::Parse {
             path: path.to_path_buf(),
             problem: one_line(problem),
         }
@@ -141,17 +105,6 @@ impl RenderError {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn messages_are_one_line_and_name_the_file() {
-        let e = RenderError::parse(Path::new("a/b.gltf"), "first\nsecond\r\n third");
-        let text = e.to_string();
-        assert_eq!(
-            text,
-            "a/b.gltf: not a valid glTF 2.0 file: first; second; third"
-        );
-        assert!(!text.contains('\n'));
-    }
 
     /// Names from a file reach the terminal without raw control characters.
     #[test]

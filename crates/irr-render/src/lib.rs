@@ -2,15 +2,10 @@
 //! integrator in parallel tiles, and writes OpenEXR plus a PNG preview.
 //!
 //! # What it owns
-//! - [`load_scene`] / [`load_gltf`]: glTF 2.0 (`.gltf` with external or `data:` buffers, `.glb`)
-//!   into world-space meshes, metallic-roughness [`Material`]s with their base-colour, emissive
-//!   and metallic-roughness textures (PNG and JPEG images, decoded to linear RGB here) and vertex
-//!   colours,
-//!   `KHR_lights_punctual` lights ([`PunctualLight`]) and the file's cameras ([`NamedCamera`]);
-//!   every ignored feature becomes a [`Warning`] with a count, every unreadable input a one-line
-//!   [`RenderError`].
-//! - [`Camera`]: glTF's pinhole camera (looks down local −Z, `yfov` vertical, aspect ratio from
-//!   the image), or a default one framing the scene; its OpenEXR header matrices.
+//! - [`load_scene`]: a glTF file read by irr-scene's [`load_gltf`] (meshes, [`Material`]s and
+//!   their textures, [`PunctualLight`]s, [`NamedCamera`]s, [`Warning`]s) assembled into the
+//!   integrator's [`Scene`] (BVH, light sampler) as a [`LoadedScene`], with the camera to render
+//!   it from ([`LoadedScene::camera_for`], [`Camera::framing`] when the file has none).
 //! - [`render`] and [`RenderSettings`]: the film (box filter, row 0 at the top), tiles on a
 //!   rayon pool (each tile hands the integrator its pixels' samples of one index as one batch,
 //!   `Integrator::li_many`), the progress bar and the summary ([`RenderStats`]);
@@ -60,41 +55,35 @@
 //! # }
 //! ```
 
-mod accessor;
-pub mod animation;
 mod aov;
 mod cachefile;
-mod camera;
 mod denoise;
-mod digest;
 mod error;
-mod files;
-mod glb;
 mod image;
-mod load;
+#[cfg(test)]
+mod loaded_tests;
 mod output;
 mod passes;
 mod render;
-#[cfg(test)]
-mod testutil;
-mod uri;
 
 pub use aov::{Aov, AovImages, normalise_aovs};
 pub use cachefile::{
     CacheContents, CacheOrigin, ENTRY_BYTES, KeyFrames, LevelRecords, MAX_KEY_FRAMES, MAX_SHARDS,
     MergeReport, check_fingerprint, fingerprint, merge_shards, read_cache_file, write_cache_file,
 };
-pub use camera::{Camera, CameraRay, NamedCamera, Projection};
 pub use denoise::{DENOISER, DENOISER_AOVS, NO_DENOISER, denoise};
 pub use error::RenderError;
-pub use files::{LoadOptions, MAX_JSON_BYTES, MAX_SCENE_BYTES};
 pub use image::Image;
 pub use irr_integrator::{
     AmbientOcclusion, AoSettings, BounceMode, CacheBuilder, CachedAmbientOcclusion, GradientMode,
     GuardRecord, IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard, Material,
     MetricKind, PathSettings, PathTracer, PunctualLight, RadiusStatistic, RayCounter, Scene,
 };
-pub use load::{MAX_COORDINATE, MAX_IMAGE_SIDE, SceneData, Warning, load_gltf, load_gltf_with};
+pub use irr_scene::{
+    Camera, CameraRay, LoadOptions, MAX_COORDINATE, MAX_IMAGE_SIDE, MAX_JSON_BYTES,
+    MAX_SCENE_BYTES, NamedCamera, Projection, SceneData, Warning, animation, load_gltf,
+    load_gltf_with,
+};
 pub use output::{
     ExrMetadata, check_exposure, check_output, check_output_file, png_path_for,
     remove_partial_outputs, remove_partial_outputs_on_signals, tone_map, write_exr_and_png,
@@ -263,14 +252,14 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
     } = load_gltf_with(path, options)?;
     // Texture coordinates by geometry id, before the meshes are consumed (degenerate triangles
     // the build drops have none).
-    let tex_coords = load::tex_coords_by_id(&meshes, &materials, &tex_coords)
+    let tex_coords = irr_scene::tex_coords_by_id(&meshes, &materials, &tex_coords)
         .map_err(|e| RenderError::scene(path, e))?;
     let colours =
-        load::attribute_by_id(&meshes, &colours).map_err(|e| RenderError::scene(path, e))?;
+        irr_scene::attribute_by_id(&meshes, &colours).map_err(|e| RenderError::scene(path, e))?;
     let tangents =
-        load::attribute_by_id(&meshes, &tangents).map_err(|e| RenderError::scene(path, e))?;
+        irr_scene::attribute_by_id(&meshes, &tangents).map_err(|e| RenderError::scene(path, e))?;
     let alphas =
-        load::attribute_by_id(&meshes, &alphas).map_err(|e| RenderError::scene(path, e))?;
+        irr_scene::attribute_by_id(&meshes, &alphas).map_err(|e| RenderError::scene(path, e))?;
     // The meshes are consumed: each part is freed as soon as the BVH's leaves hold it, so a
     // large scene is never in memory twice.
     let geometry =

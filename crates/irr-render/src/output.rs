@@ -33,9 +33,9 @@
 //! (and Ctrl-C) handler that deletes the listed files before the process exits with status 130.
 
 use crate::aov::AovImages;
-use crate::camera::Camera;
 use crate::error::{RenderError, one_line};
 use crate::image::Image as IrrImage;
+use irr_scene::Camera;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard};

@@ -30,7 +30,6 @@
 //! records over the image before the fine ones fill the gaps, so few candidates of a pass cover
 //! each other (the dropped share is reported: the wasted gather work).
 
-use crate::camera::Camera;
 use crate::error::RenderError;
 use crate::render::RenderSettings;
 use glam::Vec2;
@@ -40,6 +39,7 @@ use irr_integrator::{
     LightPathTracer, Probe, RayCounter, Scene, surface_spacing,
 };
 use irr_sampling::SampleKey;
+use irr_scene::Camera;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -866,7 +866,7 @@ mod tests {
     /// (the other side of its surface) or one alone leaves the spread as it is.
     #[test]
     fn a_point_takes_the_footprint_of_the_view_that_sees_it_smallest() {
-        let loaded = crate::load_scene(&crate::testutil::assets().join("cornell-box.gltf"))
+        let loaded = crate::load_scene(&irr_scene::testutil::assets().join("cornell-box.gltf"))
             .unwrap_or_else(|e| panic!("{e}"));
         let (w, h) = (64u32, 64u32);
         let settings = RenderSettings {

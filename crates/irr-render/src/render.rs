@@ -35,7 +35,6 @@
 //! stops with a quarter of the chances of finding it that all its samples had.
 
 use crate::aov::{Aov, AovImages, normalise_aovs};
-use crate::camera::{Camera, Projection};
 use crate::error::RenderError;
 use crate::image::Image;
 use glam::{Vec2, Vec3};
@@ -43,6 +42,7 @@ use irr_geometry::Ray;
 use irr_integrator::{Batching, FirstHit, Integrator, PIXEL_BATCH, Radiance, RayCounter, Scene};
 use irr_sampling::rng::Dimensions;
 use irr_sampling::{Cmj, PixelKeys, SampleKey};
+use irr_scene::{Camera, Projection};
 use rayon::prelude::*;
 use std::time::Instant;
 

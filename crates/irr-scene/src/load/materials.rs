@@ -2,9 +2,9 @@
 
 use super::textures::{Decode, Textures};
 use super::{Loader, SUPPORTED_EXTENSIONS, describe, plural};
-use crate::error::RenderError;
+use crate::error::LoadError;
+use crate::{AlphaMode, Material, Texture};
 use glam::Vec3;
-use irr_integrator::{AlphaMode, Material, Texture};
 use std::collections::BTreeMap;
 
 impl Loader<'_> {
@@ -84,7 +84,7 @@ impl Loader<'_> {
     pub(super) fn materials(
         &mut self,
         buffers: &[Vec<u8>],
-    ) -> Result<(Vec<Material>, u32, Vec<Texture>), RenderError> {
+    ) -> Result<(Vec<Material>, u32, Vec<Texture>), LoadError> {
         let mut out = Vec::new();
         let (mut clamped, mut clamped_factors) = (0, 0);
         let mut textures = Textures::default();
@@ -242,7 +242,7 @@ impl Loader<'_> {
         &self,
         normal: &gltf::json::material::NormalTexture,
         what: &str,
-    ) -> Result<gltf::json::texture::Info, RenderError> {
+    ) -> Result<gltf::json::texture::Info, LoadError> {
         use gltf::json::extensions::texture::{Info, TextureTransform};
         let transform = normal
             .extensions

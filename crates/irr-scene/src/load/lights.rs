@@ -8,11 +8,11 @@
 //! law, which a physically based renderer keeps.
 
 use super::{Loader, describe, plural};
-use crate::error::RenderError;
+use crate::PunctualLight;
+use crate::error::LoadError;
 use glam::{Mat4, Vec3};
 use gltf::json::extensions::scene::khr_lights_punctual::{Light, Type};
 use gltf::json::validation::Checked;
-use irr_integrator::PunctualLight;
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
 
 /// The index of the light that `node` places, if any.
@@ -39,7 +39,7 @@ impl Loader<'_> {
         node: &gltf::Node<'_>,
         world: Mat4,
         index: usize,
-    ) -> Result<PunctualLight, RenderError> {
+    ) -> Result<PunctualLight, LoadError> {
         let light = lights_of(self.document).get(index).ok_or_else(|| {
             // The schema check has already refused an index out of range; kept as an error, not
             // a panic, all the same.
@@ -148,10 +148,10 @@ impl Loader<'_> {
 
 #[cfg(test)]
 mod tests {
+    use crate::PunctualLight;
     use crate::load::{SceneData, load_gltf};
     use crate::testutil::{Gltf, write};
     use glam::Vec3;
-    use irr_integrator::PunctualLight;
     use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
 
     /// A file with one emissive-free triangle and `lights`, placed by the nodes `nodes` (JSON

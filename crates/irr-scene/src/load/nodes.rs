@@ -2,13 +2,13 @@
 
 use super::{Loader, describe};
 use crate::camera::Camera;
-use crate::error::RenderError;
+use crate::error::LoadError;
 use glam::{Mat4, Quat, Vec3};
 
 impl<'a> Loader<'a> {
     /// The nodes of the default scene that hold a mesh, a camera or a light, in depth-first
     /// order, each with its world transform.
-    pub(super) fn walk_nodes(&mut self) -> Result<Vec<(gltf::Node<'a>, Mat4)>, RenderError> {
+    pub(super) fn walk_nodes(&mut self) -> Result<Vec<(gltf::Node<'a>, Mat4)>, LoadError> {
         let d: &'a gltf::Document = self.document;
         let roots: Vec<gltf::Node<'a>> = match d.default_scene().or_else(|| d.scenes().next()) {
             Some(scene) => scene.nodes().collect(),
@@ -60,7 +60,7 @@ impl<'a> Loader<'a> {
         Ok(out)
     }
 
-    pub(super) fn local_transform(&self, node: &gltf::Node<'_>) -> Result<Mat4, RenderError> {
+    pub(super) fn local_transform(&self, node: &gltf::Node<'_>) -> Result<Mat4, LoadError> {
         let m = match node.transform() {
             gltf::scene::Transform::Matrix { matrix } => Mat4::from_cols_array_2d(&matrix),
             gltf::scene::Transform::Decomposed {
@@ -96,7 +96,7 @@ impl<'a> Loader<'a> {
         node: &gltf::Node<'_>,
         world: Mat4,
         p: &gltf::camera::Perspective<'_>,
-    ) -> Result<Camera, RenderError> {
+    ) -> Result<Camera, LoadError> {
         let yfov = p.yfov();
         let name = describe(node.index(), node.name());
         if !(yfov > 0.0 && yfov < std::f32::consts::PI) {

@@ -1,7 +1,7 @@
 //! The JSON before the typed document: extension counts and the checks `gltf` leaves out.
 
 use super::describe;
-use crate::error::RenderError;
+use crate::error::LoadError;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -89,7 +89,7 @@ pub(super) fn count_extensions(json: &[u8]) -> Result<BTreeMap<String, usize>, S
 /// primitive's attribute accessors exist (the schema check indexes `accessors` with `POSITION`'s
 /// before it checks the index). (Sparse indices of a non-integer type, an `unreachable!()` in
 /// `Indices::index_type`, are already refused when the JSON is deserialized.)
-pub(super) fn prevalidate(path: &Path, root: &gltf::json::Root) -> Result<(), RenderError> {
+pub(super) fn prevalidate(path: &Path, root: &gltf::json::Root) -> Result<(), LoadError> {
     use gltf::json::camera::Type;
     use gltf::json::validation::Checked;
     for (i, camera) in root.cameras.iter().enumerate() {
@@ -103,7 +103,7 @@ pub(super) fn prevalidate(path: &Path, root: &gltf::json::Root) -> Result<(), Re
             _ => None,
         };
         if let Some((kind, object)) = missing {
-            return Err(RenderError::parse(
+            return Err(LoadError::parse(
                 path,
                 format!(
                     "camera {}: its type is \"{kind}\" but it has no \"{object}\" object",
@@ -117,7 +117,7 @@ pub(super) fn prevalidate(path: &Path, root: &gltf::json::Root) -> Result<(), Re
         for (c, channel) in animation.channels.iter().enumerate() {
             let node = channel.target.node.value();
             if node >= root.nodes.len() {
-                return Err(RenderError::parse(
+                return Err(LoadError::parse(
                     path,
                     format!(
                         "animation {} channel {c}: target node {node} does not exist (the file has {})",
@@ -132,7 +132,7 @@ pub(super) fn prevalidate(path: &Path, root: &gltf::json::Root) -> Result<(), Re
         for (p, primitive) in mesh.primitives.iter().enumerate() {
             for index in primitive.attributes.values() {
                 if index.value() >= root.accessors.len() {
-                    return Err(RenderError::parse(
+                    return Err(LoadError::parse(
                         path,
                         format!(
                             "mesh {} primitive {p}: attribute accessor {} does not exist (the file has {})",
@@ -153,7 +153,7 @@ pub(super) fn prevalidate(path: &Path, root: &gltf::json::Root) -> Result<(), Re
 /// `POSITION` accessors (the specification requires them, many exporters omit them, and irr
 /// does not use them) and a spot light without its `spot` object (the `gltf` crate asks for it,
 /// but `KHR_lights_punctual` gives it defaults).
-pub(super) fn validate(path: &Path, root: &gltf::json::Root) -> Result<(), RenderError> {
+pub(super) fn validate(path: &Path, root: &gltf::json::Root) -> Result<(), LoadError> {
     use gltf::json::validation::{Error, Validate};
     let mut problems = Vec::new();
     root.validate(root, gltf::json::Path::new, &mut |at, error| {
@@ -170,6 +170,6 @@ pub(super) fn validate(path: &Path, root: &gltf::json::Root) -> Result<(), Rende
     if problems.is_empty() {
         Ok(())
     } else {
-        Err(RenderError::parse(path, problems.join("; ")))
+        Err(LoadError::parse(path, problems.join("; ")))
     }
 }

@@ -13,18 +13,16 @@
 //! it ([`Decode::Alpha`]; it takes three channels, like every irr texture).
 
 use super::{Loader, describe, plural};
-use crate::error::RenderError;
+use crate::error::LoadError;
 use crate::files::Budget;
 use crate::uri::{decode_data_uri, percent_decode, scheme};
+use crate::{Filter, Material, Sampler, TexCoords, Texture, TextureRef, VertexAttribute, Wrap};
 use glam::{Affine2, Vec2, Vec3};
 use irr_geometry::{Triangle, TriangleMesh};
-use irr_integrator::{
-    Filter, Material, Sampler, TexCoords, Texture, TextureRef, VertexAttribute, Wrap,
-};
 use std::collections::BTreeMap;
 
 /// The largest image side irr decodes, in texels: the largest texture most GPUs take, and far
-/// beyond what a texture needs to be sharp in an image of [`crate::MAX_DIMENSION`] pixels.
+/// beyond what a texture needs to be sharp in an image of irr-render's `MAX_DIMENSION` pixels.
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 
 /// How an image's codes become texels.
@@ -105,7 +103,7 @@ impl Loader<'_> {
         what: &str,
         buffers: &[Vec<u8>],
         decode: Decode,
-    ) -> Result<TextureRef, RenderError> {
+    ) -> Result<TextureRef, LoadError> {
         let index = info.index.value();
         let texture = match textures.by_gltf.get(&(index, decode)) {
             Some(&t) => t,
@@ -149,7 +147,7 @@ impl Loader<'_> {
         what: &str,
         buffers: &[Vec<u8>],
         decode: Decode,
-    ) -> Result<Texture, RenderError> {
+    ) -> Result<Texture, LoadError> {
         let root = self.document.as_json();
         // The schema check (`json::validate`) proved these indices; a lookup costs nothing and
         // keeps a panic impossible.
@@ -191,7 +189,7 @@ impl Loader<'_> {
         texture: &str,
         buffers: &[Vec<u8>],
         decode: Decode,
-    ) -> Result<Texture, RenderError> {
+    ) -> Result<Texture, LoadError> {
         let root = self.document.as_json();
         let Some(json) = root.images.get(index) else {
             return Err(self.err(format!(
@@ -305,7 +303,7 @@ fn sampler(s: &gltf::json::texture::Sampler) -> (Sampler, bool) {
 
 /// KHR_texture_transform's matrix, translation × rotation × scale (the extension's README):
 /// u' = cos·sx·u + sin·sy·v + ox, v' = −sin·sx·u + cos·sy·v + oy.
-pub(super) fn texture_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> Affine2 {
+pub(crate) fn texture_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> Affine2 {
     let (sin, cos) = rotation.sin_cos();
     Affine2::from_cols(
         Vec2::new(cos * scale[0], -sin * scale[0]),
@@ -316,7 +314,7 @@ pub(super) fn texture_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]
 
 /// The sRGB electro-optical transfer function (IEC 61966-2-1): an encoded value in [0, 1] to
 /// linear light.
-pub(super) fn srgb_to_linear(c: f64) -> f64 {
+pub(crate) fn srgb_to_linear(c: f64) -> f64 {
     if c <= 0.04045 {
         c / 12.92
     } else {
@@ -548,7 +546,7 @@ fn decode_jpeg(
 /// [`SceneData::tex_coords`](super::SceneData::tex_coords) holds them) by the id [`irr_geometry::Geometry::build`] gives
 /// them: it keeps the triangles [`Triangle::is_kept`] accepts, mesh after mesh, in order. Empty
 /// when no material is textured.
-pub(crate) fn tex_coords_by_id(
+pub fn tex_coords_by_id(
     meshes: &[TriangleMesh],
     materials: &[Material],
     tex_coords: &[Vec<[Vec2; 3]>],
@@ -591,7 +589,7 @@ fn kept_triangles(mesh: &TriangleMesh) -> impl Iterator<Item = usize> + '_ {
 /// none: [`SceneData::colours`](super::SceneData::colours),
 /// [`SceneData::tangents`](super::SceneData::tangents)) by the id the geometry gives each kept
 /// triangle; empty when no mesh has any.
-pub(crate) fn attribute_by_id<T>(
+pub fn attribute_by_id<T>(
     meshes: &[TriangleMesh],
     values: &[Vec<[T; 3]>],
 ) -> Result<VertexAttribute<T>, String>
@@ -614,54 +612,9 @@ where
 mod tests {
     use super::*;
     use crate::files::LoadOptions;
-    use crate::load::{SceneData, load_gltf, load_gltf_with};
-    use crate::testutil::{Gltf, base64, write};
+    use crate::load::{load_gltf, load_gltf_with};
+    use crate::testutil::{Gltf, base64, crc32, lin, png_bytes, texels, textured_quad, write};
     use crate::uri::decode_base64;
-    use std::path::Path;
-
-    /// The linear value of 8-bit sRGB code `c`, as the loader computes it.
-    fn lin(c: u8) -> f32 {
-        srgb_to_linear(f64::from(c) / 255.0) as f32
-    }
-
-    /// A PNG of `data` (rows from the top), through the png crate's encoder.
-    pub(crate) fn png_bytes(
-        width: u32,
-        height: u32,
-        color: png::ColorType,
-        depth: png::BitDepth,
-        palette: Option<&[u8]>,
-        data: &[u8],
-    ) -> Vec<u8> {
-        let mut out = Vec::new();
-        {
-            let mut e = png::Encoder::new(&mut out, width, height);
-            e.set_color(color);
-            e.set_depth(depth);
-            if let Some(p) = palette {
-                e.set_palette(p.to_vec());
-            }
-            let mut w = e.write_header().unwrap_or_else(|e| panic!("{e}"));
-            w.write_image_data(data).unwrap_or_else(|e| panic!("{e}"));
-        }
-        out
-    }
-
-    /// CRC-32 of PNG chunks (ISO 3309, as PNG §5.3 specifies), bit by bit.
-    fn crc32(bytes: &[u8]) -> u32 {
-        let mut c = 0xffff_ffffu32;
-        for &b in bytes {
-            c ^= u32::from(b);
-            for _ in 0..8 {
-                c = if c & 1 == 1 {
-                    0xedb8_8320 ^ (c >> 1)
-                } else {
-                    c >> 1
-                };
-            }
-        }
-        !c
-    }
 
     /// A valid 1×1 RGB PNG whose header claims `width` × `height` (with a correct CRC, so only
     /// the size is wrong).
@@ -685,13 +638,6 @@ mod tests {
         let mut budget = Budget::for_input(bytes.len() as u64);
         budget.allow_images();
         decode_image(bytes, &mut budget, Decode::Colour)
-    }
-
-    fn texels(t: &Texture) -> Vec<Vec3> {
-        (0..i64::from(t.height()))
-            .flat_map(|y| (0..i64::from(t.width())).map(move |x| (x, y)))
-            .map(|(x, y)| t.texel(x, y))
-            .collect()
     }
 
     #[test]
@@ -1004,194 +950,6 @@ mod tests {
                 }
             }
         }
-    }
-
-    /// A 4-vertex quad with TEXCOORD_0 (normalized u8) and TEXCOORD_1 (float), and `rest` (the
-    /// images, textures, samplers and materials), written as `dir/name`.
-    fn textured_quad(dir: &Path, name: &str, g: &mut Gltf, rest: &str) -> std::path::PathBuf {
-        let p = g.vec3(&[
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [1.0, 1.0, 0.0],
-            [0.0, 1.0, 0.0],
-        ]);
-        let uv0 = g.accessor(
-            &[0, 0, 255, 0, 255, 255, 0, 51],
-            r#""componentType":5121,"normalized":true,"count":4,"type":"VEC2""#,
-        );
-        let uv1_floats: Vec<u8> = [0.0f32, 0.0, 2.0, 0.0, 2.0, -1.0, 0.0, -1.0]
-            .iter()
-            .flat_map(|f| f.to_le_bytes())
-            .collect();
-        let uv1 = g.accessor(
-            &uv1_floats,
-            r#""componentType":5126,"count":4,"type":"VEC2""#,
-        );
-        let i = g.indices(&[0, 1, 2, 0, 2, 3], 5123);
-        let json = g.json(&format!(
-            r#""scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
-            "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p},"TEXCOORD_0":{uv0},"TEXCOORD_1":{uv1}}},"indices":{i},"material":0}}]}}],
-            {rest}"#
-        ));
-        write(dir, name, json)
-    }
-
-    /// A metallic-roughness texture is data, not colour: the same image read as a base colour
-    /// goes through the sRGB EOTF, and as a metallic-roughness texture is scaled to [0, 1]
-    /// (glTF 2.0 §3.9.2), each decoded once; the roughness is the factor × green, the metallic
-    /// factor × blue, on the texture's own coordinate set (a third set after the base colour's
-    /// and the emission's when it differs).
-    #[test]
-    fn a_metallic_roughness_texture_is_read_as_linear_data() {
-        let d = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-        let orm = png_bytes(
-            1,
-            1,
-            png::ColorType::Rgb,
-            png::BitDepth::Eight,
-            None,
-            &[255, 128, 64],
-        );
-        let mut g = Gltf::default();
-        let view = g.view_of(&orm);
-        let rest = format!(
-            r#""images":[{{"bufferView":{view},"mimeType":"image/png"}}],
-            "textures":[{{"source":0}}],
-            "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0}},
-                "metallicFactor":0.5,"roughnessFactor":0.8,
-                "metallicRoughnessTexture":{{"index":0,"texCoord":1}}}}}}]"#
-        );
-        let path = textured_quad(d.path(), "mr.gltf", &mut g, &rest);
-        let s: SceneData = load_gltf(&path).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(s.textures.len(), 2);
-        let m = s.materials[0];
-        assert_eq!(m.albedo_texture, Some(TextureRef::new(0, 0)));
-        assert_eq!(m.metallic_roughness_texture, Some(TextureRef::new(1, 1)));
-        assert_eq!(
-            texels(&s.textures[0]),
-            vec![Vec3::new(1.0, lin(128), lin(64))]
-        );
-        let data = |c: u8| (f64::from(c) / 255.0) as f32;
-        assert_eq!(
-            texels(&s.textures[1]),
-            vec![Vec3::new(1.0, data(128), data(64))]
-        );
-        // Only the scene's darkness is warned of: no texture or image is left unread.
-        let features: Vec<&str> = s.warnings.iter().map(|w| w.feature.as_str()).collect();
-        assert_eq!(features, ["no-emitter"], "{:?}", s.warnings);
-        let loaded = crate::load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
-        let (metallic, roughness) = loaded.scene.metallic_roughness(0, 0.3, 0.3);
-        assert_eq!((metallic, roughness), (0.5 * data(64), 0.8 * data(128)));
-    }
-
-    #[test]
-    fn a_textured_material_reads_its_images_samplers_and_coordinates() {
-        let d = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-        let red_green = png_bytes(
-            2,
-            1,
-            png::ColorType::Rgb,
-            png::BitDepth::Eight,
-            None,
-            &[255, 0, 0, 0, 255, 0],
-        );
-        let grey = png_bytes(
-            1,
-            1,
-            png::ColorType::Grayscale,
-            png::BitDepth::Eight,
-            None,
-            &[128],
-        );
-        write(d.path(), "grey file.png", &grey);
-        let mut g = Gltf::default();
-        let view = g.view_of(&red_green);
-        let rest = format!(
-            r#""extensionsUsed":["KHR_texture_transform"],
-            "images":[{{"bufferView":{view},"mimeType":"image/png"}},
-                      {{"uri":"data:image/png;base64,{}"}},
-                      {{"uri":"grey%20file.png","name":"grey"}}],
-            "samplers":[{{"magFilter":9728,"minFilter":9728,"wrapS":33071,"wrapT":33648}},
-                        {{"magFilter":9729,"minFilter":9987}}],
-            "textures":[{{"source":0,"sampler":0}},{{"source":1}},{{"source":2,"sampler":1}}],
-            "materials":[{{"pbrMetallicRoughness":{{"baseColorFactor":[0.5,0.5,0.5,1],
-                "baseColorTexture":{{"index":0,"texCoord":1}}}},
-                "emissiveFactor":[1,1,1],
-                "emissiveTexture":{{"index":2,"extensions":{{"KHR_texture_transform":
-                    {{"offset":[0.5,0],"scale":[2,2],"texCoord":0}}}}}}}}]"#,
-            base64(&grey)
-        );
-        let path = textured_quad(d.path(), "t.gltf", &mut g, &rest);
-        let s: SceneData = load_gltf(&path).unwrap_or_else(|e| panic!("{e}"));
-        // Textures 0 and 2 are read; texture 1 (and with it image 1) is not.
-        assert_eq!(s.textures.len(), 2);
-        let m = s.materials[0];
-        assert_eq!(m.albedo_texture, Some(TextureRef::new(0, 1)));
-        let e = m
-            .emission_texture
-            .unwrap_or_else(|| panic!("no emission texture"));
-        assert_eq!((e.texture, e.tex_coord), (1, 0));
-        assert_eq!(e.transform, texture_transform([0.5, 0.0], 0.0, [2.0, 2.0]));
-        assert_eq!(
-            s.textures[0].sampler(),
-            Sampler {
-                wrap_s: Wrap::ClampToEdge,
-                wrap_t: Wrap::MirroredRepeat,
-                filter: Filter::Nearest
-            }
-        );
-        assert_eq!(s.textures[1].sampler(), Sampler::default());
-        assert_eq!(texels(&s.textures[0]), vec![Vec3::X, Vec3::Y]);
-        assert_eq!(texels(&s.textures[1]), vec![Vec3::splat(lin(128))]);
-        let got: Vec<(&str, usize)> = s
-            .warnings
-            .iter()
-            .map(|w| (w.feature.as_str(), w.count))
-            .collect();
-        for expected in [("textures", 1), ("images", 1), ("min-filter", 1)] {
-            assert!(got.contains(&expected), "missing {expected:?} in {got:?}");
-        }
-        assert!(
-            !got.iter().any(|(f, _)| f.contains("KHR_texture_transform")),
-            "{got:?}"
-        );
-        // The material reads set 1 (albedo), then set 0 (emission): two triples per triangle,
-        // u8 coordinates normalized by 255.
-        let uv0 = [
-            Vec2::new(0.0, 0.0),
-            Vec2::new(1.0, 0.0),
-            Vec2::new(1.0, 1.0),
-            Vec2::new(0.0, 0.2),
-        ];
-        let uv1 = [
-            Vec2::new(0.0, 0.0),
-            Vec2::new(2.0, 0.0),
-            Vec2::new(2.0, -1.0),
-            Vec2::new(0.0, -1.0),
-        ];
-        let tri = |uv: &[Vec2; 4], t: [usize; 3]| t.map(|i| uv[i]);
-        assert_eq!(
-            s.tex_coords,
-            vec![vec![
-                tri(&uv1, [0, 1, 2]),
-                tri(&uv0, [0, 1, 2]),
-                tri(&uv1, [0, 2, 3]),
-                tri(&uv0, [0, 2, 3]),
-            ]]
-        );
-        // The whole scene builds: the texture coordinates follow the triangles' ids.
-        let loaded = crate::load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
-        // Vertex 1 of triangle 0 has TEXCOORD_1 (2, 0): clamped in u to the green texel.
-        assert_eq!(loaded.scene.albedo(0, 1.0, 0.0), Vec3::new(0.0, 0.5, 0.0));
-        // Its centre, TEXCOORD_1 (4/3, −1/3): mirrored in v, still the green column.
-        assert_eq!(
-            loaded.scene.albedo(0, 1.0 / 3.0, 1.0 / 3.0),
-            Vec3::new(0.0, 0.5, 0.0)
-        );
-        assert_eq!(
-            loaded.scene.emitted(0, 0.0, 0.0, Vec3::Z, Vec3::Z),
-            Vec3::splat(lin(128))
-        );
     }
 
     #[test]

@@ -45,7 +45,7 @@ pub struct LoadOptions {
 /// The file is checked twice: by name before it is opened (so a FIFO is never opened), and by
 /// handle after (so a file swapped in between is still caught). On Unix it is also opened with
 /// `O_NONBLOCK`, so even a FIFO swapped in at the last moment cannot block the open.
-pub(crate) fn open_regular(path: &Path) -> Result<(File, u64), String> {
+pub fn open_regular(path: &Path) -> Result<(File, u64), String> {
     let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
     if !meta.is_file() {
         return Err(not_regular(&meta));
@@ -76,7 +76,7 @@ fn not_regular(meta: &std::fs::Metadata) -> String {
 
 /// Reads exactly `len` bytes from the start of `file` (whose size is at least `len`), reserving
 /// the memory fallibly.
-pub(crate) fn read_prefix(file: File, len: u64) -> Result<Vec<u8>, String> {
+pub fn read_prefix(file: File, len: u64) -> Result<Vec<u8>, String> {
     let capacity = usize::try_from(len).map_err(|_| format!("{len} bytes do not fit in memory"))?;
     let mut bytes = Vec::new();
     bytes

@@ -1,10 +1,13 @@
-//! Test helpers: a tiny glTF writer, so loader tests can state exactly the file they read.
+//! Test helpers (with the `testing` feature): a tiny glTF writer, so loader tests can state
+//! exactly the file they read, and PNG images for its textures.
 
+use crate::Texture;
+use glam::{Affine2, Vec3};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// Standard base64 with padding (RFC 4648 §4), independent of the decoder under test.
-pub(crate) fn base64(data: &[u8]) -> String {
+pub fn base64(data: &[u8]) -> String {
     const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut s = String::new();
     for chunk in data.chunks(3) {
@@ -27,9 +30,12 @@ pub(crate) fn base64(data: &[u8]) -> String {
 
 /// Builds one buffer and its views and accessors; the rest of the JSON is given as text.
 #[derive(Default)]
-pub(crate) struct Gltf {
+pub struct Gltf {
+    /// The buffer's bytes.
     pub bin: Vec<u8>,
+    /// The buffer views, as JSON objects.
     pub views: Vec<String>,
+    /// The accessors, as JSON objects.
     pub accessors: Vec<String>,
 }
 
@@ -115,13 +121,96 @@ impl Gltf {
 }
 
 /// Writes `contents` to `dir/name` and returns the path.
-pub(crate) fn write(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> PathBuf {
+pub fn write(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> PathBuf {
     let path = dir.join(name);
     std::fs::write(&path, contents).unwrap_or_else(|e| panic!("{e}"));
     path
 }
 
 /// The workspace's assets folder.
-pub(crate) fn assets() -> PathBuf {
+pub fn assets() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets")
+}
+
+/// The linear value of 8-bit sRGB code `c`, as the loader computes it.
+pub fn lin(c: u8) -> f32 {
+    crate::load::srgb_to_linear(f64::from(c) / 255.0) as f32
+}
+/// A PNG of `data` (rows from the top), through the png crate's encoder.
+pub fn png_bytes(
+    width: u32,
+    height: u32,
+    color: png::ColorType,
+    depth: png::BitDepth,
+    palette: Option<&[u8]>,
+    data: &[u8],
+) -> Vec<u8> {
+    let mut out = Vec::new();
+    {
+        let mut e = png::Encoder::new(&mut out, width, height);
+        e.set_color(color);
+        e.set_depth(depth);
+        if let Some(p) = palette {
+            e.set_palette(p.to_vec());
+        }
+        let mut w = e.write_header().unwrap_or_else(|e| panic!("{e}"));
+        w.write_image_data(data).unwrap_or_else(|e| panic!("{e}"));
+    }
+    out
+}
+/// CRC-32 of PNG chunks (ISO 3309, as PNG §5.3 specifies), bit by bit.
+pub fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = 0xffff_ffffu32;
+    for &b in bytes {
+        c ^= u32::from(b);
+        for _ in 0..8 {
+            c = if c & 1 == 1 {
+                0xedb8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            };
+        }
+    }
+    !c
+}
+/// A texture's texels, row by row from the top.
+pub fn texels(t: &Texture) -> Vec<Vec3> {
+    (0..i64::from(t.height()))
+        .flat_map(|y| (0..i64::from(t.width())).map(move |x| (x, y)))
+        .map(|(x, y)| t.texel(x, y))
+        .collect()
+}
+/// A 4-vertex quad with TEXCOORD_0 (normalized u8) and TEXCOORD_1 (float), and `rest` (the
+/// images, textures, samplers and materials), written as `dir/name`.
+pub fn textured_quad(dir: &Path, name: &str, g: &mut Gltf, rest: &str) -> PathBuf {
+    let p = g.vec3(&[
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ]);
+    let uv0 = g.accessor(
+        &[0, 0, 255, 0, 255, 255, 0, 51],
+        r#""componentType":5121,"normalized":true,"count":4,"type":"VEC2""#,
+    );
+    let uv1_floats: Vec<u8> = [0.0f32, 0.0, 2.0, 0.0, 2.0, -1.0, 0.0, -1.0]
+        .iter()
+        .flat_map(|f| f.to_le_bytes())
+        .collect();
+    let uv1 = g.accessor(
+        &uv1_floats,
+        r#""componentType":5126,"count":4,"type":"VEC2""#,
+    );
+    let i = g.indices(&[0, 1, 2, 0, 2, 3], 5123);
+    let json = g.json(&format!(
+        r#""scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p},"TEXCOORD_0":{uv0},"TEXCOORD_1":{uv1}}},"indices":{i},"material":0}}]}}],
+        {rest}"#
+    ));
+    write(dir, name, json)
+}
+
+/// `KHR_texture_transform`'s matrix from its offset, rotation and scale, as the loader builds it.
+pub fn texture_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> Affine2 {
+    crate::load::texture_transform(offset, rotation, scale)
 }

@@ -7,7 +7,7 @@ use super::{Loader, describe, plural};
 use crate::accessor::{Buffers, read_scalars, read_vec3, read_vec4};
 use crate::animation::{CameraPath, Interpolation, Link, NodeMotion, Track, TrackError};
 use crate::camera::NamedCamera;
-use crate::error::RenderError;
+use crate::error::LoadError;
 use glam::{Quat, Vec3};
 use gltf::animation::Property;
 
@@ -27,7 +27,7 @@ impl Loader<'_> {
         &mut self,
         buffers: &Buffers,
         cameras: &[NamedCamera],
-    ) -> Result<(Vec<Option<CameraPath>>, usize), RenderError> {
+    ) -> Result<(Vec<Option<CameraPath>>, usize), LoadError> {
         let d = self.document;
         let nodes = d.nodes().len();
         if d.animations().len() == 0 {
@@ -102,12 +102,12 @@ impl Loader<'_> {
                 let output = sampler.output();
                 let out_what = format!("{what}: output");
                 let path = self.path;
-                let bad = |e: TrackError| RenderError::scene(path, format!("{what}: {e}"));
+                let bad = |e: TrackError| LoadError::scene(path, format!("{what}: {e}"));
                 let entry = tracks[node].get_or_insert_with(Tracks::default);
                 let taken = match property {
                     Property::Translation | Property::Scale => {
                         let values = read_vec3(&out_what, &output, buffers, &mut self.budget)
-                            .map_err(|e| RenderError::scene(self.path, e))?;
+                            .map_err(|e| LoadError::scene(self.path, e))?;
                         let track = Track::new(
                             times,
                             values.into_iter().map(Vec3::from_array).collect(),
@@ -126,7 +126,7 @@ impl Loader<'_> {
                     }
                     Property::Rotation => {
                         let values = read_vec4(&out_what, &output, buffers, &mut self.budget)
-                            .map_err(|e| RenderError::scene(self.path, e))?;
+                            .map_err(|e| LoadError::scene(self.path, e))?;
                         let track = Track::new(
                             times,
                             values.into_iter().map(Quat::from_array).collect(),

@@ -3,7 +3,7 @@
 
 use super::{Loader, MAX_COORDINATE, describe, plural};
 use crate::accessor::{read_colours, read_indices, read_tex_coords, read_vec3, read_vec4};
-use crate::error::RenderError;
+use crate::error::LoadError;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use irr_geometry::TriangleMesh;
 
@@ -40,7 +40,7 @@ impl Loader<'_> {
         world: Mat4,
         material: (u32, &[u32], Option<usize>),
         buffers: &[Vec<u8>],
-    ) -> Result<Option<Primitive>, RenderError> {
+    ) -> Result<Option<Primitive>, LoadError> {
         let (material_id, sets, normal_set) = material;
         use gltf::mesh::Mode;
         let what = format!(
@@ -249,7 +249,7 @@ impl Loader<'_> {
         uv: impl Fn(usize) -> [Vec2; 3],
         linear: Mat3,
         buffers: &[Vec<u8>],
-    ) -> Result<Vec<[Vec4; 3]>, RenderError> {
+    ) -> Result<Vec<[Vec4; 3]>, LoadError> {
         let count = mesh.indices.len();
         let mut out = self
             .budget
@@ -383,7 +383,7 @@ impl Loader<'_> {
         n: usize,
         triangles: &[[u32; 3]],
         buffers: &[Vec<u8>],
-    ) -> Result<ColoursAndAlphas, RenderError> {
+    ) -> Result<ColoursAndAlphas, LoadError> {
         let Some(acc) = primitive.get(&gltf::Semantic::Colors(0)) else {
             return Ok((Vec::new(), Vec::new()));
         };
@@ -451,7 +451,7 @@ impl Loader<'_> {
         n: usize,
         triangles: &[[u32; 3]],
         buffers: &[Vec<u8>],
-    ) -> Result<Vec<[Vec2; 3]>, RenderError> {
+    ) -> Result<Vec<[Vec2; 3]>, LoadError> {
         if sets.is_empty() {
             return Ok(Vec::new());
         }

@@ -54,7 +54,7 @@
 //! primitive without the `TEXCOORD_n` it reads is read at (0, 0). Each becomes one [`Warning`]
 //! with a count.
 //!
-//! # What irr refuses, with a [`RenderError`]
+//! # What irr refuses, with a [`LoadError`]
 //! Files it cannot read or parse, buffers or images that point nowhere, outside the asset root
 //! or are shorter than declared, accessors out of range, indices past the vertex count,
 //! non-finite coordinates or coordinates beyond [`MAX_COORDINATE`], non-finite material factors,
@@ -76,17 +76,19 @@ mod tests;
 mod textures;
 
 pub use textures::MAX_IMAGE_SIDE;
-pub(crate) use textures::{attribute_by_id, tex_coords_by_id};
+pub use textures::{attribute_by_id, tex_coords_by_id};
+#[cfg(any(test, feature = "testing"))]
+pub(crate) use textures::{srgb_to_linear, texture_transform};
 
 use json::{count_extensions, prevalidate, validate};
 
 use crate::camera::{Camera, NamedCamera};
-use crate::error::{RenderError, one_line};
+use crate::error::{LoadError, one_line};
 use crate::files::{Budget, Confinement, LoadOptions, MAX_JSON_BYTES, read_scene_file};
 use crate::glb;
+use crate::{Material, PunctualLight, Texture};
 use glam::{Vec2, Vec3, Vec4};
 use irr_geometry::TriangleMesh;
-use irr_integrator::{Material, PunctualLight, Texture};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -241,14 +243,14 @@ fn plural(n: usize, one: &str, many: &str) -> String {
 /// Reads a glTF 2.0 file (`.gltf` or `.glb`) into plain data, reading buffer files only from
 /// the scene file's folder. See the module docs for what is read, ignored (with a warning) and
 /// refused (with an error).
-pub fn load_gltf(path: &Path) -> Result<SceneData, RenderError> {
+pub fn load_gltf(path: &Path) -> Result<SceneData, LoadError> {
     load_gltf_with(path, &LoadOptions::default())
 }
 
 /// [`load_gltf`] with options: [`LoadOptions::asset_root`] widens (or moves) the folder that
 /// buffer URIs may read from.
-pub fn load_gltf_with(path: &Path, options: &LoadOptions) -> Result<SceneData, RenderError> {
-    let read_error = |problem: String| RenderError::Read {
+pub fn load_gltf_with(path: &Path, options: &LoadOptions) -> Result<SceneData, LoadError> {
+    let read_error = |problem: String| LoadError::Read {
         path: path.to_path_buf(),
         source: std::io::Error::other(problem),
     };
@@ -257,17 +259,17 @@ pub fn load_gltf_with(path: &Path, options: &LoadOptions) -> Result<SceneData, R
     let confinement = Confinement::new(path, options).map_err(read_error)?;
     confinement.digest_part(&bytes);
     let (json_range, bin_range) = if glb::is_glb(&bytes) {
-        let g = glb::parse(&bytes).map_err(|e| RenderError::parse(path, e))?;
+        let g = glb::parse(&bytes).map_err(|e| LoadError::parse(path, e))?;
         (g.json, g.bin)
     } else {
         (0..bytes.len(), None)
     };
     let json_bytes = bytes.get(json_range).unwrap_or_default();
     if json_bytes.is_empty() {
-        return Err(RenderError::parse(path, "the file is empty"));
+        return Err(LoadError::parse(path, "the file is empty"));
     }
     if json_bytes.len() > MAX_JSON_BYTES {
-        return Err(RenderError::parse(
+        return Err(LoadError::parse(
             path,
             format!(
                 "its JSON has {} bytes, more than irr parses ({MAX_JSON_BYTES} bytes)",
@@ -278,12 +280,12 @@ pub fn load_gltf_with(path: &Path, options: &LoadOptions) -> Result<SceneData, R
     // Every extension the file uses, counted in a streaming pass that builds no tree (the typed
     // document drops the extensions the gltf crate does not know).
     let extension_counts =
-        count_extensions(json_bytes).map_err(|e| RenderError::parse(path, format!("JSON: {e}")))?;
+        count_extensions(json_bytes).map_err(|e| LoadError::parse(path, format!("JSON: {e}")))?;
     let root: gltf::json::Root = gltf::json::deserialize::from_slice(json_bytes)
-        .map_err(|e| RenderError::parse(path, format!("glTF schema: {e}")))?;
+        .map_err(|e| LoadError::parse(path, format!("glTF schema: {e}")))?;
     for ext in &root.extensions_required {
         if !SUPPORTED_EXTENSIONS.contains(&ext.as_str()) {
-            return Err(RenderError::scene(
+            return Err(LoadError::scene(
                 path,
                 format!("requires extension {ext}, which irr does not support"),
             ));
@@ -324,18 +326,18 @@ struct Loader<'a> {
 }
 
 impl<'a> Loader<'a> {
-    fn err(&self, problem: impl std::fmt::Display) -> RenderError {
-        RenderError::scene(self.path, problem)
+    fn err(&self, problem: impl std::fmt::Display) -> LoadError {
+        LoadError::scene(self.path, problem)
     }
 
     fn load(
         mut self,
         extension_counts: BTreeMap<String, usize>,
         blob: Option<Vec<u8>>,
-    ) -> Result<SceneData, RenderError> {
+    ) -> Result<SceneData, LoadError> {
         let version = &self.document.as_json().asset.version;
         if !version.starts_with("2.") {
-            return Err(RenderError::parse(
+            return Err(LoadError::parse(
                 self.path,
                 format!("asset.version is \"{version}\"; irr reads glTF 2.x"),
             ));

@@ -390,61 +390,6 @@ fn bad_content_is_refused_with_the_reason() {
     );
 }
 
-/// `COLOR_0` multiplies the base colour (glTF 2.0 §3.7.2.1): normalized unsigned bytes in RGBA
-/// (the alpha scaling the coverage) are read per vertex, follow the triangles' vertices (a mirroring transform's
-/// swap included), and interpolate barycentrically; float colours outside [0, 1] are clamped
-/// with a warning; `COLOR_1` is ignored with a warning.
-#[test]
-fn vertex_colours_multiply_the_base_colour() {
-    let d = dir();
-    let mut g = Gltf::default();
-    let p = g.vec3(&TRIANGLE);
-    let c0 = g.accessor(
-        &[255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 128],
-        r#""componentType":5121,"normalized":true,"count":3,"type":"VEC4""#,
-    );
-    let floats: Vec<u8> = [2.0f32, 0.5, 0.5, 0.5, -1.0, 0.5, 0.5, 0.5, 0.5]
-        .iter()
-        .flat_map(|f| f.to_le_bytes())
-        .collect();
-    let c1 = g.accessor(&floats, r#""componentType":5126,"count":3,"type":"VEC3""#);
-    let json = g.json(&format!(
-        r#""scene":0,"scenes":[{{"nodes":[0,1]}}],
-        "nodes":[{{"mesh":0}},{{"mesh":1,"scale":[1,1,-1],"translation":[0,0,1]}}],
-        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p},"COLOR_0":{c0},"COLOR_1":{c1}}},"material":0}}]}},
-                  {{"primitives":[{{"attributes":{{"POSITION":{p},"COLOR_0":{c1}}},"material":0}}]}}],
-        "materials":[{{"pbrMetallicRoughness":{{"baseColorFactor":[0.5,0.5,0.5,1]}},"emissiveFactor":[1,1,1]}}]"#
-    ));
-    let path = write(d.path(), "c.gltf", json);
-    let loaded = crate::load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
-    let features: Vec<(&str, usize)> = loaded
-        .warnings
-        .iter()
-        .map(|w| (w.feature.as_str(), w.count))
-        .collect();
-    assert_eq!(
-        features,
-        [("vertex-colours", 1), ("colour-clamped", 2)],
-        "{:?}",
-        loaded.warnings
-    );
-    let s = &loaded.scene;
-    // Triangle 0: vertex 0 red, vertex 1 green, vertex 2 blue, × 0.5.
-    assert_eq!(s.albedo(0, 0.0, 0.0), Vec3::new(0.5, 0.0, 0.0));
-    assert_eq!(s.albedo(0, 1.0, 0.0), Vec3::new(0.0, 0.5, 0.0));
-    assert_eq!(s.albedo(0, 0.0, 1.0), Vec3::new(0.0, 0.0, 0.5));
-    assert_eq!(s.albedo(0, 0.5, 0.5), Vec3::new(0.0, 0.25, 0.25));
-    // Triangle 1 is mirrored (scale z −1): its vertices 1 and 2 swap, and their colours with
-    // them; the clamped (2, 0.5, 0.5) and (0.5, −1, 0.5) read (1, 0.5, 0.5) and (0.5, 0, 0.5).
-    assert_eq!(s.albedo(1, 0.0, 0.0), Vec3::new(0.5, 0.25, 0.25));
-    assert_eq!(s.albedo(1, 1.0, 0.0), Vec3::splat(0.25));
-    assert_eq!(s.albedo(1, 0.0, 1.0), Vec3::new(0.25, 0.0, 0.25));
-    // The alphas: vertex 2's 128/255 on triangle 0; triangle 1's VEC3 colours have alpha 1.
-    assert_eq!(s.alpha(0, 0.0, 1.0), 128.0 / 255.0);
-    assert_eq!(s.alpha(0, 1.0, 0.0), 1.0);
-    assert_eq!(s.alpha(1, 0.3, 0.3), 1.0);
-}
-
 /// Animations: a channel that moves a node above a camera (rotation, CUBICSPLINE, with zero
 /// tangents) gives that camera a path whose chain is the moving parent then the fixed camera
 /// node; a channel that moves a mesh, and one that drives the same parent's rotation again,

@@ -73,7 +73,7 @@ impl NamedCamera {
     /// `2 "Side view"` (index and escaped name), or `2` for a node without a name.
     pub fn describe(&self) -> String {
         match &self.name {
-            Some(n) => format!("node {} \"{}\"", self.node, crate::error::one_line(n)),
+            Some(n) => format!("node {} \"{}\"", self.node, crate::one_line(n)),
             None => format!("node {}", self.node),
         }
     }

@@ -1,7 +1,7 @@
 //! Buffers: the .glb's binary chunk, `data:` URIs and files beside the scene.
 
 use super::Loader;
-use crate::error::RenderError;
+use crate::error::LoadError;
 use crate::uri::{decode_data_uri, percent_decode, scheme};
 
 impl Loader<'_> {
@@ -11,7 +11,7 @@ impl Loader<'_> {
     pub(super) fn load_buffers(
         &mut self,
         mut blob: Option<Vec<u8>>,
-    ) -> Result<Vec<Vec<u8>>, RenderError> {
+    ) -> Result<Vec<Vec<u8>>, LoadError> {
         let mut out = Vec::new();
         for buffer in self.document.buffers() {
             let i = buffer.index();
@@ -41,7 +41,7 @@ impl Loader<'_> {
         Ok(out)
     }
 
-    fn read_uri(&self, i: usize, uri: &str, length: usize) -> Result<Vec<u8>, RenderError> {
+    fn read_uri(&self, i: usize, uri: &str, length: usize) -> Result<Vec<u8>, LoadError> {
         if let Some(decoded) = decode_data_uri(uri) {
             return decoded.map_err(|e| self.err(format!("buffer {i}: {e}")));
         }
