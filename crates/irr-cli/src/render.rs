@@ -101,10 +101,10 @@ pub struct IcArgs {
     /// Smallest influence radius of a record on screen, in pixels (0: none)
     #[arg(long, default_value_t = IcSettings::default().influence_floor, allow_negative_numbers = true)]
     pub influence_floor: f32,
-    /// Largest record radius, as a fraction of the scene's bounding-box diagonal
+    /// Largest record radius, as a fraction of the image's height at the record's distance
     #[arg(long, default_value_t = IcSettings::default().world_max, allow_negative_numbers = true)]
     pub world_max: f32,
-    /// Smallest record radius, as a fraction of the scene's bounding-box diagonal
+    /// Smallest record radius, as a fraction of the image's height at the record's distance
     #[arg(long, default_value_t = IcSettings::default().world_min, allow_negative_numbers = true)]
     pub world_min: f32,
     /// The records' translation gradient
@@ -134,8 +134,9 @@ pub struct IcArgs {
     /// spend them)
     #[arg(long, default_value_t = IcSettings::default().light_cache_error, allow_negative_numbers = true)]
     pub light_cache_error: f32,
-    /// With --bounce-mode light-cache: its cells' width as a fraction of the scene's
-    /// bounding-box diagonal (2^-16 to 1; smaller is sharper and needs more paths)
+    /// With --bounce-mode light-cache: its cells' width as a fraction of the image's height at
+    /// their distance, rounded to a power of two (2^-16 to 1; smaller is sharper and needs more
+    /// paths)
     #[arg(long, default_value_t = IcSettings::default().light_cache_cell, allow_negative_numbers = true)]
     pub light_cache_cell: f32,
     /// Light samples per camera hit for the direct light (≥ 1)

@@ -29,7 +29,9 @@
 //!
 //! # What it must not know
 //! Images, tiles, threads, progress, file formats: those are irr-render's. Integrators see camera
-//! rays one at a time, or as a batch whose answers are each ray's alone.
+//! rays one at a time, or as a batch whose answers are each ray's alone; of the camera, the
+//! cache knows only where it is and how tall its image is at a distance ([`CacheView`]), to
+//! size its lengths by what the image shows.
 //!
 //! # Example
 //! ```
@@ -71,8 +73,8 @@ mod scene;
 pub use ao::{AmbientOcclusion, AoSettings};
 pub use bsdf::{Bsdf, BsdfDraw};
 pub use ic::{
-    BounceMode, CacheBuilder, CachedAmbientOcclusion, CachedLevel, Candidate, CommitStats,
-    DisplayRecord, GradientMode, GuardRecord, IcMetric, IcSettings, IcSettingsError,
+    BounceMode, CacheBuilder, CacheView, CachedAmbientOcclusion, CachedLevel, Candidate,
+    CommitStats, DisplayRecord, GradientMode, GuardRecord, IcMetric, IcSettings, IcSettingsError,
     IrradianceCacheIntegrator, LeakGuard, LightCacheCounts, LightDeposit, LightPathTracer,
     MetricKind, Probe, RadiusStatistic, surface_spacing,
 };

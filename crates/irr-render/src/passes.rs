@@ -35,7 +35,7 @@ use crate::render::RenderSettings;
 use glam::Vec2;
 use irr_geometry::Ray;
 use irr_integrator::{
-    CacheBuilder, Candidate, CommitStats, DisplayRecord, LightCacheCounts, LightDeposit,
+    CacheBuilder, CacheView, Candidate, CommitStats, DisplayRecord, LightCacheCounts, LightDeposit,
     LightPathTracer, Probe, RayCounter, Scene, surface_spacing,
 };
 use irr_sampling::SampleKey;
@@ -107,6 +107,7 @@ pub fn build_light_cache(
     settings: &RenderSettings,
 ) -> Result<Option<LightCacheStats>, RenderError> {
     settings.validate()?;
+    builder.set_view(cache_view(camera));
     let paths = builder.light_paths();
     if paths == 0 {
         return Ok(None);
@@ -115,6 +116,16 @@ pub fn build_light_cache(
         trace_light_cache(scene, camera, builder, settings, paths)
     })?;
     Ok(Some(stats))
+}
+
+/// The view a cache sizes its lengths by ([`CacheBuilder::set_view`]): the camera that launches
+/// the light cache's paths.
+pub fn cache_view(camera: &Camera) -> CacheView {
+    CacheView {
+        position: camera.position,
+        height_per_distance: 2.0 * (0.5 * camera.yfov).tan(),
+        height: 0.0,
+    }
 }
 
 /// Fills the integrator's light cache with at most `paths` camera-launched paths, each from a
@@ -603,6 +614,7 @@ pub fn build_cache_shard(
             ),
         });
     };
+    builder.set_view(cache_view(first));
     let start = Instant::now();
     let mut stats = CacheBuildStats::default();
     let bar = if progress {

@@ -6,6 +6,7 @@ use super::builder::{
 };
 use super::guard::Query;
 use super::levels::{Core, display};
+use super::light_cache::CacheView;
 use super::settings::{BounceMode, IcSettings, IcSettingsError, setting_error};
 use crate::integrator::{Integrator, RayCounter};
 use crate::path::PathSettings;
@@ -104,6 +105,10 @@ impl Integrator for CachedAmbientOcclusion {
 }
 
 impl CacheBuilder for CachedAmbientOcclusion {
+    fn set_view(&mut self, view: CacheView) {
+        self.core.view = Some(view);
+    }
+
     fn levels(&self) -> u32 {
         1
     }

@@ -16,7 +16,7 @@
 //! of its own, used and not stored.
 
 use super::guard::GuardRecord;
-use super::light_cache::{LightCacheCounts, LightDeposit, LightPathTracer};
+use super::light_cache::{CacheView, LightCacheCounts, LightDeposit, LightPathTracer};
 use crate::integrator::{Integrator, RayCounter};
 use crate::path::ShadingPoint;
 use crate::scene::Scene;
@@ -79,6 +79,9 @@ pub struct Probe {
     pub(super) level: u32,
     pub(super) x: ShadingPoint,
     pub(super) spacing: f32,
+    /// How much wider the pixel's footprint is on the surface than across the view
+    /// (`spacing` over the perpendicular footprint, ≥ 1; 1 below the first level).
+    pub(super) slant: f32,
     pub(super) key: SampleKey,
     pub(super) predicted_radius: f32,
     /// Rays the probe cost.
@@ -173,6 +176,17 @@ pub trait CacheBuilder: Integrator + Send {
 
     /// Records per level.
     fn record_counts(&self) -> Vec<usize>;
+
+    /// Sizes the cache's lengths by `view`, the camera whose paths fill the light cache: the
+    /// light cache's cells and the records' world limits follow what the image shows at each
+    /// point (module `light_cache`, `Core::length_at`) rather than the scene's bounds, so that
+    /// geometry far from anything the camera sees changes neither. The renderer calls it before
+    /// the light cache's paths and the first pass, with the same view wherever a cache is
+    /// rebuilt; without it the lengths are fractions of the scene's diagonal. Replaces a light
+    /// cache filled under another view.
+    fn set_view(&mut self, view: CacheView) {
+        let _ = view;
+    }
 
     /// How many camera-launched paths fill the light cache before the first pass (0: the
     /// integrator has none; `BounceMode::LightCache`).

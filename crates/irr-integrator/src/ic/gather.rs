@@ -231,13 +231,13 @@ impl<V: IcValue> Core<V> {
             Option<&GatherSamples<V::Gathered>>,
         ),
         frame: &Frame,
-        spacing: f32,
+        (spacing, slant): (f32, f32),
     ) -> (Record<V>, RadiusInputs, f32) {
         if self.settings.metric == MetricKind::Hessian {
             let (record, distance) = self.hessian_record(x, (samples, pilot), frame);
             let inputs = RadiusInputs {
                 distance,
-                limits: self.limits(level, spacing),
+                limits: self.limits(level, spacing, x.position, slant),
                 neighbour_clamping: self.settings.neighbour_clamping,
             };
             return (record, inputs, samples.min_distance().min(self.diagonal));
@@ -266,7 +266,7 @@ impl<V: IcValue> Core<V> {
         };
         let inputs = RadiusInputs {
             distance: self.settings.radius_statistic.of(pilot.unwrap_or(samples)),
-            limits: self.limits(level, spacing),
+            limits: self.limits(level, spacing, x.position, slant),
             neighbour_clamping: self.settings.neighbour_clamping,
         };
         // A gather that hit nothing has its nearest hit at the scene's diagonal rather than +∞:
@@ -384,7 +384,7 @@ impl<V: IcValue> Core<V> {
             &probe.x,
             (samples, pilot),
             frame,
-            probe.spacing,
+            (probe.spacing, probe.slant),
         );
         Candidate {
             level: probe.level,

@@ -4,6 +4,7 @@
 use super::IcMetric;
 use super::builder::{Candidate, CommitStats, DisplayRecord, Probe};
 use super::guard::{GuardRecord, Query};
+use super::light_cache::CacheView;
 use super::radiance::RadianceCaching;
 use super::settings::{IcSettings, IcSettingsError};
 use super::value::{IcValue, convert_record};
@@ -38,6 +39,9 @@ pub(super) struct Core<V: IcValue> {
     pub(super) levels: Vec<Level<V>>,
     /// The scene's bounding-box diagonal (world units), set by `preprocess`.
     pub(super) diagonal: f32,
+    /// The view the records' and the light cache's lengths follow (`CacheBuilder::set_view`);
+    /// `None`: they follow the scene's diagonal.
+    pub(super) view: Option<CacheView>,
     /// The strata of the final pass's own gathers (where no record covers a shading point): a
     /// quarter of the first level's in each direction, at least 4×8. Its estimate of E is as
     /// unbiased as a record's, only noisier, and it serves one pixel only.
@@ -70,10 +74,29 @@ impl<V: IcValue> Core<V> {
             settings,
             levels,
             diagonal: 1.0,
+            view: None,
             misses: AtomicU64::new(0),
             fallbacks: AtomicU64::new(0),
             radiance: None,
         })
+    }
+
+    /// The length the world limits of a record at `x` are fractions of: the view's image
+    /// height at x's distance (what the image shows there), or the scene's diagonal without a
+    /// view.
+    #[inline]
+    pub(super) fn length_at(&self, x: Vec3) -> f32 {
+        match self.view {
+            Some(view) => {
+                let h = view.height_at(x);
+                if h.is_finite() && h > 0.0 {
+                    h
+                } else {
+                    self.diagonal
+                }
+            }
+            None => self.diagonal,
+        }
     }
 
     /// The scene's diagonal; with `radiance_order` > 0 and a glossy material in the scene, the

@@ -20,7 +20,11 @@
 //!
 //! The deposits are averaged in cells of a world-space grid, keyed by the cell and by the
 //! shading normal's dominant axis and sign (six buckets), so that the two sides of a thin wall,
-//! or a floor and the wall beside it, never share a cell.
+//! or a floor and the wall beside it, never share a cell. With the view the paths come from
+//! ([`LightCache::for_view`]), a cell's width at a point is a fixed fraction of the image's
+//! height at the point's distance, rounded to a power of two: cells are as fine as the image
+//! looks, wherever it looks, and geometry the view does not approach (a far ground plane) gets
+//! coarse cells instead of coarsening every cell, as a width taken from the scene's bounds would.
 //!
 //! # What a gather ray takes from it
 //! A gather ray that hits a Lambertian x₁ brings back (ρ(x₁)/π)·Ē(cell of x₁): no light sample
@@ -73,10 +77,12 @@ pub const MIN_CONTINUATION: f32 = 0.5;
 /// path-trace their continuation.
 pub const CONVERGED_SHARE: f64 = 0.95;
 
-/// A cell of the grid: its integer coordinates and the shading normal's bucket (0–5: the
-/// dominant axis, times 2, plus 1 if it points the negative way).
+/// A cell of the grid: its level (the base-2 logarithm of its width, 0 in a uniform grid), its
+/// integer coordinates at that width, and the shading normal's bucket (0–5: the dominant axis,
+/// times 2, plus 1 if it points the negative way).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct CellKey {
+    level: i8,
     x: i32,
     y: i32,
     z: i32,
@@ -84,8 +90,9 @@ pub struct CellKey {
 }
 
 impl CellKey {
-    /// The cell of `position` with shading normal `ns`, for cells of size 1/`inv_cell`.
-    fn of(position: Vec3, ns: Vec3, inv_cell: f32) -> Self {
+    /// The cell of `position` with shading normal `ns`, at `level` in a grid of cells
+    /// 1/`inv_cell` wide.
+    fn of(position: Vec3, ns: Vec3, (level, inv_cell): (i8, f32)) -> Self {
         // Coordinates beyond i32 saturate (`as` on floats does): a scene so far from the origin
         // (2³¹ cells) shares its outermost cells, caching worse there, never indexing wrong.
         let c = (position * inv_cell).floor();
@@ -99,11 +106,96 @@ impl CellKey {
         };
         let bucket = 2 * axis + u8::from(ns[axis as usize] < 0.0);
         Self {
+            level,
             x: c.x as i32,
             y: c.y as i32,
             z: c.z as i32,
             bucket,
         }
+    }
+}
+
+/// The view the light cache sizes its cells by (its paths' camera): where it is and how tall
+/// the image it sees is at a distance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CacheView {
+    /// The centre of projection (for an orthographic view, any point of its axis).
+    pub position: Vec3,
+    /// The image's height in world units at unit distance, 2·tan(yfov/2) (0 for an
+    /// orthographic view).
+    pub height_per_distance: f32,
+    /// The image's height in world units at any distance: an orthographic view's (0 for a
+    /// perspective one).
+    pub height: f32,
+}
+
+impl CacheView {
+    /// The height of the image, in world units, at `p`'s distance from the view.
+    #[inline]
+    pub fn height_at(&self, p: Vec3) -> f32 {
+        self.height + self.height_per_distance * (p - self.position).length()
+    }
+}
+
+/// How the light cache's cells are laid out.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Grid {
+    /// One cell width everywhere: 1/`inv_cell` world units.
+    Uniform { inv_cell: f32 },
+    /// Cells `fraction` of the view's image height at their distance (a width in screen
+    /// units, as V-Ray's light cache sizes its samples), rounded to a power of two so that the
+    /// width at a point is a function of the point alone (NVIDIA's SHaRC levels its hash grid
+    /// by the distance to the camera the same way): fine where the view looks closely, coarse
+    /// far from it, the same cells at any scale of the scene.
+    View { view: CacheView, fraction: f32 },
+}
+
+/// The finest cell relative to a point's coordinates, 2⁻²⁰·|p|∞: every coordinate of a cell
+/// then fits an i32, and the cell is wider than f32's spacing there (2⁻²³·|p|∞).
+const FINEST_RELATIVE_LEVEL: i32 = -20;
+
+/// The levels a cell of a view grid may take: widths 2⁻¹⁰⁰ to 2¹⁰⁰ world units, whose
+/// reciprocals are exact f32s.
+const LEVELS: std::ops::RangeInclusive<i32> = -100..=100;
+
+/// ⌊log₂ x⌋ for a positive normal f32, from its exponent bits (exact on every machine, unlike a
+/// library log2); −127 for 0 or a subnormal, 128 for ∞ or NaN.
+#[inline]
+fn exponent(x: f32) -> i32 {
+    ((x.to_bits() >> 23) & 0xff) as i32 - 127
+}
+
+impl Grid {
+    /// The level of the cell holding `p` and the reciprocal of its width.
+    #[inline]
+    fn level(&self, p: Vec3) -> (i8, f32) {
+        match *self {
+            Self::Uniform { inv_cell } => (0, inv_cell),
+            Self::View { view, fraction } => {
+                // The power of two nearest the target width in log scale: ⌊log₂(√2·t)⌋, so the
+                // width lies in (t/√2, √2·t].
+                let target = std::f32::consts::SQRT_2 * fraction * view.height_at(p);
+                let finest = exponent(p.abs().max_element()) + FINEST_RELATIVE_LEVEL;
+                let level = exponent(target)
+                    .max(finest)
+                    .clamp(*LEVELS.start(), *LEVELS.end());
+                // 2^−level, built from its exponent bits: exact.
+                let inv = f32::from_bits(((127 - level) as u32) << 23);
+                (level as i8, inv)
+            }
+        }
+    }
+
+    /// The cell of a point with shading normal `ns`.
+    #[inline]
+    fn key(&self, position: Vec3, ns: Vec3) -> CellKey {
+        CellKey::of(position, ns, self.level(position))
+    }
+
+    /// The width of the cell holding `p`.
+    #[inline]
+    fn width(&self, p: Vec3) -> f32 {
+        1.0 / self.level(p).1
     }
 }
 
@@ -154,9 +246,9 @@ fn luminance(v: DVec3) -> f64 {
 }
 
 /// The light cache: cell means of the irradiance deposited by camera-launched paths.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct LightCache {
-    inv_cell: f32,
+    grid: Grid,
     /// A fixed hasher (rustc's Fx, not std's per-process random SipHash): the cells' iteration
     /// order, and so the float sums over them (`relative_error`), depend on the deposits alone;
     /// and a gather ray's lookup hashes its key in a few instructions.
@@ -168,9 +260,23 @@ pub struct LightCache {
 impl LightCache {
     /// An empty cache of cells `cell` wide (world units, > 0).
     pub fn new(cell: f32) -> Self {
-        Self {
+        Self::with_grid(Grid::Uniform {
             inv_cell: 1.0 / cell,
-            ..Self::default()
+        })
+    }
+
+    /// An empty cache whose cells at a point are `fraction` (> 0) of `view`'s image height at
+    /// the point's distance, rounded to a power of two (the nearest in log scale).
+    pub fn for_view(view: CacheView, fraction: f32) -> Self {
+        Self::with_grid(Grid::View { view, fraction })
+    }
+
+    fn with_grid(grid: Grid) -> Self {
+        Self {
+            grid,
+            cells: FxHashMap::default(),
+            deposits: 0,
+            paths: 0,
         }
     }
 
@@ -181,14 +287,14 @@ impl LightCache {
 
     /// The cell of `x`, as deposits and lookups file it.
     fn key(&self, x: &ShadingPoint) -> CellKey {
-        CellKey::of(x.position, x.ns, self.inv_cell)
+        self.grid.key(x.position, x.ns)
     }
 
     /// A tracer of this cache's paths: all it needs of the cache is the grid, so a renderer
     /// can trace the next paths while it adds the last ones.
     pub fn tracer(&self, (max_depth, rr_start): (u32, u32)) -> LightPathTracer {
         LightPathTracer {
-            inv_cell: self.inv_cell,
+            grid: self.grid,
             max_depth,
             rr_start,
         }
@@ -231,12 +337,10 @@ impl LightCache {
     /// beyond).
     pub fn irradiance_filtered(&self, x: &ShadingPoint, u: Vec2, deeper: usize) -> Option<Vec3> {
         let frame = Frame::from_normal(x.ns);
-        let d = (u - Vec2::splat(0.5)) * (FILTER_CELLS / self.inv_cell);
-        let moved = CellKey::of(
-            x.position + frame.s * d.x + frame.t * d.y,
-            x.ns,
-            self.inv_cell,
-        );
+        let d = (u - Vec2::splat(0.5)) * (FILTER_CELLS * self.grid.width(x.position));
+        let moved = self
+            .grid
+            .key(x.position + frame.s * d.x + frame.t * d.y, x.ns);
         self.mean(&moved, deeper)
             .or_else(|| self.mean(&self.key(x), deeper))
     }
@@ -342,7 +446,7 @@ impl Slot {
 /// while the cache itself takes earlier paths.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightPathTracer {
-    inv_cell: f32,
+    grid: Grid,
     max_depth: u32,
     rr_start: u32,
 }
@@ -357,7 +461,7 @@ impl LightPathTracer {
         rays: &mut RayCounter,
     ) -> Vec<LightDeposit> {
         trace_light_path(
-            self.inv_cell,
+            &self.grid,
             scene,
             ray,
             key,
@@ -371,7 +475,7 @@ impl LightPathTracer {
 /// Lambertian surfaces, `Bsdf::sample_defensive` on glossy ones; Russian roulette on the
 /// albedo, at least [`MIN_CONTINUATION`], from vertex `rr_start` on) and returns the estimate of
 /// the irradiance at each of its first [`DEPOSITS_PER_PATH`] vertices, filed under its cell
-/// of a grid of cells 1/`inv_cell` wide. All randomness comes from `key`, so the deposits do not depend on the thread that
+/// of `grid`. All randomness comes from `key`, so the deposits do not depend on the thread that
 /// traces them.
 ///
 /// The estimate at vertex k unrolls E(v) = d(v) + (cos θ/(pdf·q))(v)·R(v₊₁), d(v) the light
@@ -386,7 +490,7 @@ impl LightPathTracer {
 /// cache obeys the path tracer's depth limit. The walk goes no further than the last depositing
 /// vertex's window needs.
 fn trace_light_path(
-    inv_cell: f32,
+    grid: &Grid,
     scene: &Scene,
     ray: &Ray,
     key: SampleKey,
@@ -444,7 +548,7 @@ fn trace_light_path(
         let bsdf = Bsdf::at(scene, &x);
         if j < DEPOSITS_PER_PATH {
             slots.push(Slot {
-                key: CellKey::of(x.position, x.ns, inv_cell),
+                key: grid.key(x.position, x.ns),
                 tails: [Vec3::ZERO; DEEPER_READS],
                 factor: Vec3::ZERO,
                 irradiance: Vec3::ZERO,
@@ -556,7 +660,14 @@ mod tests {
             let trace = |max_depth| {
                 let ray = Ray::new(Vec3::ZERO, d);
                 let mut rays = RayCounter::default();
-                trace_light_path(inv_cell, &scene, &ray, key, (max_depth, 3), &mut rays)
+                trace_light_path(
+                    &Grid::Uniform { inv_cell },
+                    &scene,
+                    &ray,
+                    key,
+                    (max_depth, 3),
+                    &mut rays,
+                )
             };
             let full = trace(8);
             for m in 1..=DEEPER_READS {
@@ -594,7 +705,7 @@ mod tests {
             for b in -2..=2 {
                 for (y, v) in [(0.01, value(a, b)), (0.26, 1000.0), (-0.24, 1000.0)] {
                     let p = Vec3::new(centre.x + a as f32 / inv, y, centre.z + b as f32 / inv);
-                    let key = CellKey::of(p, Vec3::Y, inv);
+                    let key = CellKey::of(p, Vec3::Y, (0, inv));
                     for _ in 0..MIN_DEPOSITS {
                         cache.add_path(&[LightDeposit {
                             key,
@@ -666,7 +777,7 @@ mod tests {
                     let d = sample_uniform_sphere(SampleKey::new(4, i, 0).uniform_2d(0));
                     let mut rays = RayCounter::default();
                     trace_light_path(
-                        cache.inv_cell,
+                        &cache.grid,
                         &scene,
                         &Ray::new(Vec3::ZERO, d),
                         key,
@@ -711,9 +822,9 @@ mod tests {
         let ray = Ray::new(Vec3::ZERO, Vec3::Y);
         let key = SampleKey::new(1, 2, 3);
         let mut rays = RayCounter::default();
-        assert!(trace_light_path(cache.inv_cell, &scene, &ray, key, (1, 64), &mut rays).is_empty());
+        assert!(trace_light_path(&cache.grid, &scene, &ray, key, (1, 64), &mut rays).is_empty());
         assert_eq!(rays, RayCounter::default());
-        let deposits = trace_light_path(cache.inv_cell, &scene, &ray, key, (3, 64), &mut rays);
+        let deposits = trace_light_path(&cache.grid, &scene, &ray, key, (3, 64), &mut rays);
         assert_eq!(deposits.len(), DEPOSITS_PER_PATH);
         assert_eq!(rays.shadow, DEPOSITS_PER_PATH as u64 + 1);
         assert_eq!(rays.closest, DEPOSITS_PER_PATH as u64 + 2);
@@ -755,7 +866,7 @@ mod tests {
             let cached = crate::tests::estimate(n, |i| {
                 let key = SampleKey::new(7, u64::from(i), 0);
                 let d = trace_light_path(
-                    cache.inv_cell,
+                    &cache.grid,
                     &scene,
                     &ray,
                     key,
@@ -830,7 +941,7 @@ mod tests {
             let ray = Ray::new(Vec3::new(x, 0.5, u.y - 0.5), Vec3::NEG_Y);
             let key = SampleKey::new(12, i, 0);
             for d in trace_light_path(
-                cache.inv_cell,
+                &cache.grid,
                 &scene,
                 &ray,
                 key,
@@ -855,11 +966,11 @@ mod tests {
     #[test]
     fn cells_keep_faces_apart_and_average_their_deposits() {
         let inv = 4.0;
-        let a = CellKey::of(Vec3::new(0.1, 0.0, 0.1), Vec3::Y, inv);
-        assert_eq!(a, CellKey::of(Vec3::new(0.2, 0.01, 0.2), Vec3::Y, inv));
-        assert_ne!(a, CellKey::of(Vec3::new(0.1, 0.0, 0.1), -Vec3::Y, inv));
-        assert_ne!(a, CellKey::of(Vec3::new(0.1, 0.0, 0.1), Vec3::X, inv));
-        assert_ne!(a, CellKey::of(Vec3::new(0.3, 0.0, 0.1), Vec3::Y, inv));
+        let a = CellKey::of(Vec3::new(0.1, 0.0, 0.1), Vec3::Y, (0, inv));
+        assert_eq!(a, CellKey::of(Vec3::new(0.2, 0.01, 0.2), Vec3::Y, (0, inv)));
+        assert_ne!(a, CellKey::of(Vec3::new(0.1, 0.0, 0.1), -Vec3::Y, (0, inv)));
+        assert_ne!(a, CellKey::of(Vec3::new(0.1, 0.0, 0.1), Vec3::X, (0, inv)));
+        assert_ne!(a, CellKey::of(Vec3::new(0.3, 0.0, 0.1), Vec3::Y, (0, inv)));
         let mut cache = LightCache::new(0.25);
         let x = floor_point(Vec3::new(0.1, 0.0, 0.1));
         for i in 0..MIN_DEPOSITS {
@@ -882,5 +993,69 @@ mod tests {
                 used_cells: 1
             }
         );
+    }
+
+    /// A view grid's cells: at distance d from the view (image height d at unit distance
+    /// here), the width is the power of two nearest in log scale to `fraction`·d, i.e.
+    /// 2^⌊log₂(√2·d/64)⌋ for 1/64: √2·0.7/64 = 0.0155 gives 2⁻⁷, √2/64 = 0.0221 gives 2⁻⁶,
+    /// √2·1.5/64 = 0.0331 and √2·2/64 = 0.0442 give 2⁻⁵. Exact: the width comes from exponent
+    /// bits, with no rounding to tolerate.
+    #[test]
+    fn view_cells_are_a_fraction_of_the_image_at_their_distance() {
+        let view = CacheView {
+            position: Vec3::new(0.25, -3.0, 7.5),
+            height_per_distance: 1.0,
+            height: 0.0,
+        };
+        let grid = Grid::View {
+            view,
+            fraction: 1.0 / 64.0,
+        };
+        for (d, width) in [
+            (0.7, 1.0 / 128.0),
+            (1.0, 1.0 / 64.0),
+            (1.5, 1.0 / 32.0),
+            (2.0, 1.0 / 32.0),
+        ] {
+            let p = view.position + Vec3::new(0.0, 0.0, d);
+            assert_eq!(grid.width(p), width, "at {d}");
+        }
+        // Nearer than any width the point's coordinates can tell apart: the finest level,
+        // 2⁻²⁰ of the largest coordinate (7.5 here: 2² · 2⁻²⁰).
+        assert_eq!(grid.width(view.position), 4.0 / 1_048_576.0);
+        // As far as a scene may reach (irr-scene's MAX_COORDINATE, 10¹⁸), cells stay within an
+        // i32's coordinates.
+        let far = Vec3::splat(1e18);
+        let key = grid.key(far, Vec3::Y);
+        assert!(key.x.abs() < 1 << 21 && key.x != 0, "{key:?}");
+    }
+
+    proptest::proptest! {
+        /// A scene and its view scaled by 2^k have the same cells, k levels up: the same
+        /// coordinates and buckets (every step is exact under a power-of-two scale: products,
+        /// the distance's square root, the exponent bits, the floor), so a cache is the same
+        /// at any scale.
+        #[test]
+        fn view_cells_scale_with_the_scene(
+            (x, y, z) in (-50.0f32..50.0, -50.0f32..50.0, -50.0f32..50.0),
+            k in -20i32..20,
+        ) {
+            let view = CacheView {
+                position: Vec3::new(0.5, 1.25, -2.0),
+                height_per_distance: 0.75,
+                height: 0.0,
+            };
+            let scale = 2f32.powi(k);
+            let scaled = CacheView {
+                position: view.position * scale,
+                ..view
+            };
+            let a = Grid::View { view, fraction: 1.0 / 48.0 };
+            let b = Grid::View { view: scaled, fraction: 1.0 / 48.0 };
+            let p = Vec3::new(x, y, z);
+            let (ka, kb) = (a.key(p, Vec3::X), b.key(p * scale, Vec3::X));
+            proptest::prop_assert_eq!((ka.x, ka.y, ka.z, ka.bucket), (kb.x, kb.y, kb.z, kb.bucket));
+            proptest::prop_assert_eq!(i32::from(ka.level) + k, i32::from(kb.level));
+        }
     }
 }

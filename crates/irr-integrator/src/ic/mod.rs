@@ -85,7 +85,9 @@ pub use builder::{
     CacheBuilder, Candidate, CommitStats, DisplayRecord, FinalPassMisses, PROBE_M, PROBE_N, Probe,
 };
 pub use guard::GuardRecord;
-pub use light_cache::{LightCache, LightCacheCounts, LightDeposit, LightPathTracer, MIN_DEPOSITS};
+pub use light_cache::{
+    CacheView, LightCache, LightCacheCounts, LightDeposit, LightPathTracer, MIN_DEPOSITS,
+};
 pub use radius::{HORIZON_CUT_COS, surface_spacing};
 pub use settings::{
     BounceMode, GradientMode, IcMetric, IcSettings, IcSettingsError, LeakGuard, MAX_GLOSSY_SAMPLES,
@@ -212,11 +214,21 @@ pub struct IrradianceCacheIntegrator {
 }
 
 impl IrradianceCacheIntegrator {
+    /// An empty light cache for the view (`CacheBuilder::set_view`) or, without one, of cells
+    /// a fraction of the scene's diagonal.
+    fn empty_light_cache(&self) -> LightCache {
+        let fraction = self.core.settings.light_cache_cell;
+        match self.core.view {
+            Some(view) => LightCache::for_view(view, fraction),
+            None => LightCache::new(self.core.diagonal * fraction),
+        }
+    }
+
     /// An integrator with an empty cache; refuses settings out of range.
     pub fn new(settings: IcSettings) -> Result<Self, IcSettingsError> {
         Ok(Self {
             core: Core::new(settings)?,
-            light: LightCache::default(),
+            light: LightCache::new(1.0),
         })
     }
 
@@ -623,7 +635,7 @@ impl Integrator for IrradianceCacheIntegrator {
 
     fn preprocess(&mut self, scene: &Scene) {
         self.core.set_scene(scene);
-        self.light = LightCache::new(self.core.diagonal * self.core.settings.light_cache_cell);
+        self.light = self.empty_light_cache();
     }
 
     fn li(&self, scene: &Scene, ray: &Ray, dims: &mut Dimensions, rays: &mut RayCounter) -> Vec3 {
@@ -723,6 +735,13 @@ impl CacheBuilder for IrradianceCacheIntegrator {
         };
         candidate.radiance = radiance.map(|r| r.project(&samples, &log, &frame, variant));
         Some(candidate)
+    }
+
+    fn set_view(&mut self, view: CacheView) {
+        if self.core.view != Some(view) {
+            self.core.view = Some(view);
+            self.light = self.empty_light_cache();
+        }
     }
 
     fn light_paths(&self) -> u32 {

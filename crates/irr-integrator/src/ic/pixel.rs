@@ -404,7 +404,8 @@ impl IrradianceCacheIntegrator {
         // the pixel's points on its triangle ask (it serves this pixel's samples only, as a
         // record of the pixel's footprint would: no sample of the pixel's surface gathers twice).
         let (record, mut inputs, nearest_hit) =
-            self.core.record_from(0, x, (&samples, None), &frame, 0.0);
+            self.core
+                .record_from(0, x, (&samples, None), &frame, (0.0, 1.0));
         let e = Vec3::from_array(record.value.0);
         if let Some(first) = self.core.levels.first() {
             let needed = reach / first.cache.metric().influence_radius(1.0);

@@ -19,13 +19,17 @@ use irr_sampling::{Frame, HemisphereStrata, SampleKey};
 pub const HORIZON_CUT_COS: f32 = 0.173_648_18;
 
 impl<V: IcValue> Core<V> {
-    /// World-space limits of level `level`; level 0 also takes the pixel limits at `spacing`.
-    pub(super) fn limits(&self, level: u32, spacing: f32) -> RadiusLimits {
+    /// World-space limits of a record of level `level` at `x`: fractions of
+    /// [`Core::length_at`] x, measured across the view as the pixel limits are (widened by
+    /// `slant` on a surface seen at a slant, `surface_spacing`'s factor); level 0 also takes the
+    /// pixel limits at `spacing`.
+    pub(super) fn limits(&self, level: u32, spacing: f32, x: Vec3, slant: f32) -> RadiusLimits {
+        let length = self.length_at(x) * slant;
         let world = RadiusLimits {
-            min: self.settings.world_min * self.diagonal,
-            max: (self.settings.world_max * self.diagonal).max(f32::MIN_POSITIVE),
+            min: self.settings.world_min * length,
+            max: (self.settings.world_max * length).max(f32::MIN_POSITIVE),
         };
-        let Some(pixel) = self.pixel_limits(level, spacing) else {
+        let Some(pixel) = self.pixel_limits(level, spacing, length) else {
             return world;
         };
         let max = pixel.max.min(world.max);
@@ -38,11 +42,12 @@ impl<V: IcValue> Core<V> {
     /// wide (both metrics' influence is proportional to the radius), so that the repair passes'
     /// probes, a fraction of a pixel apart, leave no gap between records for the final pass's
     /// samples to fall into. A deeper level is not seen by the camera: its limits are those of
-    /// a view [`DEEP_RESOLUTION`] pixels across the scene's diagonal, whatever the image's size.
-    fn pixel_limits(&self, level: u32, spacing: f32) -> Option<RadiusLimits> {
+    /// a view [`DEEP_RESOLUTION`] pixels across `length` ([`Core::length_at`] the record),
+    /// whatever the image's size.
+    fn pixel_limits(&self, level: u32, spacing: f32, length: f32) -> Option<RadiusLimits> {
         if level > 0 {
             let metric = self.levels.get(level as usize)?.cache.metric();
-            return Some(metric.radius_limits(self.diagonal / DEEP_RESOLUTION));
+            return Some(metric.radius_limits(length / DEEP_RESOLUTION));
         }
         let metric = self.levels.first()?.cache.metric();
         let mut pixel = metric.radius_limits(spacing);
@@ -57,7 +62,10 @@ impl<V: IcValue> Core<V> {
     /// See [`CacheBuilder::smallest_influence_pixels`].
     pub(super) fn smallest_influence_pixels(&self) -> f32 {
         // The level-0 pixel limits at a spacing of one unit are in pixels.
-        match (self.levels.first(), self.pixel_limits(0, 1.0)) {
+        match (
+            self.levels.first(),
+            self.pixel_limits(0, 1.0, self.diagonal),
+        ) {
             (Some(l), Some(pixel)) => l.cache.metric().influence_radius(pixel.min),
             _ => 0.0,
         }
@@ -134,7 +142,12 @@ impl<V: IcValue> Core<V> {
             }
         }
         let spacing = surface_spacing(spread * t, ray.direction, x.ng);
-        let limits = self.limits(level, spacing);
+        let slant = if level == 0 && spread * t > 0.0 {
+            (spacing / (spread * t)).max(1.0)
+        } else {
+            1.0
+        };
+        let limits = self.limits(level, spacing, x.position, slant);
         let h = match self.settings.radius_statistic {
             _ if inv_sum == 0.0 => limits.max,
             RadiusStatistic::HarmonicMean => (f64::from(count) / inv_sum) as f32,
@@ -151,6 +164,7 @@ impl<V: IcValue> Core<V> {
             level,
             x,
             spacing,
+            slant,
             key,
             predicted_radius: limits.clamp(g).max(f32::MIN_POSITIVE),
             rays: spent,
@@ -158,8 +172,9 @@ impl<V: IcValue> Core<V> {
     }
 }
 
-/// The resolution (pixels across the scene's bounding-box diagonal) whose pixel limits size the
-/// records of the levels below the first: their density does not depend on the image's size.
+/// The resolution (pixels across the view's image height at the record's distance, or across
+/// the scene's diagonal without a view) whose pixel limits size the records of the levels below
+/// the first: their density does not depend on the image's size.
 pub const DEEP_RESOLUTION: f32 = 512.0;
 
 /// The smallest cosine of the angle between the view and the surface that [`surface_spacing`]
