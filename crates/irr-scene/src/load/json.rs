@@ -152,17 +152,20 @@ pub(super) fn prevalidate(path: &Path, root: &gltf::json::Root) -> Result<(), Lo
 /// as `gltf::Document::from_json` would, except that it tolerates missing `min`/`max` on
 /// `POSITION` accessors (the specification requires them, many exporters omit them, and irr
 /// does not use them) and a spot light without its `spot` object (the `gltf` crate asks for it,
-/// but `KHR_lights_punctual` gives it defaults).
+/// but `KHR_lights_punctual` gives it defaults), and its verdict on required extensions: the
+/// loader has checked those against the extensions irr reads, a list that differs from the
+/// crate's (which lacks `KHR_materials_specular`).
 pub(super) fn validate(path: &Path, root: &gltf::json::Root) -> Result<(), LoadError> {
     use gltf::json::validation::{Error, Validate};
     let mut problems = Vec::new();
     root.validate(root, gltf::json::Path::new, &mut |at, error| {
         let at = at().to_string();
-        let harmless = matches!(error, Error::Missing)
+        let harmless = (matches!(error, Error::Missing)
             && (at.ends_with("[\"POSITION\"].min")
                 || at.ends_with("[\"POSITION\"].max")
                 // The gltf crate names the extension's field `khrLightsPunctual` in paths.
-                || (at.contains("khrLightsPunctual") && at.ends_with(".spot")));
+                || (at.contains("khrLightsPunctual") && at.ends_with(".spot"))))
+            || (matches!(error, Error::Unsupported) && at.starts_with("extensionsRequired"));
         if !harmless {
             problems.push(format!("{at}: {error}"));
         }
