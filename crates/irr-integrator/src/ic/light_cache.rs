@@ -217,6 +217,10 @@ pub struct LightDeposit {
     tails: [Vec3; DEEPER_READS],
 }
 
+/// The bytes of one cell in the light cache's table: its key and its sums (the table adds a
+/// control byte, and keeps at most 7/8 of its slots full).
+pub const CELL_BYTES: usize = size_of::<CellKey>() + size_of::<CellSums>();
+
 /// A cell's running sums (in f64: a cell may take millions of deposits), and the sum of its
 /// deposits' squared luminances, for the standard error of its mean.
 #[derive(Clone, Copy, Debug, Default)]
@@ -1057,5 +1061,14 @@ mod tests {
             proptest::prop_assert_eq!((ka.x, ka.y, ka.z, ka.bucket), (kb.x, kb.y, kb.z, kb.bucket));
             proptest::prop_assert_eq!(i32::from(ka.level) + k, i32::from(kb.level));
         }
+    }
+
+    /// The bytes a cell takes, as the settings' memory bound states them: a key of 16 bytes
+    /// (level, three i32 coordinates, bucket, padded to 4) and sums of 88 (three DVec3s of 24,
+    /// the sum and its two tails, an f64 and a u32, padded to 8).
+    #[test]
+    fn a_cell_takes_104_bytes() {
+        assert_eq!(size_of::<CellKey>(), 16);
+        assert_eq!(CELL_BYTES, 104);
     }
 }

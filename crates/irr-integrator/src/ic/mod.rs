@@ -86,7 +86,8 @@ pub use builder::{
 };
 pub use guard::GuardRecord;
 pub use light_cache::{
-    CacheView, LightCache, LightCacheCounts, LightDeposit, LightPathTracer, MIN_DEPOSITS,
+    CELL_BYTES, CacheView, LightCache, LightCacheCounts, LightDeposit, LightPathTracer,
+    MIN_DEPOSITS,
 };
 pub use radius::{HORIZON_CUT_COS, surface_spacing};
 pub use settings::{
