@@ -53,7 +53,7 @@ impl Integrator for AmbientOcclusion {
     fn li(&self, scene: &Scene, ray: &Ray, dims: &mut Dimensions, rays: &mut RayCounter) -> Vec3 {
         // Find the surface the camera sees.
         rays.closest += 1;
-        let Some(hit) = scene.intersect(ray) else {
+        let Some(hit) = scene.intersect_camera(ray) else {
             return Vec3::ZERO;
         };
         let surface = scene.geometry().surface(ray, &hit);

@@ -56,6 +56,13 @@ impl Bsdf {
     #[inline]
     pub fn at(scene: &Scene, x: &ShadingPoint) -> Self {
         let material = scene.material_of(x.triangle);
+        // An unlit surface reflects nothing (no ray but the camera's meets it).
+        if material.unlit {
+            return Bsdf::Lambertian {
+                albedo: Vec3::ZERO,
+                ns: x.ns,
+            };
+        }
         let albedo = scene.albedo(x.triangle, x.b1, x.b2);
         if material.is_lambertian() {
             return Bsdf::Lambertian { albedo, ns: x.ns };

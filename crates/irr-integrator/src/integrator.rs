@@ -210,7 +210,7 @@ pub struct FirstHit {
 /// integrator's estimate unchanged.
 pub fn first_hit(scene: &Scene, ray: &Ray, rays: &mut RayCounter) -> Option<FirstHit> {
     rays.closest += 1;
-    let hit = scene.intersect(ray)?;
+    let hit = scene.intersect_camera(ray)?;
     let surface = scene.geometry().surface(ray, &hit);
     Some(FirstHit::at(scene, &surface, -ray.direction, hit.t))
 }

@@ -300,16 +300,17 @@ pub(crate) fn light_sample(
 }
 
 /// What a camera ray meets first, as both integrators' `li_split` start: the surface, the
-/// direction back to the camera and the radiance the surface emits towards it; or, for a ray
-/// that leaves the scene, the finished estimate: the background seen directly (a path `L B`,
-/// all `emitted`). Counts the ray.
+/// direction back to the camera and the radiance the surface emits towards it (an unlit
+/// surface's colour, `Scene::is_unlit`: all the camera sees of it, so no path goes on from it);
+/// or, for a ray that leaves the scene, the finished estimate: the background seen directly (a
+/// path `L B`, all `emitted`). Counts the ray.
 pub(crate) fn first_surface(
     scene: &Scene,
     ray: &Ray,
     rays: &mut RayCounter,
 ) -> Result<(SurfacePoint, Vec3, Vec3, f32), Radiance> {
     rays.closest += 1;
-    let Some(hit) = scene.intersect(ray) else {
+    let Some(hit) = scene.intersect_camera(ray) else {
         return Err(Radiance {
             emitted: scene.background(),
             ..Radiance::default()
@@ -317,7 +318,11 @@ pub(crate) fn first_surface(
     };
     let surface = scene.geometry().surface(ray, &hit);
     let wo = -ray.direction.normalize();
-    let emitted = scene.emitted_at(&surface, wo);
+    let emitted = if scene.is_unlit(hit.triangle) {
+        scene.albedo(surface.triangle, surface.b1, surface.b2)
+    } else {
+        scene.emitted_at(&surface, wo)
+    };
     Ok((surface, wo, emitted, hit.t))
 }
 
@@ -361,6 +366,13 @@ impl PathTracer {
             Err(background) => return (background, None),
         };
         let first = FirstHit::at(scene, &surface, wo, t);
+        if scene.is_unlit(surface.triangle) {
+            let seen = Radiance {
+                emitted,
+                ..Radiance::default()
+            };
+            return (seen, Some(first));
+        }
         let mut out = self.walk(
             scene,
             Path::new(scene, &surface, wo, *dims, true),
@@ -731,6 +743,9 @@ impl Integrator for PathTracer {
         let mut starts = Vec::with_capacity(camera_rays.len());
         for (i, ray) in camera_rays.iter().enumerate() {
             match first_surface(scene, ray, rays) {
+                Ok((surface, _, emitted, _)) if scene.is_unlit(surface.triangle) => {
+                    out[i] = emitted;
+                }
                 Ok((surface, wo, emitted, _)) => {
                     hit.push((i, emitted));
                     starts.push((surface, wo));

@@ -120,9 +120,13 @@ pub struct Scene {
     colours: VertexColours,
     tangents: VertexTangents,
     alphas: VertexAttribute<f32>,
-    /// Whether some material can cut its surface out ([`Material::can_cut_out`]): rays are
-    /// then traced with [`Scene::blocks`] as the hit filter.
+    /// Whether some material can cut its surface out ([`Material::can_cut_out`]) or is unlit
+    /// (met by camera rays only): rays are then traced with [`Scene::blocks`] as the hit
+    /// filter.
     cutouts: bool,
+    /// Whether some material is unlit ([`Material::unlit`]): camera rays are then traced with
+    /// [`CameraRays`] as the hit filter.
+    unlit: bool,
     lights: LightSampler,
     background: Vec3,
 }
@@ -173,6 +177,15 @@ impl Scene {
                     });
                 }
             }
+            // An unlit surface is its colour to the camera and nothing to any other ray: it
+            // cannot emit light for them either.
+            if m.unlit && m.is_emissive() {
+                return Err(SceneError::InvalidMaterial {
+                    index,
+                    what: "emission of an unlit material",
+                    value: m.emission,
+                });
+            }
             if !(m.emission.is_finite() && m.emission.min_element() >= 0.0) {
                 return Err(SceneError::InvalidMaterial {
                     index,
@@ -211,7 +224,8 @@ impl Scene {
         }
         check_textures(&geometry, &materials, &textures, &tex_coords)?;
         let lights = LightSampler::new(&geometry, &light_weights(&materials, &textures));
-        let cutouts = materials.iter().any(Material::can_cut_out);
+        let unlit = materials.iter().any(|m| m.unlit);
+        let cutouts = unlit || materials.iter().any(Material::can_cut_out);
         Ok(Self {
             geometry,
             materials,
@@ -221,6 +235,7 @@ impl Scene {
             tangents: VertexTangents::default(),
             alphas: VertexAttribute::default(),
             cutouts,
+            unlit,
             lights,
             background: Vec3::ZERO,
         })
@@ -402,8 +417,16 @@ impl Scene {
     /// the cutoff; on a blend with probability α, decided by a hash of the ray and the
     /// triangle ([`coverage_sample`]), so that the same ray always gets the same answer, in
     /// any thread.
+    /// An unlit surface stops no ray but a camera ray ([`Scene::intersect_camera`]).
     #[inline]
     pub fn blocks(&self, ray: &Ray, hit: &Hit) -> bool {
+        !self.material_of(hit.triangle).unlit && self.covers(ray, hit)
+    }
+
+    /// Whether the coverage α of `hit`'s surface stops `ray` ([`Scene::blocks`] without the
+    /// unlit surfaces' exception).
+    #[inline]
+    fn covers(&self, ray: &Ray, hit: &Hit) -> bool {
         let m = self.material_of(hit.triangle);
         match m.alpha_mode {
             AlphaMode::Opaque => true,
@@ -446,6 +469,24 @@ impl Scene {
             AlphaMode::Mask(cutoff) => f32::from(u8::from(self.alpha(triangle, b1, b2) >= cutoff)),
             AlphaMode::Blend => self.alpha(triangle, b1, b2),
         }
+    }
+
+    /// The closest hit of a camera ray `ray`: as [`Scene::intersect`], and an unlit surface
+    /// ([`Material::unlit`]) where its coverage and side let the camera see it (from its front
+    /// only when single-sided, as glTF viewers cull its back).
+    #[inline]
+    pub fn intersect_camera(&self, ray: &Ray) -> Option<Hit> {
+        if self.unlit {
+            self.geometry.intersect_filtered(ray, &CameraRays(self))
+        } else {
+            self.intersect(ray)
+        }
+    }
+
+    /// Whether triangle `triangle`'s material is unlit ([`Material::unlit`]).
+    #[inline]
+    pub fn is_unlit(&self, triangle: u32) -> bool {
+        self.unlit && self.material_of(triangle).unlit
     }
 
     /// The closest hit of `ray` that [`Scene::blocks`] it (every hit, in a scene without
@@ -674,6 +715,29 @@ impl Scene {
     #[inline]
     pub fn emitter_count(&self) -> usize {
         self.lights.len()
+    }
+}
+
+/// The scene's surfaces as a camera ray sees them ([`Scene::intersect_camera`]): unlit surfaces
+/// too, where their coverage and side let it.
+struct CameraRays<'a>(&'a Scene);
+
+impl HitFilter for CameraRays<'_> {
+    #[inline]
+    fn accept(&self, ray: &Ray, hit: &Hit) -> bool {
+        let scene = self.0;
+        let m = scene.material_of(hit.triangle);
+        if !m.unlit {
+            return scene.blocks(ray, hit);
+        }
+        let front = m.two_sided
+            || scene
+                .geometry
+                .triangle(hit.triangle)
+                .normal()
+                .dot(ray.direction)
+                < 0.0;
+        front && scene.covers(ray, hit)
     }
 }
 

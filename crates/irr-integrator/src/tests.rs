@@ -296,6 +296,79 @@ fn disk_light_over_a_plane() {
     assert_eq!(indirect, Vec3::ZERO);
 }
 
+/// An unlit surface (`KHR_materials_unlit`) is its colour to the camera and nothing to any
+/// other ray. The disk light over a plane with an unlit disk between them: a camera ray that
+/// meets the unlit disk sees exactly its colour, as emission, in both integrators (no light
+/// reflected, no path from it); a camera ray to the plane beneath it sees, sample for sample,
+/// exactly what it sees without the disk (no shadow, no light, no reflection: every ray but
+/// the camera's passes it by, and the same random numbers draw the same paths). Exact.
+#[test]
+fn an_unlit_surface_is_its_colour_to_the_camera_and_nothing_to_other_rays() {
+    let (l, r, h) = (5.0f32, 0.5f32, 1.0f32);
+    let floor = polygon(Vec3::ZERO, 10.0, 4, 1.0, 0);
+    let light = polygon(Vec3::new(0.0, h, 0.0), r, 16, -1.0, 1);
+    let colour = Vec3::new(0.8, 0.3, 0.1);
+    let materials = vec![
+        Material::diffuse(Vec3::splat(0.6)),
+        Material::emitter(Vec3::splat(l)),
+        Material::unlit(colour),
+    ];
+    let without = scene(&[floor.clone(), light.clone()], materials.clone());
+    let unlit_disk = polygon(Vec3::new(0.0, 0.5 * h, 0.0), 0.4, 16, 1.0, 2);
+    let with = scene(&[floor, light, unlit_disk], materials);
+    let pt = PathTracer::default();
+    let ic = crate::IrradianceCacheIntegrator::new(crate::IcSettings::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let seen = Ray::new(Vec3::new(0.1, 0.9 * h, 0.05), -Vec3::Y);
+    let under = Ray::new(
+        Vec3::new(0.6, 0.3 * h, 0.0),
+        Vec3::new(-0.6, -0.3, 0.0).normalize(),
+    );
+    let mut rays = RayCounter::default();
+    for i in 0..64u64 {
+        let key = SampleKey::new(3, i, 0);
+        for integrator in [&pt as &dyn Integrator, &ic] {
+            let split = integrator.li_split(
+                &with,
+                &seen,
+                &mut Dimensions::starting_at(key, 1),
+                &mut rays,
+            );
+            assert_eq!(
+                split,
+                crate::Radiance {
+                    emitted: colour,
+                    ..crate::Radiance::default()
+                },
+                "{}",
+                integrator.name()
+            );
+        }
+        let a = pt.li_split(
+            &with,
+            &under,
+            &mut Dimensions::starting_at(key, 1),
+            &mut rays,
+        );
+        let b = pt.li_split(
+            &without,
+            &under,
+            &mut Dimensions::starting_at(key, 1),
+            &mut rays,
+        );
+        assert_eq!(a, b, "sample {i} under the unlit disk");
+    }
+    // The floor beneath is lit (the test would pass on a black scene otherwise).
+    let lit = pt.li_split(
+        &with,
+        &under,
+        &mut Dimensions::starting_at(SampleKey::new(3, 0, 0), 1),
+        &mut rays,
+    );
+    assert!(lit.direct.max_element() > 0.0, "{lit:?}");
+    assert_eq!(with.emitter_count(), without.emitter_count());
+}
+
 #[test]
 fn ambient_occlusion_of_an_open_plane_is_one_at_every_scale() {
     // Nothing above the plane: every occlusion ray escapes, so AO is exactly 1, also for grazing

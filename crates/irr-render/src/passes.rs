@@ -433,7 +433,7 @@ impl Views<'_> {
             return spread;
         }
         rays.closest += 1;
-        let Some(hit) = scene.intersect(ray) else {
+        let Some(hit) = scene.intersect_camera(ray) else {
             return spread;
         };
         let surface = scene.geometry().surface(ray, &hit);

@@ -418,7 +418,7 @@ fn corners_agree(
             t_max: r.t_max,
         };
         rays.closest += 1;
-        scene.intersect(&ray).map(|hit| {
+        scene.intersect_camera(&ray).map(|hit| {
             let surface = scene.geometry().surface(&ray, &hit);
             (surface.material_id, surface.geometric_normal, hit.t)
         })

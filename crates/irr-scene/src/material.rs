@@ -56,6 +56,13 @@ pub struct Material {
     /// The alpha channel of glTF's `baseColorTexture` (in every channel), read only when
     /// `alpha_mode` is not opaque; `None`: `alpha` everywhere.
     pub alpha_texture: Option<TextureRef>,
+    /// `KHR_materials_unlit`: the surface is its base colour (albedo × texture × vertex colour)
+    /// as radiance to camera rays, unlit and unshaded, and no other ray meets it: it casts no
+    /// shadow, lights nothing and shows in no reflection, as Blender's glTF importer makes it
+    /// (an emission seen only by camera rays, transparent to the rest), so both integrators
+    /// see the same scene without it. Its other factors are the file's fallbacks for
+    /// renderers without the extension, and irr's loader leaves them at a black Lambertian's.
+    pub unlit: bool,
 }
 
 /// How a material's coverage α (glTF `baseColorFactor.a` × the base colour texture's alpha)
@@ -91,6 +98,15 @@ impl Material {
             alpha_mode: AlphaMode::Opaque,
             alpha: 1.0,
             alpha_texture: None,
+            unlit: false,
+        }
+    }
+
+    /// An untextured `KHR_materials_unlit` surface of colour `base_color`, seen from both sides.
+    pub fn unlit(base_color: Vec3) -> Self {
+        Self {
+            unlit: true,
+            ..Self::diffuse(base_color)
         }
     }
 

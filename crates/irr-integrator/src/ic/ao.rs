@@ -84,7 +84,7 @@ impl Integrator for CachedAmbientOcclusion {
 
     fn li(&self, scene: &Scene, ray: &Ray, dims: &mut Dimensions, rays: &mut RayCounter) -> Vec3 {
         rays.closest += 1;
-        let Some(hit) = scene.intersect(ray) else {
+        let Some(hit) = scene.intersect_camera(ray) else {
             return Vec3::ZERO;
         };
         let surface = scene.geometry().surface(ray, &hit);

@@ -144,7 +144,12 @@ impl<V: IcValue> Core<V> {
         rays: &mut RayCounter,
     ) -> Option<(ShadingPoint, f32)> {
         rays.closest += 1;
-        let hit = scene.intersect(ray)?;
+        // The camera's ray; an unlit surface it meets is seen, not lit: no record there, and
+        // no walk from it.
+        let hit = scene.intersect_camera(ray)?;
+        if scene.is_unlit(hit.triangle) {
+            return None;
+        }
         let surface = scene.geometry().surface(ray, &hit);
         let mut t = (surface.position - ray.origin).length();
         let mut x = scene.shading_point(&surface, -ray.direction.normalize());

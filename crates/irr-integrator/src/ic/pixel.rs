@@ -113,7 +113,8 @@ impl IrradianceCacheIntegrator {
             // The depth counts reflections as the path tracer's does: none at depth 0, the
             // direct light's one at depth 1, and the cache's indirect light (two or more) from
             // depth 2 on, where the integrator has at least one cache level.
-            if self.core.settings.path.max_depth == 0 {
+            // An unlit surface is all the camera sees of it (`first_surface`).
+            if self.core.settings.path.max_depth == 0 || scene.is_unlit(surface.triangle) {
                 *o = Radiance {
                     emitted,
                     ..Radiance::default()

@@ -122,7 +122,10 @@ impl Loader<'_> {
                     clamped_factors += 1;
                 }
             }
-            let [metallic, roughness, specular] = factors;
+            // An unlit material's other factors and textures are the file's fallbacks for
+            // renderers without the extension: a black Lambertian that emits nothing.
+            let unlit = m.unlit();
+            let [metallic, roughness, specular] = if unlit { [0.0, 1.0, 0.0] } else { factors };
             let strength = m.emissive_strength().unwrap_or(1.0);
             let emission = Vec3::from_array(m.emissive_factor()) * strength;
             if !emission.is_finite() || emission.min_element() < 0.0 {
@@ -143,12 +146,12 @@ impl Loader<'_> {
                 Decode::Colour,
             )?;
             let emission_texture = optional(
-                json.emissive_texture.as_ref(),
+                json.emissive_texture.as_ref().filter(|_| !unlit),
                 "emissiveTexture",
                 Decode::Colour,
             )?;
             let metallic_roughness_texture = optional(
-                pbr.metallic_roughness_texture.as_ref(),
+                pbr.metallic_roughness_texture.as_ref().filter(|_| !unlit),
                 "metallicRoughnessTexture",
                 Decode::Data,
             )?;
@@ -188,23 +191,25 @@ impl Loader<'_> {
                     .get(r.texture as usize)
                     .is_some_and(|t| t.mean() != Vec3::ONE)
             });
-            let (normal_texture, normal_scale) = match &json.normal_texture {
-                Some(normal) => {
-                    let what = format!("material {name} normalTexture");
-                    if !normal.scale.is_finite() {
-                        return Err(
-                            self.err(format!("{what}: scale {} is not finite", normal.scale))
-                        );
+            let (normal_texture, normal_scale) =
+                match json.normal_texture.as_ref().filter(|_| !unlit) {
+                    Some(normal) => {
+                        let what = format!("material {name} normalTexture");
+                        if !normal.scale.is_finite() {
+                            return Err(
+                                self.err(format!("{what}: scale {} is not finite", normal.scale))
+                            );
+                        }
+                        let info = self.normal_texture_info(normal, &what)?;
+                        let r =
+                            self.texture_ref(&mut textures, &info, &what, buffers, Decode::Data)?;
+                        (Some(r), normal.scale)
                     }
-                    let info = self.normal_texture_info(normal, &what)?;
-                    let r = self.texture_ref(&mut textures, &info, &what, buffers, Decode::Data)?;
-                    (Some(r), normal.scale)
-                }
-                None => (None, 1.0),
-            };
+                    None => (None, 1.0),
+                };
             out.push(Material {
                 albedo: clamped_albedo,
-                emission,
+                emission: if unlit { Vec3::ZERO } else { emission },
                 two_sided: m.double_sided(),
                 metallic,
                 roughness,
@@ -217,6 +222,7 @@ impl Loader<'_> {
                 alpha_mode,
                 alpha: clamped_alpha,
                 alpha_texture,
+                unlit,
             });
         }
         textures.warn(self);

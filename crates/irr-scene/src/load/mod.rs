@@ -32,6 +32,9 @@
 //! - `alphaMode` `MASK` (with `alphaCutoff`) and `BLEND`: the coverage α is `baseColorFactor.a`
 //!   × the base colour texture's alpha channel (decoded as data) × `COLOR_0`'s alpha; the
 //!   integrators trace cut-outs and stochastic transparency (irr-integrator's `Scene::blocks`).
+//! - `KHR_materials_unlit`: the base colour (factor × texture × `COLOR_0`, with its coverage)
+//!   seen as is by camera rays, met by no other ray (irr-scene's `Material::unlit`); the
+//!   material's other factors and textures, the extension's fallbacks, are left unread.
 //! - Every perspective camera, in the order of a depth-first walk of the scene's nodes, with its
 //!   node's name (the first is the default; `--camera N` picks another).
 //! - `KHR_lights_punctual` (lights.rs): every point, spot and directional light that a node of
@@ -50,7 +53,7 @@
 //! orthographic cameras, other
 //! scenes, a light's `range` (a non-physical cut-off), lights no node of the scene places, and
 //! every extension except `KHR_materials_emissive_strength`, `KHR_materials_specular`,
-//! `KHR_texture_transform` and `KHR_lights_punctual` (transmission, …). A textured material on a
+//! `KHR_texture_transform`, `KHR_lights_punctual` and `KHR_materials_unlit` (transmission, …). A textured material on a
 //! primitive without the `TEXCOORD_n` it reads is read at (0, 0). Each becomes one [`Warning`]
 //! with a count.
 //!
@@ -100,11 +103,12 @@ use std::path::{Path, PathBuf};
 pub const MAX_COORDINATE: f32 = 1e18;
 
 /// The extensions irr reads.
-const SUPPORTED_EXTENSIONS: [&str; 4] = [
+const SUPPORTED_EXTENSIONS: [&str; 5] = [
     "KHR_materials_emissive_strength",
     "KHR_materials_specular",
     "KHR_texture_transform",
     "KHR_lights_punctual",
+    "KHR_materials_unlit",
 ];
 
 /// A feature of the file that irr ignored, with how many times it occurs.
@@ -455,8 +459,13 @@ impl<'a> Loader<'a> {
             .filter(|l| l.strength().max_element() > 0.0)
             .count();
         if emissive_triangles == 0 && emitting_lights == 0 {
-            self.warnings.add("no-emitter", 1, |_| {
-                "the scene has no emissive triangles and no lights: the image will be black unless lit by a background (ambient occlusion needs no light)".to_string()
+            let unlit = materials.iter().any(|m| m.unlit);
+            self.warnings.add("no-emitter", 1, move |_| {
+                if unlit {
+                    "the scene has no emissive triangles and no lights: only its unlit surfaces (KHR_materials_unlit) and a background will show".to_string()
+                } else {
+                    "the scene has no emissive triangles and no lights: the image will be black unless lit by a background (ambient occlusion needs no light)".to_string()
+                }
             });
         }
         let bounds = meshes.iter().flat_map(|m| m.positions.iter()).fold(

@@ -498,3 +498,43 @@ fn a_required_extension_that_irr_reads_loads() {
     assert_eq!(s.materials[0].specular, 0.25);
 }
 
+/// `KHR_materials_unlit`, required or only used: the material is unlit with its base colour,
+/// coverage and sides; its other factors and textures (the extension's fallbacks) are a black
+/// Lambertian's that emits nothing, and no warning names the extension. A scene lit by nothing
+/// but unlit surfaces is not warned of as black.
+#[test]
+fn unlit_materials_keep_their_colour_and_drop_their_fallbacks() {
+    let d = dir();
+    let mut g = Gltf::default();
+    let p = g.vec3(&TRIANGLE);
+    let json = g.json(&format!(
+        r#""extensionsUsed":["KHR_materials_unlit"],"extensionsRequired":["KHR_materials_unlit"],
+        "scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p}}},"material":0}}]}}],
+        "materials":[{{"pbrMetallicRoughness":{{"baseColorFactor":[1,0.2176376,0,0.5],
+                       "metallicFactor":1,"roughnessFactor":0.2}},
+                       "emissiveFactor":[1,1,1],"alphaMode":"MASK","doubleSided":false,
+                       "extensions":{{"KHR_materials_unlit":{{}}}}}}]"#
+    ));
+    let s = load(&write(d.path(), "unlit.gltf", json));
+    let m = s.materials[0];
+    assert!(m.unlit);
+    assert_eq!(m.albedo, Vec3::new(1.0, 0.217_637_6, 0.0));
+    assert_eq!(
+        (m.alpha, m.alpha_mode, m.two_sided),
+        (0.5, crate::AlphaMode::Mask(0.5), false)
+    );
+    assert_eq!((m.metallic, m.roughness, m.specular), (0.0, 1.0, 0.0));
+    assert_eq!(m.emission, Vec3::ZERO);
+    let warnings: Vec<String> = s.warnings.iter().map(ToString::to_string).collect();
+    assert!(
+        warnings.iter().all(|w| !w.contains("KHR_materials_unlit ")),
+        "{warnings:?}"
+    );
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("only its unlit surfaces")),
+        "{warnings:?}"
+    );
+}
