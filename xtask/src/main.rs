@@ -2,13 +2,13 @@
 //! builds this crate in release mode).
 //!
 //! - `cargo xtask render`: the `irr` command (crates/irr-cli) on a glTF scene, by default the
-//!   Cornell box in assets/, to `out/<scene>.exr` plus a PNG preview; `cargo xtask render --help`
+//!   Cornell box in assets/, to `out/SCENE.exr` plus a PNG preview; `cargo xtask render --help`
 //!   lists the options.
 //! - `cargo xtask compare`: the irradiance cache against the path tracer (speed and error) on a
-//!   scene; the report goes to target/compare/<scene>/.
+//!   scene; the report goes to target/compare/SCENE/.
 //! - `cargo xtask walkthrough`: a camera path rendered with a shared cache, a cache per frame
 //!   and the path tracer, each frame's error and the error between frames (flicker); the report
-//!   goes to target/walkthrough/<scene>/.
+//!   goes to target/walkthrough/SCENE/.
 //! - `cargo xtask tidy`: checks the codebase's own rules (also run by `cargo test` through the
 //!   `#[test]`s in `tidy.rs`).
 //!

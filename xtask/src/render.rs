@@ -1,5 +1,5 @@
 //! `cargo xtask render`: the `irr` command (irr-cli's `run`, the same code and options) with the
-//! workspace's defaults: the Cornell box in assets/ as the scene, and out/<scene stem>.exr as
+//! workspace's defaults: the Cornell box in assets/ as the scene, and out/SCENE-STEM.exr as
 //! the output, both under the workspace root found at run time.
 
 use clap::Args;
@@ -13,7 +13,7 @@ pub struct RenderCommand {
     #[arg(long)]
     pub scene: Option<PathBuf>,
     /// Output OpenEXR file; the PNG preview is written beside it with the same stem
-    /// [default: out/<scene stem>.exr in the workspace]
+    /// [default: out/SCENE-STEM.exr in the workspace]
     #[arg(short, long)]
     pub out: Option<PathBuf>,
     /// Every option of `irr`

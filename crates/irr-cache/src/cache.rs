@@ -423,7 +423,7 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
     ///
     /// The records to lower can lie far from `p`: a large record whose sphere reaches past the new
     /// one has dⱼ up to gⱼ − `radius`. The octree's search covers, on each level, the largest
-    /// unclamped radius filed there ([`Octree::for_each_within_reach`]), so none is missed.
+    /// unclamped radius filed there (`Octree::for_each_within_reach`), so none is missed.
     ///
     /// Nothing changes when `p` is not finite or `radius` is not a valid record radius (see
     /// [`Record::validated`]), so every stored radius stays valid.

@@ -18,7 +18,7 @@ struct Cli {
     /// The glTF 2.0 scene (.gltf or .glb)
     scene: PathBuf,
     /// Output OpenEXR file; the PNG preview is written beside it with the same stem
-    /// [default: <scene stem>.exr in the current directory]
+    /// [default: the scene's stem with .exr, in the current directory]
     #[arg(short, long)]
     out: Option<PathBuf>,
     #[command(flatten)]

@@ -188,7 +188,7 @@ pub struct IcArgs {
     /// of the record's irradiance, in [0, 1] (e.g. 0.1). 0: first order
     #[arg(long, value_name = "LIMIT", default_value_t = IcSettings::default().second_order, allow_negative_numbers = true)]
     pub second_order: f32,
-    /// Write a second image, <out stem>-records.exr/.png, with every record marked: a dot, and
+    /// Write a second image, OUT-records.exr/.png (OUT the output's stem), with every record marked: a dot, and
     /// a ring of its influence radius in the colour of its noise (the estimated relative
     /// standard error of its irradiance: blue 0, green 5 %, yellow 10 %, red 20 % and more)
     #[arg(long)]

@@ -136,7 +136,7 @@ pub fn edge_integrals(a: DVec3, b: DVec3) -> [f64; 6] {
 /// One edge a → b of Lambert's sum seen from the origin with normal +z: (Ωₑ, ∇Ωₑ, ∇∇Ωₑ) with
 /// respect to the viewpoint (module docs). Zero for an edge of zero length.
 ///
-/// Where a and b lie within sin² < [`NEAR_COLLINEAR`] of one line through the origin, the
+/// Where a and b lie within sin² < `NEAR_COLLINEAR` of one line through the origin, the
 /// integrals are those of the segment moved onto that line (r = â(α + t(γ − α)), α = |a|,
 /// γ = |b|): I₁ = 1/(αγ), ∫r|r|⁻⁴ = â(α+γ)/(2α²γ²), I₂ = (α²+αγ+γ²)/(3α³γ³), ∫rrᵀ|r|⁻⁶ = ââᵀI₂,
 /// each off by O(sin θ) relative, on an edge whose (n·c) factor is itself O(sin θ). An edge

@@ -797,7 +797,7 @@ fn median_and_p90(values: &[f32]) -> (f32, f32) {
 
 /// The debug view of a cache (`--show-records`): a copy of `image` with each record at its
 /// projected position marked by a bright dot, and its sphere of influence by a ring of its
-/// projected radius in the colour of its noise ([`noise_colour`]: blue for a quiet record,
+/// projected radius in the colour of its noise (`noise_colour`: blue for a quiet record,
 /// through green and yellow, to red for 20 % and more). Records behind the camera or off the
 /// image are skipped.
 pub fn mark_records(

@@ -2,7 +2,7 @@
 //! would otherwise run, the path tracer, raw and denoised, measured on a list of scenes.
 //!
 //! For each scene:
-//! 1. A reference ([`reference`]): the path tracer at high spp as two halves of their own seeds,
+//! 1. A reference ([`reference`](mod@reference)): the path tracer at high spp as two halves of their own seeds,
 //!    cached under target/compare/cache/ by everything that decides its pixels (the scene's
 //!    bytes, the size, the samples, the seeds, the path tracer's settings, the renderer's
 //!    source). relMSE between the halves / 4 is its own noise, printed beside every error.
@@ -14,13 +14,13 @@
 //!    (module `radiance` of irr-integrator's cache); and the cache's ablations (other
 //!    strata, gradients, clamping, bounce modes, radius statistic, adaptive gathers). A
 //!    denoised run's time includes the auxiliary images and the denoiser.
-//! 3. A report in target/compare/<scene>/ (`runs.csv`, `report.md`, `plot.svg`, heat maps,
+//! 3. A report in target/compare/SCENE/ (`runs.csv`, `report.md`, `plot.svg`, heat maps,
 //!    crops): each method's front along its primary series, and at each error level which of
 //!    the four methods is fastest, with FLIP beside relMSE ([`figures`]).
 //!
 //! With `--layer indirect|glossy-indirect` every image, the reference's too, is that AOV of
 //! the render (a denoised run denoises it), and the report goes to
-//! target/compare/<scene>-<layer>/: the glossy share of the indirect light is how radiance
+//! target/compare/SCENE-LAYER/: the glossy share of the indirect light is how radiance
 //! caching is judged against path-tracing the lobes.
 
 mod figures;
@@ -93,14 +93,14 @@ pub struct CompareArgs {
     /// default: the default render's), comma-separated
     #[arg(long, value_delimiter = ',')]
     pub extra: Vec<String>,
-    /// Also copy each report, plot, heat maps and crops to docs/compare/<scene>/ and its tables
+    /// Also copy each report, plot, heat maps and crops to docs/compare/SCENE/ and its tables
     /// into README.md (what the README shows)
     #[arg(long)]
     pub publish: bool,
     /// Score every run and the reference on this layer of the image: the image itself, its
     /// indirect part (the cache's share) or that part's glossy share (what radiance caching
     /// replaces); a denoised run denoises the layer. Other layers report to
-    /// target/compare/<scene>-<layer>/
+    /// target/compare/SCENE-LAYER/
     #[arg(long, value_enum, default_value_t = Layer::Colour)]
     pub layer: Layer,
 }
@@ -626,7 +626,7 @@ fn scenes(args: &CompareArgs, root: &Path) -> Vec<PathBuf> {
     }
 }
 
-/// Copies a report's files to docs/compare/<scene>/ and its tables into README.md's section for
+/// Copies a report's files to docs/compare/SCENE/ and its tables into README.md's section for
 /// the scene.
 fn publish(report: &Report, root: &Path) -> Result<(), String> {
     let stem = report

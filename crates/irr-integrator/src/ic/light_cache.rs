@@ -456,7 +456,7 @@ pub struct LightPathTracer {
 }
 
 impl LightPathTracer {
-    /// One path from the camera ray `ray` ([`trace_light_path`]).
+    /// One path from the camera ray `ray` (`trace_light_path`).
     pub fn trace(
         &self,
         scene: &Scene,

@@ -62,7 +62,7 @@
 //! shadows and light boundaries.
 //!
 //! A record's gather at x traces one cosine-distributed ray per cell of an M×N
-//! [`HemisphereStrata`]; the radiance a ray brings back from the point x₁ it hits is what x₁
+//! [`HemisphereStrata`](irr_sampling::HemisphereStrata); the radiance a ray brings back from the point x₁ it hits is what x₁
 //! *reflects* towards x (its emission excluded: that is x's `direct`): (ρ(x₁)/π) times the
 //! irradiance of x₁'s cell in the light cache ([`BounceMode::LightCache`], the default; module
 //! `light_cache`), or NEE at x₁ plus x₁'s own indirect part, either path-traced
@@ -86,8 +86,8 @@ pub use builder::{
 };
 pub use guard::GuardRecord;
 pub use light_cache::{
-    CELL_BYTES, CacheView, LightCache, LightCacheCounts, LightDeposit, LightPathTracer,
-    MIN_DEPOSITS,
+    CELL_BYTES, CONVERGED_SHARE, CacheView, DEEPER_READS, FILTER_CELLS, LightCache,
+    LightCacheCounts, LightDeposit, LightPathTracer, MIN_DEPOSITS,
 };
 pub use radius::{HORIZON_CUT_COS, surface_spacing};
 pub use settings::{

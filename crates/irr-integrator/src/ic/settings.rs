@@ -141,7 +141,8 @@ pub enum LeakGuard {
     Visibility,
 }
 
-/// Settings of [`IrradianceCacheIntegrator`] and [`CachedAmbientOcclusion`].
+/// Settings of [`IrradianceCacheIntegrator`](super::IrradianceCacheIntegrator) and
+/// [`CachedAmbientOcclusion`](super::CachedAmbientOcclusion).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IcSettings {
     /// The metric. Default: Tabellion & Lamorlette.
