@@ -85,9 +85,8 @@ pub use irr_scene::{
     load_gltf_with,
 };
 pub use output::{
-    ExrMetadata, check_exposure, check_output, check_output_file, png_path_for,
-    remove_partial_outputs, remove_partial_outputs_on_signals, tone_map, write_exr_and_png,
-    write_render,
+    ExrMetadata, check_exposure, check_output, check_output_file, remove_partial_outputs,
+    remove_partial_outputs_on_signals, tone_map, write_exr_and_png, write_render,
 };
 pub use passes::{
     CacheBuildStats, LightCacheStats, PassStats, build_cache, build_cache_shard, build_light_cache,

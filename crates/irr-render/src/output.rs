@@ -126,7 +126,7 @@ pub fn check_exposure(exposure: f32) -> Result<(), RenderError> {
 }
 
 /// The PNG preview's path for an EXR path: the same folder and stem, extension `png`.
-pub fn png_path_for(exr_path: &Path) -> PathBuf {
+pub(crate) fn png_path_for(exr_path: &Path) -> PathBuf {
     exr_path.with_extension("png")
 }
 
@@ -406,8 +406,8 @@ fn encode_png(image: &IrrImage, exposure: f32, file: &std::fs::File) -> Result<(
 }
 
 /// Writes `image` to `exr_path` (OpenEXR, f32 RGB, lossless ZIP compression, with the
-/// `chromaticities` attribute) and its preview to [`png_path_for`]`(exr_path)`, tone mapped with
-/// `exposure` stops (see the module docs). Returns the two paths written.
+/// `chromaticities` attribute) and its preview beside it (same stem, extension `png`), tone
+/// mapped with `exposure` stops (see the module docs). Returns the two paths written.
 ///
 /// Both files are first written to temporary files in the destination folder, flushed and
 /// synced, and only then renamed over the destination, the PNG first and the EXR last: if
