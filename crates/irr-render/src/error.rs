@@ -13,26 +13,11 @@ use std::path::{Path, PathBuf};
 /// `assets/box.gltf: buffer 0: cannot read "box.bin" (assets/box.bin): No such file or directory`.
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
-    /// The scene file could not be read at all (missing, a folder, no permission).
-    #[error("{}: cannot read: {source}", .path.display())]
-    Read {
-        /// The scene file.
-        path: PathBuf,
-        /// What the operating system said.
-        source: std::io::Error,
-    },
-    /// The file is not well-formed glTF: truncated or corrupt JSON, a broken .glb container, or
-    /// JSON that breaks glTF's schema (an index that points past the end of an array).
-    #[error("{}: not a valid glTF 2.0 file: {problem}", .path.display())]
-    Parse {
-        /// The scene file.
-        path: PathBuf,
-        /// What is wrong, on one line.
-        problem: String,
-    },
-    /// The file is well-formed but its content cannot be rendered: a buffer URI that points
-    /// nowhere, an accessor out of range, non-finite or absurdly large coordinates, a required
-    /// extension irr does not support, a camera with an impossible field of view.
+    /// The scene file could not be loaded (irr-scene's [`LoadError`], its message as is).
+    #[error(transparent)]
+    Load(#[from] LoadError),
+    /// The file was read but its content cannot be assembled into a scene to render (a
+    /// material or texture the integrator refuses, a BVH that cannot be built).
     #[error("{}: {problem}", .path.display())]
     Scene {
         /// The scene file.
@@ -73,17 +58,6 @@ pub enum RenderError {
         /// What is wrong, on one line.
         problem: String,
     },
-}
-
-/// A load error keeps its kind and its one-line message.
-impl From<LoadError> for RenderError {
-    fn from(e: LoadError) -> Self {
-        match e {
-            LoadError::Read { path, source } => Self::Read { path, source },
-            LoadError::Parse { path, problem } => Self::Parse { path, problem },
-            LoadError::Scene { path, problem } => Self::Scene { path, problem },
-        }
-    }
 }
 
 impl RenderError {
