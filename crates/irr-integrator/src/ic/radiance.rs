@@ -420,16 +420,33 @@ mod tests {
             assert_eq!(*s, *c + Vec3::splat(8.0));
         }
         let m = Vec3::new(0.1, 0.3, 0.95).normalize();
-        let record = Frame::from_normal(m);
-        sum.fill(Vec3::ZERO);
+        let directions = [Vec3::new(0.2, 0.1, 0.97), Vec3::new(-0.5, 0.4, 0.77)];
+        assert_read_turns_the_record(&rc, &stored, m, &frame, directions);
+    }
+
+    /// Reads `stored` (a record made under the frame of `normal`) into `frame` and checks that
+    /// both reconstruct the same radiance in each world direction of `directions`: the
+    /// rotation is exact to f32 rounding of coefficients of size ≤ 1, summed over at most
+    /// 2·order + 1 terms per band, far below 1e-4.
+    fn assert_read_turns_the_record(
+        rc: &RadianceCaching,
+        stored: &[Vec3],
+        normal: Vec3,
+        frame: &Frame,
+        directions: [Vec3; 2],
+    ) {
+        let count = rc.count();
+        let record = Frame::from_normal(normal);
+        let mut sum = vec![Vec3::ZERO; count];
+        let (mut moved, mut turned) = (vec![Vec3::ZERO; count], vec![Vec3::ZERO; count]);
         rc.accumulate(
-            (&stored, m, Vec3::ZERO),
-            &frame,
+            (stored, normal, Vec3::ZERO),
+            frame,
             1.0,
             &mut sum,
             (&mut moved, &mut turned),
         );
-        for d in [Vec3::new(0.2, 0.1, 0.97), Vec3::new(-0.5, 0.4, 0.77)] {
+        for d in directions {
             let d = d.normalize();
             let a = rc
                 .basis
@@ -446,42 +463,24 @@ mod tests {
     /// A wall facing +x: normals (1, 0, +0) and (1, 0, −0) are equal as vectors, but
     /// `Frame::from_normal` gives them tangents turned by π about the normal (it flips across
     /// n.z = 0). A record made under one and read under the other must still reconstruct the
-    /// same radiance in every world direction, which needs the rotation (odd m negated).
-    /// Tolerance: the rotation by π is exact to f32 rounding of coefficients of size ≤ 1
-    /// summed over at most 2·order + 1 terms per band, far below 1e-4; the unrotated
-    /// coefficients miss by twice the odd-m part, here of order 1.
+    /// same radiance in every world direction, which needs the rotation (odd m negated): the
+    /// unrotated coefficients miss by twice their odd-m part, here of order 1.
     #[test]
     fn records_rotate_between_frames_of_signed_zero_normals() {
         let rc = caching(4);
-        let count = rc.count();
-        let mut stored: Vec<Vec3> = (0..count)
+        let mut stored: Vec<Vec3> = (0..rc.count())
             .map(|k| Vec3::splat(((k * 3 % 7) as f32 - 3.0) / 4.0))
             .collect();
         stored.resize(rc.stride(), Vec3::ZERO);
         let (plus, minus) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 0.0, -0.0));
-        let (record, frame) = (Frame::from_normal(plus), Frame::from_normal(minus));
-        assert_ne!(record.s, frame.s, "the frames differ: the case under test");
-        let mut sum = vec![Vec3::ZERO; count];
-        let (mut moved, mut turned) = (vec![Vec3::ZERO; count], vec![Vec3::ZERO; count]);
-        rc.accumulate(
-            (&stored, plus, Vec3::ZERO),
-            &frame,
-            1.0,
-            &mut sum,
-            (&mut moved, &mut turned),
+        let frame = Frame::from_normal(minus);
+        assert_ne!(
+            Frame::from_normal(plus).s,
+            frame.s,
+            "the frames differ: the case under test"
         );
-        for d in [Vec3::new(0.9, 0.3, 0.2), Vec3::new(0.5, -0.4, 0.6)] {
-            let d = d.normalize();
-            let a = rc
-                .basis
-                .reconstruct(&stored[..count], record.to_local(d))
-                .unwrap_or_else(|e| panic!("{e}"));
-            let b = rc
-                .basis
-                .reconstruct(&sum, frame.to_local(d))
-                .unwrap_or_else(|e| panic!("{e}"));
-            assert!((a - b).abs().max_element() < 1e-4, "{a} vs {b}");
-        }
+        let directions = [Vec3::new(0.9, 0.3, 0.2), Vec3::new(0.5, -0.4, 0.6)];
+        assert_read_turns_the_record(&rc, &stored, plus, &frame, directions);
     }
 
     /// With the gradients of the first b bands only, a record stores its n² coefficients and
