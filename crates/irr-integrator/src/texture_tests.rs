@@ -7,22 +7,7 @@ use crate::{
     VertexTangents, Wrap,
 };
 use glam::{Affine2, Vec2, Vec3};
-
-/// A 2×2 texture: texel (x, y) has value (x, y, 10·y + x) so a lookup names its texels.
-fn two_by_two(wrap: Wrap, filter: Filter) -> Texture {
-    let texels = vec![
-        Vec3::new(0.0, 0.0, 0.0),
-        Vec3::new(1.0, 0.0, 1.0),
-        Vec3::new(0.0, 1.0, 10.0),
-        Vec3::new(1.0, 1.0, 11.0),
-    ];
-    let sampler = Sampler {
-        wrap_s: wrap,
-        wrap_t: wrap,
-        filter,
-    };
-    Texture::new(2, 2, texels, sampler).unwrap_or_else(|e| panic!("{e}"))
-}
+use irr_scene::testutil::two_by_two;
 
 /// The unit square at z = 0 as two triangles, facing +z.
 fn square(material: u32) -> irr_geometry::TriangleMesh {

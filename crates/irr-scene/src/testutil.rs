@@ -1,7 +1,7 @@
 //! Test helpers (with the `testing` feature): a tiny glTF writer, so loader tests can state
 //! exactly the file they read, and PNG images for its textures.
 
-use crate::Texture;
+use crate::{Filter, Sampler, Texture, Wrap};
 use glam::{Affine2, Vec3};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -213,4 +213,20 @@ pub fn textured_quad(dir: &Path, name: &str, g: &mut Gltf, rest: &str) -> PathBu
 /// `KHR_texture_transform`'s matrix from its offset, rotation and scale, as the loader builds it.
 pub fn texture_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> Affine2 {
     crate::load::texture_transform(offset, rotation, scale)
+}
+
+/// A 2×2 texture: texel (x, y) has value (x, y, 10·y + x) so a lookup names its texels.
+pub fn two_by_two(wrap: Wrap, filter: Filter) -> Texture {
+    let texels = vec![
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(0.0, 1.0, 10.0),
+        Vec3::new(1.0, 1.0, 11.0),
+    ];
+    let sampler = Sampler {
+        wrap_s: wrap,
+        wrap_t: wrap,
+        filter,
+    };
+    Texture::new(2, 2, texels, sampler).unwrap_or_else(|e| panic!("{e}"))
 }

@@ -416,6 +416,7 @@ impl<T: Copy + std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>> Verte
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testutil::two_by_two;
 
     /// Vertex colours interpolate barycentrically on the triangles that have them; the others
     /// (and ids past the end) have none.
@@ -433,22 +434,6 @@ mod tests {
         assert_eq!(c.at(1, 0.0, 0.0), Some(Vec3::X));
         assert_eq!(c.at(2, 0.1, 0.1), None);
         assert_eq!(c.at(7, 0.1, 0.1), None);
-    }
-
-    /// A 2×2 texture: texel (x, y) has value (x, y, 10·y + x) so a lookup names its texels.
-    fn two_by_two(wrap: Wrap, filter: Filter) -> Texture {
-        let texels = vec![
-            Vec3::new(0.0, 0.0, 0.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(0.0, 1.0, 10.0),
-            Vec3::new(1.0, 1.0, 11.0),
-        ];
-        let sampler = Sampler {
-            wrap_s: wrap,
-            wrap_t: wrap,
-            filter,
-        };
-        Texture::new(2, 2, texels, sampler).unwrap_or_else(|e| panic!("{e}"))
     }
 
     #[test]
