@@ -25,6 +25,7 @@ use crate::support::read;
 use irr_render::{
     IcSettings, IrradianceCacheIntegrator, PathTracer, RenderSettings, build_cache, render,
 };
+use irr_scene::testutil::base64;
 use serde_json::{Value, json};
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
@@ -93,27 +94,6 @@ struct Seed {
     name: String,
     bytes: Vec<u8>,
     glb: bool,
-}
-
-fn base64(data: &[u8]) -> String {
-    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for chunk in data.chunks(3) {
-        let b = [
-            chunk[0],
-            chunk.get(1).copied().unwrap_or(0),
-            chunk.get(2).copied().unwrap_or(0),
-        ];
-        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
-        for i in 0..4 {
-            if i <= chunk.len() {
-                s.push(char::from(ALPHABET[((n >> (18 - 6 * i)) & 63) as usize]));
-            } else {
-                s.push('=');
-            }
-        }
-    }
-    s
 }
 
 /// A GLB container around `json` and `bin` (glTF 2.0 §4.4), lengths and padding correct.
