@@ -509,15 +509,17 @@ fn assert_converges(metric: MetricKind, ladder: [(f32, u32, u32); 4]) {
         threads: 0,
     };
     let (reference, reference_noise) = indirect_reference(&loaded.scene, &camera, &settings);
+    // The cache's settings at a step of the ladder.
+    let at = |(error, strata_m, strata_n): (f32, u32, u32)| IcSettings {
+        metric,
+        error,
+        strata_m,
+        strata_n,
+        ..IcSettings::default()
+    };
     let mut errors = Vec::new();
     for (error, m, n) in ladder {
-        let ic = IcSettings {
-            metric,
-            error,
-            strata_m: m,
-            strata_n: n,
-            ..IcSettings::default()
-        };
+        let ic = at((error, m, n));
         let (image, records) = ic_indirect(&loaded.scene, &camera, ic, &settings);
         let e = rel_mse(&image, &reference);
         let b = mean_bias(&image, &reference);
@@ -527,14 +529,7 @@ fn assert_converges(metric: MetricKind, ladder: [(f32, u32, u32); 4]) {
         );
         errors.push((e, b));
     }
-    let (error, m, n) = ladder[3];
-    let tight = IcSettings {
-        metric,
-        error,
-        strata_m: m,
-        strata_n: n,
-        ..IcSettings::default()
-    };
+    let tight = at(ladder[3]);
     let (a, _) = ic_indirect(
         &loaded.scene,
         &camera,
@@ -580,14 +575,7 @@ fn assert_converges(metric: MetricKind, ladder: [(f32, u32, u32); 4]) {
     // each a frozen error over its area): its mean over four seeds and that mean's standard
     // error (their spread / √4). The tightest bias may exceed that mean by at most twice its
     // standard error, the margin each step of the ladder gets above.
-    let (error, m, n) = ladder[0];
-    let loose = IcSettings {
-        metric,
-        error,
-        strata_m: m,
-        strata_n: n,
-        ..IcSettings::default()
-    };
+    let loose = at(ladder[0]);
     let biases: Vec<f64> = [5, 1005, 2005, 3005]
         .into_iter()
         .map(|seed| {
