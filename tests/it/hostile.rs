@@ -119,6 +119,7 @@ fn buffer_uris_cannot_leave_the_scene_folder() {
     // The user widens the folder: now `../secret.bin` is allowed and loads.
     let wide = LoadOptions {
         asset_root: Some(dir.path().to_path_buf()),
+        ..LoadOptions::default()
     };
     let path = cornell_json(&scene_dir, |j| {
         j["buffers"][0]["uri"] = "../secret.bin".into()
@@ -189,6 +190,7 @@ fn only_regular_files_are_read_and_only_as_far_as_needed() {
             });
             let everything = LoadOptions {
                 asset_root: Some(PathBuf::from("/")),
+                ..LoadOptions::default()
             };
             load_error(&path, &everything, &["buffer 0", "not a regular file"]);
         }
@@ -272,6 +274,85 @@ fn allocation_bombs_are_refused() {
     let accessor = json!({"componentType": 5126, "count": 3, "type": "VEC3", "sparse": sparse});
     let path = one_accessor_scene(dir.path(), "honest.gltf", accessor, json!({}));
     load_gltf(&path).unwrap_or_else(|e| panic!("{e}"));
+}
+
+/// A mesh whose accessors many primitives share (as the Khronos sample
+/// MetalRoughSpheresNoTextures shares two accessors among 98 spheres) loads: repeats are how
+/// users build scenes, so only the memory limit bounds them, not the files' size. The 320 copies
+/// of a 40×40 grid (10⁶ triangles) hold 29 MB of arrays, past the 16 MiB + 64× the file's
+/// 137 kB (25.5 MB) that bounds data no file holds. Under a limit set just below the scene's arrays
+/// and BVH, the same file is refused, with the figures, before the BVH is built.
+#[test]
+fn shared_accessors_load_within_the_memory_limit() {
+    let dir = temp();
+    let n = 40u32;
+    let mut g = irr_scene::testutil::Gltf::default();
+    let vertices: Vec<[f32; 3]> = (0..=n)
+        .flat_map(|j| (0..=n).map(move |i| [i as f32 / n as f32, 0.0, j as f32 / n as f32]))
+        .collect();
+    let positions = g.vec3(&vertices);
+    let normals = g.vec3(&vec![[0.0, 1.0, 0.0]; vertices.len()]);
+    let indices: Vec<u32> = (0..n)
+        .flat_map(|j| (0..n).map(move |i| (i, j)))
+        .flat_map(|(i, j)| {
+            let v = |a: u32, b: u32| b * (n + 1) + a;
+            [
+                v(i, j),
+                v(i, j + 1),
+                v(i + 1, j),
+                v(i + 1, j),
+                v(i, j + 1),
+                v(i + 1, j + 1),
+            ]
+        })
+        .collect();
+    let indices = g.indices(&indices, 5125);
+    let copies = 320;
+    let primitive = format!(
+        r#"{{"primitives":[{{"attributes":{{"POSITION":{positions},"NORMAL":{normals}}},"indices":{indices}}}]}}"#
+    );
+    let meshes = vec![primitive; copies].join(",");
+    let nodes: Vec<String> = (0..copies)
+        .map(|k| format!(r#"{{"mesh":{k},"translation":[{},0,0]}}"#, 1.5 * k as f32))
+        .collect();
+    let roots: Vec<String> = (0..copies).map(|k| k.to_string()).collect();
+    let json = g.json(&format!(
+        r#""scene":0,"scenes":[{{"nodes":[{}]}}],"nodes":[{}],"meshes":[{meshes}]"#,
+        roots.join(","),
+        nodes.join(",")
+    ));
+    let path = dir.path().join("shared.gltf");
+    write(&path, &json);
+    let data = load_gltf(&path).unwrap_or_else(|e| panic!("{e}"));
+    let triangles = copies * 2 * (n * n) as usize;
+    assert_eq!(
+        data.meshes.iter().map(|m| m.indices.len()).sum::<usize>(),
+        triangles
+    );
+    let file = json.len() as u64;
+    let arrays = data.heap_bytes();
+    assert!(
+        arrays > (16 << 20) + 64 * file,
+        "{arrays} bytes from {file}"
+    );
+    let need = data.check_memory().unwrap_or_else(|e| panic!("{e}"));
+    assert!(need > arrays);
+    let tight = LoadOptions {
+        max_memory: Some(need - 1),
+        ..LoadOptions::default()
+    };
+    let e = load_error(
+        &path,
+        &tight,
+        &["memory limit", "set by --max-memory", "BVH"],
+    );
+    assert!(e.contains(&format!("{triangles} triangles")), "{e}");
+    let enough = LoadOptions {
+        max_memory: Some(need),
+        ..LoadOptions::default()
+    };
+    let loaded = load_scene_with(&path, &enough).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(loaded.scene.geometry().triangle_count(), triangles);
 }
 
 /// A long chain of nodes (each the only child of the one before) loads: the walk keeps

@@ -337,6 +337,11 @@ pub struct RenderArgs {
     /// symbolic links) [default: the scene file's folder]
     #[arg(long, value_name = "DIR")]
     pub asset_root: Option<PathBuf>,
+    /// The most memory the scene may take, its arrays and BVH (e.g. 12G, 512M; K, M, G and T
+    /// are powers of 1024): a larger scene is refused with its figure before it is built
+    /// [default: 3/4 of this machine's memory]
+    #[arg(long, value_name = "SIZE", value_parser = parse_size)]
+    pub max_memory: Option<u64>,
     /// Constant background radiance R,G,B (W·sr⁻¹·m⁻² per channel, each finite and ≥ 0), seen
     /// by camera rays and by every ray that leaves the scene, so it lights the scene too
     #[arg(long, value_name = "R,G,B", default_value = "0,0,0", value_parser = parse_background,
@@ -491,6 +496,38 @@ fn parse_pixel(text: &str) -> Result<(u32, u32), String> {
         }
     };
     Ok((parse(x)?, parse(y)?))
+}
+
+/// Parses `--max-memory SIZE`: a positive number of bytes, with an optional suffix K, M, G or T
+/// (powers of 1024; "GiB", "GB" and "g" read the same).
+fn parse_size(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let split = t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len());
+    let (number, unit) = t.split_at(split);
+    let shift = match unit.to_ascii_lowercase().as_str() {
+        "" | "b" => 0,
+        "k" | "kb" | "kib" => 10,
+        "m" | "mb" | "mib" => 20,
+        "g" | "gb" | "gib" => 30,
+        "t" | "tb" | "tib" => 40,
+        _ => {
+            return Err(format!(
+                "'{text}': expected a size such as 12G, 512M or 1048576 (K, M, G, T: powers of 1024)"
+            ));
+        }
+    };
+    let value: f64 = number
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{text}': expected a number before the unit, e.g. 12G"))?;
+    let bytes = value * (1u64 << shift) as f64;
+    // Below 2⁶³ bytes, so the cast cannot saturate; NaN fails the test.
+    if !(1.0..9.2e18).contains(&bytes) {
+        return Err(format!(
+            "'{text}': the memory limit must be at least 1 byte and below 8 EiB"
+        ));
+    }
+    Ok(bytes as u64)
 }
 
 /// Parses `--background R,G,B`: three finite, non-negative numbers.
@@ -656,6 +693,7 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
     }
     let options = LoadOptions {
         asset_root: args.asset_root.clone(),
+        max_memory: args.max_memory,
     };
     let loaded = {
         // The BVH build of a large (or badly shaped) scene can take a while: say so.
@@ -1154,5 +1192,12 @@ mod tests {
         assert!(parse_pixel("3").is_err());
         assert!(parse_pixel("3,-1").is_err());
         assert_eq!(parse_pixel(" 3, 4"), Ok((3, 4)));
+        assert_eq!(parse_size("12G"), Ok(12 << 30));
+        assert_eq!(parse_size("1.5 GiB"), Ok(3 << 29));
+        assert_eq!(parse_size("512m"), Ok(512 << 20));
+        assert_eq!(parse_size("1048576"), Ok(1 << 20));
+        for bad in ["", "G", "12X", "-1G", "0", "nanG", "1e30", "inf"] {
+            assert!(parse_size(bad).is_err(), "{bad}");
+        }
     }
 }

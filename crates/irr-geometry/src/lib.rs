@@ -133,7 +133,7 @@ mod test_meshes;
 mod wide;
 
 pub use error::GeometryError;
-pub use geometry::{Geometry, MAX_TRIANGLES};
+pub use geometry::{BUILT_BYTES_PER_TRIANGLE, Geometry, MAX_TRIANGLES};
 pub use layout::BvhLayout;
 pub use mesh::{BuildReport, Triangle, TriangleMesh};
 pub use query::{Hit, HitFilter, SurfacePoint};

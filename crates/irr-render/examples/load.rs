@@ -18,7 +18,10 @@ fn main() -> ExitCode {
         .position(|a| a == "--asset-root")
         .and_then(|i| args.get(i + 1))
         .map(Into::into);
-    let options = LoadOptions { asset_root };
+    let options = LoadOptions {
+        asset_root,
+        ..LoadOptions::default()
+    };
     let started = Instant::now();
     if args.iter().any(|a| a == "--no-bvh") {
         return match load_gltf_with(scene.as_ref(), &options) {

@@ -233,6 +233,8 @@ pub fn load_scene(path: &Path) -> Result<LoadedScene, RenderError> {
 
 /// [`load_scene`] with [`LoadOptions`] (the folder buffer files may be read from).
 pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene, RenderError> {
+    let data = load_gltf_with(path, options)?;
+    data.check_memory()?;
     let SceneData {
         meshes,
         materials,
@@ -248,7 +250,7 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
         digest,
         animated_content,
         ..
-    } = load_gltf_with(path, options)?;
+    } = data;
     // Texture coordinates by geometry id, before the meshes are consumed (degenerate triangles
     // the build drops have none).
     let tex_coords = irr_scene::tex_coords_by_id(&meshes, &materials, &tex_coords)

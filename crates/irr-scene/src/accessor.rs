@@ -211,7 +211,10 @@ where
             out
         }
         // No buffer view: every element is zero unless a sparse substitution says otherwise.
+        // Nothing in the files holds these elements, so they also count against the unbacked
+        // allowance: a few bytes of JSON could otherwise ask for gigabytes.
         None => {
+            budget.charge_unbacked::<T>(what, count)?;
             let mut out = budget.vec(what, count)?;
             out.resize(count, zero);
             out

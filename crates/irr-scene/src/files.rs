@@ -9,6 +9,9 @@
 //!   [`MAX_JSON_BYTES`]); a buffer file is read up to the `byteLength` its buffer declares, never
 //!   further, however large the file is; an image file whole, up to [`MAX_SCENE_BYTES`], and its
 //!   decoded size is charged to the [`Budget`] from its header before it is decoded.
+//! - **Within the memory limit.** Everything the loader allocates is charged first against the
+//!   scene's [`MemoryLimit`] (what the machine holds, or `--max-memory`); data that no bytes of a
+//!   file hold (an accessor without a buffer view) also against an allowance sized by the files.
 //! - **Confined.** A buffer or image URI is read only if the file it names, after resolving `..` and
 //!   symbolic links, lies inside the *asset root*: the scene file's folder, unless the user names
 //!   another folder ([`LoadOptions::asset_root`], `--asset-root`). Absolute paths and URIs that
@@ -38,6 +41,122 @@ pub struct LoadOptions {
     /// The folder whose files buffer URIs may name (after resolving `..` and symbolic links).
     /// `None`: the scene file's own folder.
     pub asset_root: Option<PathBuf>,
+    /// The most bytes the scene may take in memory (`irr --max-memory`). `None`:
+    /// [`MemoryLimit::machine`], three quarters of what this machine holds.
+    pub max_memory: Option<u64>,
+}
+
+impl LoadOptions {
+    /// The memory limit these options set.
+    #[must_use]
+    pub fn memory_limit(&self) -> MemoryLimit {
+        self.max_memory
+            .map_or_else(MemoryLimit::machine, MemoryLimit::bytes)
+    }
+}
+
+/// How many bytes a scene may take in memory, and where the figure comes from (for messages).
+///
+/// It bounds what the loader allocates and, once loaded, what the scene takes with its BVH
+/// (irr-render checks that before the build): a scene over it is refused with the figures
+/// instead of exhausting the machine. It is the only bound on what a file's repeats may cost (a
+/// mesh placed by many nodes, accessors shared by many primitives): those are how users'
+/// scenes are built, so only the machine limits them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MemoryLimit {
+    /// The limit in bytes.
+    pub bytes: u64,
+    /// Where it comes from.
+    pub source: LimitSource,
+}
+
+/// Where a [`MemoryLimit`] comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LimitSource {
+    /// The user set it (`--max-memory`, [`LoadOptions::max_memory`]).
+    Set,
+    /// Three quarters of the machine's memory, this many bytes.
+    Machine(u64),
+    /// The machine's memory could not be read.
+    Unknown,
+}
+
+impl MemoryLimit {
+    /// The limit when the machine's memory cannot be read: 4 GiB.
+    pub const UNKNOWN_MACHINE: u64 = 4 << 30;
+
+    /// A limit the user set, in bytes.
+    #[must_use]
+    pub fn bytes(bytes: u64) -> Self {
+        Self {
+            bytes,
+            source: LimitSource::Set,
+        }
+    }
+
+    /// Three quarters of this machine's memory (its physical memory, or its control group's
+    /// limit where that is lower), leaving a quarter to the system, the renderer's working
+    /// memory (film, caches) and other programs; [`Self::UNKNOWN_MACHINE`] if neither can be
+    /// read.
+    #[must_use]
+    pub fn machine() -> Self {
+        match machine_memory() {
+            Some(m) => Self {
+                bytes: m / 4 * 3,
+                source: LimitSource::Machine(m),
+            },
+            None => Self {
+                bytes: Self::UNKNOWN_MACHINE,
+                source: LimitSource::Unknown,
+            },
+        }
+    }
+
+    /// Where the figure comes from, for messages: "3/4 of this machine's 23.5 GiB" or "set
+    /// by --max-memory".
+    #[must_use]
+    pub fn source(&self) -> String {
+        match self.source {
+            LimitSource::Set => "set by --max-memory".to_string(),
+            LimitSource::Unknown => {
+                "this machine's memory is unknown; --max-memory sets it".to_string()
+            }
+            LimitSource::Machine(m) => {
+                format!("3/4 of this machine's {}; --max-memory sets it", gib(m))
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for MemoryLimit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} ({})", gib(self.bytes), self.source())
+    }
+}
+
+/// `bytes` in GiB with one decimal ("23.5 GiB"), or in MiB below 1 GiB.
+#[must_use]
+pub fn gib(bytes: u64) -> String {
+    if bytes >= 1 << 30 {
+        format!("{:.1} GiB", bytes as f64 / f64::from(1u32 << 30))
+    } else {
+        format!("{:.1} MiB", bytes as f64 / f64::from(1u32 << 20))
+    }
+}
+
+/// The memory this process may use: the machine's physical memory, or its control group's
+/// limit where one is set and lower (a container). `None` where neither can be read.
+#[must_use]
+pub fn machine_memory() -> Option<u64> {
+    let mut system = sysinfo::System::new().ok()?;
+    system.refresh_memory();
+    let total = system.total_memory();
+    let limit = system
+        .cgroup_limits()
+        .map(|c| c.total_memory)
+        .filter(|&c| c > 0)
+        .map_or(total, |c| c.min(total));
+    (limit > 0).then_some(limit)
 }
 
 /// Opens `path` for reading only if it is a regular file, and returns it with its size.
@@ -245,77 +364,98 @@ fn normalize(path: &Path) -> PathBuf {
     out
 }
 
-/// A cap on the memory that the loader spends on data whose size the file states (element
-/// counts, instancing): every such allocation is charged here first, so a small file cannot ask
-/// for gigabytes.
+/// What the loader may allocate: every allocation whose size a file states (element counts,
+/// images, instancing) is charged here first, so that no file makes irr allocate past its limits.
 ///
-/// The limit is [`Budget::BASE`] plus [`Budget::FACTOR`] times the bytes of the files read (the
-/// scene file and its buffers). The factor covers the loader's legitimate expansion: a one-byte
-/// index of a triangle strip becomes a 12-byte triangle, a 4-byte material id and a 4-byte index
-/// (20×), and a mesh instanced by several nodes is copied once per node.
-///
-/// Images expand far more than geometry (a 4096² texture of flat colour compresses to a few
-/// KiB and takes 192 MiB as linear f32 texels), so a scene that decodes images gets
-/// [`Budget::IMAGES`] more, once: enough for six 4096² textures whatever the files' size, and
-/// still a bound on what a small hostile file can make irr allocate.
+/// Two limits:
+/// - the scene's [`MemoryLimit`], for everything: loaded arrays, repeats of shared data, decoded
+///   images;
+/// - for data that no bytes of a file hold (an accessor without a buffer view, whose count a
+///   few bytes of JSON state freely), [`Budget::BASE`] plus [`Budget::FACTOR`] times the bytes of
+///   the files read. The factor covers what honest files do with it (sparse accessors over a
+///   zero base, morph targets); a file asking more is an allocation bomb, refused however much
+///   memory the machine has.
 #[derive(Debug)]
 pub(crate) struct Budget {
-    limit: u64,
+    limit: MemoryLimit,
     spent: u64,
-    images_allowed: bool,
+    unbacked_limit: u64,
+    unbacked: u64,
 }
 
 impl Budget {
-    /// Bytes every scene may use whatever its size.
+    /// Bytes of unbacked data every scene may use whatever its size.
     pub(crate) const BASE: u64 = 16 << 20;
-    /// Bytes per byte of input.
+    /// Bytes of unbacked data per byte of input.
     pub(crate) const FACTOR: u64 = 64;
-    /// Bytes added once for a scene's decoded images.
-    pub(crate) const IMAGES: u64 = 1 << 30;
 
-    /// The budget for a scene whose files hold `input_bytes` bytes.
-    pub(crate) fn for_input(input_bytes: u64) -> Self {
+    /// The budget for a scene whose files hold `input_bytes` bytes, within `limit`.
+    pub(crate) fn new(limit: MemoryLimit, input_bytes: u64) -> Self {
         Self {
-            limit: Self::BASE.saturating_add(Self::FACTOR.saturating_mul(input_bytes)),
+            limit,
             spent: 0,
-            images_allowed: false,
+            unbacked_limit: Self::BASE.saturating_add(Self::FACTOR.saturating_mul(input_bytes)),
+            unbacked: 0,
         }
     }
 
-    /// Adds [`Budget::IMAGES`] to the limit, the first time only.
-    pub(crate) fn allow_images(&mut self) {
-        if !self.images_allowed {
-            self.images_allowed = true;
-            self.limit = self.limit.saturating_add(Self::IMAGES);
-        }
-    }
-
-    /// Raises the limit for `bytes` more bytes of input (a buffer or image file read).
+    /// Raises the unbacked allowance for `bytes` more bytes of input (a buffer or image file
+    /// read).
     pub(crate) fn add_input(&mut self, bytes: u64) {
-        self.limit = self
-            .limit
+        self.unbacked_limit = self
+            .unbacked_limit
             .saturating_add(Self::FACTOR.saturating_mul(bytes));
     }
 
-    /// Charges `count` items of `T` for `what`, or says why they exceed the budget.
+    /// The bytes charged and not refunded.
+    #[cfg(test)]
+    pub(crate) fn spent(&self) -> u64 {
+        self.spent
+    }
+
+    /// The scene's memory limit.
+    pub(crate) fn limit(&self) -> MemoryLimit {
+        self.limit
+    }
+
+    /// Charges `count` items of `T` for `what`, or says why they exceed the memory limit.
     pub(crate) fn charge<T>(&mut self, what: &str, count: usize) -> Result<(), String> {
         let bytes = (count as u64).saturating_mul(size_of::<T>() as u64);
         let spent = self.spent.saturating_add(bytes);
-        if spent > self.limit {
+        if spent > self.limit.bytes {
             return Err(format!(
-                "{what} needs {count} elements ({bytes} bytes), which would take the scene past {} MiB of memory (irr allows {} MiB plus {}× the size of the scene's files{})",
-                self.limit >> 20,
-                Self::BASE >> 20,
-                Self::FACTOR,
-                if self.images_allowed {
-                    format!(", plus {} MiB for images", Self::IMAGES >> 20)
-                } else {
-                    String::new()
-                }
+                "{what} needs {count} elements ({}), which would take the scene past its memory limit of {}",
+                gib(bytes),
+                self.limit
             ));
         }
         self.spent = spent;
         Ok(())
+    }
+
+    /// Charges `count` items of `T` that no bytes of a file hold to the unbacked allowance (the
+    /// allocation is charged to the memory limit by [`Budget::vec`] as any other).
+    pub(crate) fn charge_unbacked<T>(&mut self, what: &str, count: usize) -> Result<(), String> {
+        let bytes = (count as u64).saturating_mul(size_of::<T>() as u64);
+        let unbacked = self.unbacked.saturating_add(bytes);
+        if unbacked > self.unbacked_limit {
+            return Err(format!(
+                "{what} states {count} elements ({}) with no buffer data behind them, past the {} MiB of memory irr allows such data ({} MiB plus {}× the size of the scene's files)",
+                gib(bytes),
+                self.unbacked_limit >> 20,
+                Self::BASE >> 20,
+                Self::FACTOR,
+            ));
+        }
+        self.unbacked = unbacked;
+        Ok(())
+    }
+
+    /// Gives back `count` items of `T` charged before (a temporary copy dropped), so that the
+    /// tally is what the loader holds, not all it ever held.
+    pub(crate) fn refund<T>(&mut self, count: usize) {
+        let bytes = (count as u64).saturating_mul(size_of::<T>() as u64);
+        self.spent = self.spent.saturating_sub(bytes);
     }
 
     /// A vector with room for `count` items of `T`, charged to the budget and reserved fallibly.
@@ -343,11 +483,50 @@ mod tests {
 
     #[test]
     fn budget_refuses_past_its_limit() {
-        let mut b = Budget::for_input(1000);
-        let limit = Budget::BASE + 64_000;
-        assert!(b.charge::<u8>("a", limit as usize).is_ok());
+        let mut b = Budget::new(MemoryLimit::bytes(1 << 20), 0);
+        assert!(b.charge::<u8>("a", 1 << 20).is_ok());
         let e = b.charge::<u8>("b", 1).err().unwrap_or_default();
         assert!(e.starts_with("b needs 1 elements"), "{e}");
+        assert!(
+            e.contains("memory limit of 1.0 MiB (set by --max-memory)"),
+            "{e}"
+        );
         assert!(b.vec::<[f32; 3]>("c", usize::MAX).is_err());
+        // A refund makes room again.
+        b.refund::<u8>(1);
+        assert!(b.charge::<u8>("d", 1).is_ok());
+        assert_eq!(b.spent(), 1 << 20);
+    }
+
+    /// Unbacked data has its own allowance, sized by the files read, whatever the memory limit.
+    #[test]
+    fn unbacked_data_is_bounded_by_the_files() {
+        let mut b = Budget::new(MemoryLimit::bytes(u64::MAX), 1000);
+        let allowance = Budget::BASE + Budget::FACTOR * 1000;
+        assert!(b.charge_unbacked::<u8>("a", allowance as usize).is_ok());
+        let e = b.charge_unbacked::<u8>("b", 1).err().unwrap_or_default();
+        assert!(e.contains("no buffer data behind them"), "{e}");
+        // Reading another file raises it.
+        b.add_input(1);
+        assert!(b.charge_unbacked::<u8>("c", 64).is_ok());
+        assert!(b.charge_unbacked::<u8>("d", 1).is_err());
+    }
+
+    /// The machine's limit is three quarters of a figure this machine reports.
+    #[test]
+    fn the_default_limit_comes_from_the_machine() {
+        let limit = LoadOptions::default().memory_limit();
+        match limit.source {
+            LimitSource::Unknown => assert_eq!(limit.bytes, MemoryLimit::UNKNOWN_MACHINE),
+            LimitSource::Machine(m) => assert_eq!(limit.bytes, m / 4 * 3),
+            LimitSource::Set => panic!("the default limit names no machine: {limit:?}"),
+        }
+        let set = LoadOptions {
+            max_memory: Some(5 << 30),
+            ..LoadOptions::default()
+        };
+        assert_eq!(set.memory_limit(), MemoryLimit::bytes(5 << 30));
+        assert_eq!(gib(5 << 30), "5.0 GiB");
+        assert_eq!(gib(3 << 19), "1.5 MiB");
     }
 }

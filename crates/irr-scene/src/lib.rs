@@ -51,7 +51,10 @@ mod uri;
 pub use camera::{Camera, CameraRay, NamedCamera, Projection};
 pub use digest::Fnv;
 pub use error::{LoadError, is_unprintable, one_line};
-pub use files::{LoadOptions, MAX_JSON_BYTES, MAX_SCENE_BYTES, open_regular, read_prefix};
+pub use files::{
+    LimitSource, LoadOptions, MAX_JSON_BYTES, MAX_SCENE_BYTES, MemoryLimit, gib, machine_memory,
+    open_regular, read_prefix,
+};
 pub use load::{
     MAX_COORDINATE, MAX_IMAGE_SIDE, SceneData, Warning, attribute_by_id, load_gltf, load_gltf_with,
     tex_coords_by_id,

@@ -109,6 +109,8 @@ impl Loader<'_> {
             }
             positions.push(w);
         }
+        // The file's copy is freed: the tally counts what the loader holds.
+        self.budget.refund::<[f32; 3]>(local.len());
         drop(local);
         let n = positions.len();
         let indices: Vec<u32> = match primitive.indices() {
@@ -148,6 +150,7 @@ impl Loader<'_> {
             .charge::<([u32; 3], u32)>(&format!("{what} triangles"), triangle_count)
             .map_err(|e| self.err(e))?;
         let (mut triangles, leftover) = assemble(mode, &indices);
+        self.budget.refund::<u32>(indices.len());
         drop(indices);
         if leftover > 0 {
             self.warnings.add("leftover-indices", leftover, |n| {
@@ -190,6 +193,7 @@ impl Loader<'_> {
                     .iter()
                     .map(|v| (normal_matrix * Vec3::from_array(*v)).try_normalize())
                     .collect();
+                self.budget.refund::<[f32; 3]>(local.len());
                 if world_normals.is_none() {
                     self.warnings.add("bad-normals", 1, |n| {
                         format!(

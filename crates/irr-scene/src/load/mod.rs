@@ -63,7 +63,9 @@
 //! non-finite coordinates or coordinates beyond [`MAX_COORDINATE`], non-finite material factors,
 //! non-finite texture
 //! coordinates or texture transforms, images that are neither PNG nor JPEG, are damaged, or
-//! exceed [`MAX_IMAGE_SIDE`] on a side or the loader's memory budget, non-finite or negative
+//! exceed [`MAX_IMAGE_SIDE`] on a side, scenes past their [`MemoryLimit`] (what is loaded, and
+//! with [`SceneData::check_memory`] what its BVH will take), accessors without a buffer view
+//! past the allowance sized by the files (`files::Budget`), non-finite or negative
 //! emission, lights with a non-finite or negative intensity or colour, spot cone angles outside
 //! 0 ≤ inner ≤ outer ≤ π/2 (outer > 0), and required extensions it does not support.
 
@@ -87,7 +89,9 @@ use json::{count_extensions, prevalidate, validate};
 
 use crate::camera::{Camera, NamedCamera};
 use crate::error::{LoadError, one_line};
-use crate::files::{Budget, Confinement, LoadOptions, MAX_JSON_BYTES, read_scene_file};
+use crate::files::{
+    Budget, Confinement, LoadOptions, MAX_JSON_BYTES, MemoryLimit, gib, read_scene_file,
+};
 use crate::glb;
 use crate::{Material, PunctualLight, Texture};
 use glam::{Vec2, Vec3, Vec4};
@@ -178,6 +182,66 @@ pub struct SceneData {
     /// The animation channels that move a mesh or a light (its node or a node above it, or its
     /// morph weights): irr renders them in their rest pose, so the scene is not static.
     pub animated_content: usize,
+    /// The memory limit it was loaded within, for the checks of what the renderer builds from
+    /// it (its BVH).
+    pub memory_limit: MemoryLimit,
+}
+
+impl SceneData {
+    /// The bytes its arrays hold (meshes, texels, per-triangle attributes), counted from their
+    /// lengths.
+    #[must_use]
+    pub fn heap_bytes(&self) -> u64 {
+        fn bytes<T>(v: &[T]) -> u64 {
+            size_of_val(v) as u64
+        }
+        let meshes: u64 = self
+            .meshes
+            .iter()
+            .map(|m| {
+                bytes(&m.positions)
+                    + bytes(&m.indices)
+                    + bytes(&m.material_ids)
+                    + m.normals.as_deref().map_or(0, bytes)
+            })
+            .sum();
+        let texels: u64 = self
+            .textures
+            .iter()
+            .map(|t| u64::from(t.width()) * u64::from(t.height()) * size_of::<Vec3>() as u64)
+            .sum();
+        meshes
+            + texels
+            + self.tex_coords.iter().map(|a| bytes(a)).sum::<u64>()
+            + self.colours.iter().map(|a| bytes(a)).sum::<u64>()
+            + self.alphas.iter().map(|a| bytes(a)).sum::<u64>()
+            + self.tangents.iter().map(|a| bytes(a)).sum::<u64>()
+    }
+
+    /// Refuses a scene whose arrays and BVH would not fit its memory limit, before the BVH is
+    /// built: its arrays ([`SceneData::heap_bytes`]) plus
+    /// [`irr_geometry::BUILT_BYTES_PER_TRIANGLE`] a triangle bound what the build holds at its
+    /// peak (it frees the meshes as it goes). Returns that estimate.
+    pub fn check_memory(&self) -> Result<u64, LoadError> {
+        let triangles: u64 = self.meshes.iter().map(|m| m.indices.len() as u64).sum();
+        let loaded = self.heap_bytes();
+        let bvh = triangles.saturating_mul(irr_geometry::BUILT_BYTES_PER_TRIANGLE);
+        let need = loaded.saturating_add(bvh);
+        if need > self.memory_limit.bytes {
+            return Err(LoadError::scene(
+                &self.path,
+                format!(
+                    "the scene needs about {} of memory ({} loaded, {} for the BVH of its {triangles} triangles at {} bytes each), past its memory limit of {}",
+                    gib(need),
+                    gib(loaded),
+                    gib(bvh),
+                    irr_geometry::BUILT_BYTES_PER_TRIANGLE,
+                    self.memory_limit
+                ),
+            ));
+        }
+        Ok(need)
+    }
 }
 
 /// Writes a warning's line from its final count.
@@ -316,7 +380,7 @@ pub fn load_gltf_with(path: &Path, options: &LoadOptions) -> Result<SceneData, L
         document: &document,
         warnings: Warnings::new(path),
         confinement,
-        budget: Budget::for_input(file_bytes),
+        budget: Budget::new(options.memory_limit(), file_bytes),
     }
     .load(extension_counts, blob)
 }
@@ -494,6 +558,7 @@ impl<'a> Loader<'a> {
             bounds,
             digest: self.confinement.digest(),
             animated_content,
+            memory_limit: self.budget.limit(),
         })
     }
 }

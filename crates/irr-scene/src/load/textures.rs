@@ -15,6 +15,8 @@
 use super::{Loader, describe, plural};
 use crate::error::LoadError;
 use crate::files::Budget;
+#[cfg(test)]
+use crate::files::MemoryLimit;
 use crate::uri::{decode_data_uri, percent_decode, scheme};
 use crate::{Filter, Material, Sampler, TexCoords, Texture, TextureRef, VertexAttribute, Wrap};
 use glam::{Affine2, Vec2, Vec3};
@@ -223,7 +225,6 @@ impl Loader<'_> {
             return Texture::new(1, 1, vec![Vec3::ONE], Sampler::default())
                 .map_err(|e| self.err(format!("{name}: {e}")));
         }
-        self.budget.allow_images();
         decode_image(bytes, &mut self.budget, decode).map_err(|e| self.err(format!("{name}: {e}")))
     }
 
@@ -635,8 +636,7 @@ mod tests {
     }
 
     fn decode(bytes: &[u8]) -> Result<Texture, String> {
-        let mut budget = Budget::for_input(bytes.len() as u64);
-        budget.allow_images();
+        let mut budget = Budget::new(MemoryLimit::bytes(1 << 30), bytes.len() as u64);
         decode_image(bytes, &mut budget, Decode::Colour)
     }
 
@@ -786,7 +786,7 @@ mod tests {
         let alpha = |bytes: &[u8]| {
             let t = decode_image(
                 bytes,
-                &mut Budget::for_input(bytes.len() as u64),
+                &mut Budget::new(MemoryLimit::bytes(1 << 30), bytes.len() as u64),
                 Decode::Alpha,
             )
             .unwrap_or_else(|e| panic!("{e}"));
@@ -860,8 +860,8 @@ mod tests {
             .unwrap_or_default();
         assert!(e.starts_with("PNG: "), "{e}");
         // Past the budget: a 1200² RGB image is 4.3 MB decoded plus 17.3 MB of f32 texels, more
-        // than the 16 MiB a scene gets without the image allowance; refused before its texels
-        // are allocated, and decoded with the allowance.
+        // than a 16 MiB memory limit; refused before its texels are allocated, and decoded
+        // within 1 GiB.
         let big = png_bytes(
             1200,
             1200,
@@ -870,9 +870,13 @@ mod tests {
             None,
             &vec![0; 1200 * 1200 * 3],
         );
-        let e = decode_image(&big, &mut Budget::for_input(0), Decode::Colour)
-            .err()
-            .unwrap_or_default();
+        let e = decode_image(
+            &big,
+            &mut Budget::new(MemoryLimit::bytes(16 << 20), 0),
+            Decode::Colour,
+        )
+        .err()
+        .unwrap_or_default();
         assert!(
             e.starts_with("its linear texels needs 1440000 elements"),
             "{e}"
