@@ -133,8 +133,13 @@ pub mod microfacet;
 #[cfg(test)]
 mod testing;
 
-pub use fresnel::{DIELECTRIC_F0, dielectric_diffuse_albedo, schlick};
-pub use material::{BsdfSample, Lobe, Lobes, MIN_ALPHA, MetallicRoughness, luminance};
+pub use fresnel::{
+    DIELECTRIC_F0, dielectric_diffuse_albedo, dielectric_diffuse_albedo_f0, dielectric_f0, schlick,
+};
+pub use material::{
+    BsdfSample, Lobe, Lobes, MAX_IOR, MIN_ALPHA, MIN_VOLUME_IOR, MetallicRoughness, SMOOTH_ALPHA,
+    luminance,
+};
 pub use microfacet::{
     ggx_d, invert_visible_normal, sample_visible_normal, smith_g1, visibility, visible_normal_pdf,
 };
