@@ -1,5 +1,7 @@
-//! Schlick's Fresnel approximation as the glTF specification uses it (Appendix B.3.4), and the
-//! directional albedo of its `fresnel_mix` diffuse base, which the irradiance cache needs.
+//! Schlick's Fresnel approximation as the glTF specification uses it (Appendix B.3.4), the
+//! dielectric's reflectance at normal incidence from its index of refraction
+//! (`KHR_materials_ior`), and the directional albedo of its `fresnel_mix` diffuse base, which the
+//! irradiance cache needs.
 
 use glam::Vec3;
 
@@ -35,6 +37,40 @@ const HALF_VECTOR_SCHLICK_MEAN: [f32; 5] = [
     0.008_554_594,
 ];
 
+/// The dielectric's reflectance at normal incidence for index of refraction `ior` against air
+/// (`KHR_materials_ior`): ((ior − 1)/(ior + 1))², computed as (ior − 1)²/(ior + 1)². For
+/// ior = 1.5 that is 0.25/6.25, a quotient of exact f32 numbers, rounded once: [`DIELECTRIC_F0`]
+/// bit for bit (squaring the rounded ratio 0.5/2.5 instead gives 0.040000003). An infinite ior
+/// gives 1 (the limit). `ior` is expected in [1, ∞]; the material validates it
+/// ([`crate::MetallicRoughness::with_ior`]).
+#[inline]
+pub fn dielectric_f0(ior: f32) -> f32 {
+    if ior.is_infinite() {
+        return 1.0;
+    }
+    let (below, above) = (ior - 1.0, ior + 1.0);
+    (below * below) / (above * above)
+}
+
+/// S(cos θo), the cosine-weighted mean of Schlick's weight (1 − |wo·h|)⁵ over the hemisphere
+/// ([`HALF_VECTOR_SCHLICK_MEAN`]'s polynomial).
+#[inline]
+fn half_vector_schlick_mean(cos_theta_o: f32) -> f32 {
+    let c = cos_theta_o.clamp(0.0, 1.0);
+    let [c0, c1, c2, c3, c4] = HALF_VECTOR_SCHLICK_MEAN;
+    c0 + c * (c1 + c * (c2 + c * (c3 + c * c4)))
+}
+
+/// [`dielectric_diffuse_albedo`] for a dielectric of reflectance `f0` at normal incidence
+/// (`KHR_materials_ior`'s [`dielectric_f0`]): (1 − f0)(1 − S(cos θo)), since
+/// 1 − (f0 + (1 − f0) w) = (1 − f0)(1 − w) and S is the mean of w. The fit's absolute error in S,
+/// 4.25e-6, enters multiplied by 1 − f0 ≤ 1. For f0 = [`DIELECTRIC_F0`] it is
+/// [`dielectric_diffuse_albedo`] bit for bit.
+#[inline]
+pub fn dielectric_diffuse_albedo_f0(cos_theta_o: f32, f0: f32) -> f32 {
+    (1.0 - f0) * (1.0 - half_vector_schlick_mean(cos_theta_o))
+}
+
 /// The directional albedo of the specification's dielectric diffuse base for a white base
 /// colour: ρ(cos θo) = ∫ (1 − F(|wo·h|)) / π · cos θi dωi with F = Schlick at f0 = 0.04, which is
 /// (1 − 0.04)(1 − S(cos θo)) with S the cosine-weighted mean of (1 − |wo·h|)⁵.
@@ -46,10 +82,7 @@ const HALF_VECTOR_SCHLICK_MEAN: [f32; 5] = [
 /// [`crate::MetallicRoughness::diffuse_albedo`].
 #[inline]
 pub fn dielectric_diffuse_albedo(cos_theta_o: f32) -> f32 {
-    let c = cos_theta_o.clamp(0.0, 1.0);
-    let [c0, c1, c2, c3, c4] = HALF_VECTOR_SCHLICK_MEAN;
-    let s = c0 + c * (c1 + c * (c2 + c * (c3 + c * c4)));
-    (1.0 - DIELECTRIC_F0) * (1.0 - s)
+    dielectric_diffuse_albedo_f0(cos_theta_o, DIELECTRIC_F0)
 }
 
 #[cfg(test)]

@@ -1,11 +1,14 @@
 //! The glTF 2.0 metallic-roughness BRDF exactly as the glTF 2.0 specification's Appendix B
-//! defines it, split into its diffuse and glossy lobes, with importance sampling of each.
+//! defines it, split into its diffuse and glossy lobes, with importance sampling of each; and its
+//! extensions `KHR_materials_ior` and `KHR_materials_transmission` (a transmission lobe, through a
+//! thin sheet or into a volume).
 //!
 //! # What it owns
-//! - [`MetallicRoughness`]: the material's parameters (clamped) and its BRDF: [`eval`] (the
-//!   whole f), [`eval_lobes`] (its diffuse and glossy parts), [`sample`] and [`pdf`] (both lobes,
-//!   as a one-sample mixture), [`sample_glossy`] and [`glossy_pdf`] (the glossy lobe alone), and
-//!   [`diffuse_albedo`] (the diffuse lobe's stand-in for an irradiance cache).
+//! - [`MetallicRoughness`]: the material's parameters (clamped) and its BSDF: [`eval`] (the
+//!   whole f), [`eval_lobes`] (its diffuse, glossy and transmission parts), [`sample`] and
+//!   [`pdf`] (all lobes, as a one-sample mixture), [`sample_glossy`] and [`glossy_pdf`] (the
+//!   glossy lobe alone), [`diffuse_albedo`] (the diffuse lobe's stand-in for an irradiance
+//!   cache), and [`straight_transmittance`] (what a smooth thin sheet passes along a shadow ray).
 //! - [`microfacet`]: the Trowbridge–Reitz (GGX) distribution, the Smith masking and
 //!   height-correlated visibility terms, and the visible-normal sampler in a three:
 //!   [`sample_visible_normal`], [`visible_normal_pdf`], [`invert_visible_normal`].
@@ -25,9 +28,12 @@
 //!   `irr_sampling::Frame` (`Frame::from_normal(n).to_local(w)`).
 //! - pbrt's convention: `wo` (towards the viewer, the specification's V) and `wi` (towards the
 //!   light, L) both point **away** from the surface. (Mitsuba's `wi` is the opposite.)
-//! - The BRDF is one-sided: zero unless both directions lie strictly above the surface (a
-//!   double-sided glTF material is rendered by flipping the shading normal to the viewer's side
-//!   first). [`eval`] returns f alone, **not** multiplied by cos θi.
+//! - Without transmission the BRDF is one-sided: zero unless both directions lie strictly above
+//!   the surface (a double-sided glTF material is rendered by flipping the shading normal to the
+//!   viewer's side first). [`eval`] returns f alone, **not** multiplied by |cos θi|.
+//! - With transmission, `wi` below the surface is transmitted light. A thin-walled material
+//!   keeps the flip to the viewer's side (`wo` below gives zero). A volumetric one needs the
+//!   **outward** normal unflipped: `wo` below is a viewer inside the object.
 //!
 //! # The model (glTF 2.0 specification, Appendix B.3)
 //! With α = roughness², h = normalize(wo + wi) and w = (1 − |wo·h|)⁵:
@@ -54,6 +60,57 @@
 //! dielectric's directional albedo reaches 1.88 at cos θo = 0.01 and α = 1e-3 (the diffuse weight
 //! 1 − F(|wo·h|) stays ≈ 0.93 while the glossy lobe's F tends to 1), so a closed white furnace of
 //! it does not converge; the metal's albedo never exceeds 1.
+//!
+//! # ior and transmission
+//! - **ior** (`KHR_materials_ior`, [`with_ior`]): F0 = ((ior − 1)/(ior + 1))², computed as
+//!   (ior − 1)²/(ior + 1)² so that ior 1.5 gives 0.04's bits. F90 is the specular weight, as
+//!   before. ior = 0 is the extension's compatibility mode, an infinite ior: F = 1 (times the
+//!   specular weight) at every angle and nothing refracts. NaN reads as 1.5. Values below 1,
+//!   which the extension forbids, are raised to 1. Finite values are capped at [`MAX_IOR`].
+//! - **transmission** t (`KHR_materials_transmission`, [`with_transmission`]): the dielectric
+//!   base becomes mix(diffuse, specular_btdf · baseColor, t), as the extension defines. The
+//!   diffuse lobe is scaled by 1 − t, and so is [`diffuse_albedo`], which keeps the irradiance
+//!   cache's stand-in exact. A transmission lobe of tint τ = (1 − metallic) · t · baseColor
+//!   appears on the other side (metals do not transmit). It has the glossy lobe's GGX α and
+//!   Fresnel F_d = s (F0 + (1 − F0)(1 − c)⁵).
+//! - **Thin-walled** (no `KHR_materials_volume`): a pane of two interfaces, as pbrt-v4's
+//!   `ThinDielectricBxDF`. Summing the light's internal reflections gives transmittance
+//!   T' = (1 − F)²/(1 − F²) = (1 − F)/(1 + F) and reflectance R' = F + F(1 − F)²/(1 − F²) =
+//!   2F/(1 + F), so R' + T' = 1. A clear pane at normal incidence with ior 1.5 passes
+//!   0.96/1.04 = 0.923 of the light behind it. The extension itself models one interface
+//!   (T = 1 − F); the pane is the better model of a window.
+//!
+//!   The rough pane generalises this facet by facet. Each facet is treated as a smooth pane at
+//!   its own angle: F = F_d(|wo·h|). The reflection lobe is D ν times F plus the back-surface
+//!   term τ F(1 − F)/(1 + F). The transmission lobe is τ (1 − F)/(1 + F) D ν taken at wi
+//!   mirrored through the surface: the extension's "specular lobe sampled along the line of
+//!   sight", where the two refractions cancel. As α reaches the floor these become the smooth
+//!   pane's delta lobes. For white clear glass the albedo is the GGX lobe's single-scattering
+//!   albedo (≤ 1, and 1 when smooth).
+//!
+//!   For shadow rays, [`straight_transmittance`] gives τ (1 − F(cos θ))/(1 + F(cos θ)) when
+//!   α ≤ [`SMOOTH_ALPHA`] (the floor).
+//! - **Volumetric**: the rough dielectric BTDF of Walter et al. 2007 (eq. 21), with the
+//!   height-correlated G2 and relative ior η' = η(wi's side)/η(wo's side). wo may be inside.
+//!   The Fresnel term stays the specification's Schlick F rather than the exact dielectric
+//!   one. It is evaluated at the facet cosine of whichever direction is **outside**, so both
+//!   directions of a refraction pair get the same F. From inside, F = 1 beyond the critical
+//!   angle (total internal reflection), and otherwise F is Schlick's at the refracted cosine
+//!   √(1 − η² sin²θ). Inside, the boundary reflects F D ν and transmits with τ; the rest is
+//!   absorbed.
+//!
+//!   The BTDF carries pbrt-v4's 1/η'² for **radiance** (its `TransportMode::Radiance`), the
+//!   quantity a camera path needs. It is reciprocal as f(wo, wi)/η(wo's side)² =
+//!   f(wi, wo)/η(wi's side)². The importance (adjoint) BTDF is f · η'².
+//!
+//!   Refraction uses η ≥ [`MIN_VOLUME_IOR`] = 1.01: at η = 1 the rough lobe degenerates to a
+//!   delta. It is sampled by refracting a visible normal. From inside, [`sample`] chooses
+//!   reflection or refraction at the drawn facet by its Fresnel weights, as pbrt-v4's
+//!   `DielectricBxDF` does, so total internal reflection is never lost.
+//! - From outside, [`sample`] chooses among the glossy, transmission and diffuse lobes by their
+//!   estimated albedos. The transmission lobe's estimate is τ (1 − F) times 1/(1 + F) (pane)
+//!   or 1/η² (volume); see [`transmission_probability`]. A transmitted sample has `wi` on the
+//!   other side and the lobe [`Lobe::Transmission`]. Its weight is still f·|cos θi|/pdf.
 //!
 //! # Roughness floor
 //! α = max(roughness², [`MIN_ALPHA`] = 1e-3). At α = 0 the GGX distribution is a Dirac delta,
@@ -125,6 +182,10 @@
 //! [`glossy_pdf`]: MetallicRoughness::glossy_pdf
 //! [`diffuse_albedo`]: MetallicRoughness::diffuse_albedo
 //! [`glossy_probability`]: MetallicRoughness::glossy_probability
+//! [`straight_transmittance`]: MetallicRoughness::straight_transmittance
+//! [`with_ior`]: MetallicRoughness::with_ior
+//! [`with_transmission`]: MetallicRoughness::with_transmission
+//! [`transmission_probability`]: MetallicRoughness::transmission_probability
 
 pub mod basis;
 pub mod fresnel;
@@ -133,8 +194,13 @@ pub mod microfacet;
 #[cfg(test)]
 mod testing;
 
-pub use fresnel::{DIELECTRIC_F0, dielectric_diffuse_albedo, schlick};
-pub use material::{BsdfSample, Lobe, Lobes, MIN_ALPHA, MetallicRoughness, luminance};
+pub use fresnel::{
+    DIELECTRIC_F0, dielectric_diffuse_albedo, dielectric_diffuse_albedo_f0, dielectric_f0, schlick,
+};
+pub use material::{
+    BsdfSample, Lobe, Lobes, MAX_IOR, MIN_ALPHA, MIN_VOLUME_IOR, MetallicRoughness, SMOOTH_ALPHA,
+    luminance,
+};
 pub use microfacet::{
     ggx_d, invert_visible_normal, sample_visible_normal, smith_g1, visibility, visible_normal_pdf,
 };

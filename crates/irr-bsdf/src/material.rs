@@ -1,7 +1,8 @@
-//! The glTF 2.0 metallic-roughness material (specification, Appendix B): its evaluation, its two
-//! lobes, and their importance sampling.
+//! The glTF 2.0 metallic-roughness material (specification, Appendix B): its evaluation, its
+//! lobes, and their importance sampling; with `KHR_materials_ior` and
+//! `KHR_materials_transmission` (in [`transmission`]).
 
-use crate::fresnel::{DIELECTRIC_F0, dielectric_diffuse_albedo, schlick_weight};
+use crate::fresnel::{DIELECTRIC_F0, dielectric_diffuse_albedo_f0, schlick_weight};
 use crate::microfacet::{ggx_d, sample_visible_normal, smith_g1, visibility};
 use glam::{Vec2, Vec3};
 use irr_sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
@@ -23,6 +24,13 @@ pub const MIN_ALPHA: f32 = 1e-3;
 /// specular weight (`KHR_materials_specular`'s `specularFactor`, 1 without the extension) in
 /// [0, 1].
 ///
+/// `KHR_materials_ior`'s index of refraction (1.5 unless given by
+/// [`with_ior`](Self::with_ior)) sets the dielectric's reflectance at normal incidence, F0 =
+/// ((ior − 1)/(ior + 1))² (0.04 at 1.5); `KHR_materials_transmission`'s factor (0 unless given by
+/// [`with_transmission`](Self::with_transmission)) turns part of the dielectric's diffuse base
+/// into a transmission lobe, thin-walled or volumetric (the crate documentation describes the
+/// model).
+///
 /// Immutable: the constructors clamp, and derive the GGX width and the glossy lobe's Fresnel
 /// reflectances at normal and grazing incidence once.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -34,49 +42,74 @@ pub struct MetallicRoughness {
     alpha: f32,
     f0: Vec3,
     f90: Vec3,
+    /// The index of refraction in [1, [`MAX_IOR`]], or +∞ (`KHR_materials_ior`'s ior = 0).
+    ior: f32,
+    /// ((ior − 1)/(ior + 1))², before the specular weight.
+    dielectric_f0: f32,
+    /// `KHR_materials_transmission`'s factor in [0, 1].
+    transmission: f32,
+    /// Whether the transmission is through a thin sheet (no `KHR_materials_volume`) rather than
+    /// into a volume.
+    thin_walled: bool,
 }
 
-/// One of the material's two lobes.
+/// One of the material's lobes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Lobe {
-    /// The Lambertian base of the dielectric, weighted by (1 − metallic)(1 − F).
+    /// The Lambertian base of the dielectric, weighted by (1 − metallic)(1 − transmission)(1 − F).
     Diffuse,
-    /// The GGX microfacet reflection of both the dielectric and the metal.
+    /// The GGX microfacet reflection of both the dielectric and the metal (and, from inside a
+    /// volumetric material, the reflection at its boundary).
     Glossy,
+    /// The GGX microfacet transmission of a transmitting dielectric: `wi` on the other side of
+    /// the surface from `wo`.
+    Transmission,
 }
 
-/// The BRDF split into its lobes; their sum is the BRDF.
+/// The BSDF split into its lobes; their sum is the BSDF.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Lobes {
-    /// (1 − metallic) · (1 − F_dielectric(|wo·h|)) · base_color / π, with F_dielectric =
-    /// s·(0.04 + 0.96 (1 − |wo·h|)⁵) for specular weight s.
+    /// (1 − metallic) · (1 − transmission) · (1 − F_dielectric(|wo·h|)) · base_color / π, with
+    /// F_dielectric = s·(F0 + (1 − F0)(1 − |wo·h|)⁵) for specular weight s and F0 from the ior
+    /// (0.04 at ior 1.5). Zero unless both directions lie above the surface.
     pub diffuse: Vec3,
-    /// F(|wo·h|) · D(h) · ν(wo, wi), with F Schlick's from f0 = mix(0.04 s, base_color, metallic)
-    /// to f90 = mix(s, 1, metallic).
+    /// F(|wo·h|) · D(h) · ν(wo, wi), with F Schlick's from f0 = mix(F0 s, base_color, metallic)
+    /// to f90 = mix(s, 1, metallic); plus, for a thin-walled transmitting material, the pane's
+    /// back-surface reflection τ F_d (1 − F_d)/(1 + F_d) · D ν (τ = (1 − metallic) ·
+    /// transmission · base_color, F_d = F_dielectric). From inside a volumetric material
+    /// (both directions below the surface), its boundary's reflection F_inside · D ν.
     pub glossy: Vec3,
+    /// The transmission lobe, non-zero only for `wi` on the other side of the surface from `wo`:
+    /// τ (1 − F_d)/(1 + F_d) · D ν at `wi` mirrored through the surface (thin-walled), or the
+    /// rough dielectric BTDF (volumetric; Walter et al. 2007, eq. 21, for radiance). Zero
+    /// without transmission.
+    pub transmission: Vec3,
 }
 
 impl Lobes {
-    /// Both lobes zero.
+    /// All lobes zero.
     pub const ZERO: Self = Self {
         diffuse: Vec3::ZERO,
         glossy: Vec3::ZERO,
+        transmission: Vec3::ZERO,
     };
 
-    /// The BRDF: diffuse + glossy.
+    /// The BSDF: diffuse + glossy + transmission.
     #[inline]
     pub fn total(self) -> Vec3 {
-        self.diffuse + self.glossy
+        self.diffuse + self.glossy + self.transmission
     }
 }
 
 /// A direction drawn by one of the samplers, with what an estimator needs: its contribution is
-/// `f * wi.z / pdf` times the incident radiance.
+/// `f * |wi.z| / pdf` times the incident radiance.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BsdfSample {
-    /// The incident direction (local frame, unit, above the surface).
+    /// The incident direction (local frame, unit): on `wo`'s side of the surface for the
+    /// reflection lobes, on the other side (`wi.z` of the opposite sign) for
+    /// [`Lobe::Transmission`].
     pub wi: Vec3,
-    /// The BRDF value that the sampler stands for (the whole BRDF for
+    /// The BSDF value that the sampler stands for (the whole BSDF for
     /// [`MetallicRoughness::sample`], one lobe for [`MetallicRoughness::sample_glossy`]).
     pub f: Vec3,
     /// The density of `wi` per unit solid angle, positive.
@@ -131,6 +164,10 @@ impl MetallicRoughness {
             // lobe.
             f0: Vec3::splat(DIELECTRIC_F0 * specular).lerp(base_color, metallic),
             f90: Vec3::splat(specular).lerp(Vec3::ONE, metallic),
+            ior: 1.5,
+            dielectric_f0: DIELECTRIC_F0,
+            transmission: 0.0,
+            thin_walled: true,
         }
     }
 
@@ -160,8 +197,9 @@ impl MetallicRoughness {
         self.alpha
     }
 
-    /// The glossy lobe's reflectance at normal incidence, mix(0.04 s, base_color, metallic) for
-    /// specular weight s.
+    /// The glossy lobe's reflectance at normal incidence, mix(F0 s, base_color, metallic) for
+    /// specular weight s and the dielectric's F0 ([`dielectric_f0`](Self::dielectric_f0), 0.04
+    /// at ior 1.5).
     pub fn specular_f0(&self) -> Vec3 {
         self.f0
     }
@@ -172,35 +210,57 @@ impl MetallicRoughness {
         self.f90
     }
 
-    /// Whether the glossy lobe is zero everywhere (a dielectric of specular weight 0): the
-    /// material is then exactly Lambertian, f = base_color/π, and an integrator can shade it as
-    /// such (cosine sampling, no Fresnel).
+    /// Whether the glossy lobe is zero everywhere (a dielectric of specular weight 0) and the
+    /// material does not transmit: it is then exactly Lambertian, f = base_color/π, and an
+    /// integrator can shade it as such (cosine sampling, no Fresnel).
     pub fn is_lambertian(&self) -> bool {
-        self.f90 == Vec3::ZERO
+        self.f90 == Vec3::ZERO && self.transmission == 0.0
     }
 
     /// Both lobes for half vector `wm` and |wo·wm| = `cos_vh`.
     #[inline]
+    ///
+    /// Both directions lie above the surface. With transmission, the diffuse lobe is scaled by
+    /// 1 − transmission and, thin-walled, the glossy lobe gains the pane's back-surface
+    /// reflection; without, the arithmetic is the plain material's.
     fn lobes_at(&self, wo: Vec3, wi: Vec3, wm: Vec3, cos_vh: f32) -> Lobes {
         let w = schlick_weight(cos_vh);
-        let dielectric_fresnel = self.specular * (DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * w);
-        Lobes {
+        let dielectric_fresnel =
+            self.specular * (self.dielectric_f0 + (1.0 - self.dielectric_f0) * w);
+        let d_nu = ggx_d(wm, self.alpha) * visibility(wo, wi, self.alpha);
+        let mut lobes = Lobes {
             diffuse: self.base_color
                 * ((1.0 - self.metallic) * (1.0 - dielectric_fresnel) * FRAC_1_PI),
-            glossy: (self.f0 + (self.f90 - self.f0) * w)
-                * (ggx_d(wm, self.alpha) * visibility(wo, wi, self.alpha)),
+            glossy: (self.f0 + (self.f90 - self.f0) * w) * d_nu,
+            transmission: Vec3::ZERO,
+        };
+        if self.transmission > 0.0 {
+            lobes.diffuse *= 1.0 - self.transmission;
+            if self.thin_walled {
+                lobes.glossy +=
+                    self.transmittance_tint() * (pane_back_reflection(dielectric_fresnel) * d_nu);
+            }
         }
+        lobes
     }
 
-    /// The BRDF's two lobes for unit directions `wo` (towards the viewer) and `wi` (towards the
-    /// light), both pointing away from the surface in the local frame (normal +z). Zero unless
-    /// both lie strictly above the surface.
+    /// The BSDF's lobes for unit directions `wo` (towards the viewer) and `wi` (towards the
+    /// light), both pointing away from the surface in the local frame (normal +z). Without
+    /// transmission: zero unless both lie strictly above the surface. With transmission:
+    /// thin-walled, `wo` must lie above (zero otherwise) and `wi` below gives the transmission
+    /// lobe; volumetric, `wo` below the surface is a viewer inside the object (the normal must
+    /// then be the outward one, not flipped to the viewer), and any `wi` off the tangent plane
+    /// counts.
     ///
     /// The half vector h = (wo + wi)/|wo + wi| and |V·H| = |wo·h| = |wo + wi|/2 (equal for unit
-    /// vectors) are computed from the sum only, so the result is reciprocal bit for bit:
-    /// `eval_lobes(wo, wi) == eval_lobes(wi, wo)`.
+    /// vectors) are computed from the sum only, so reflection is reciprocal bit for bit:
+    /// `eval_lobes(wo, wi) == eval_lobes(wi, wo)` (the volumetric transmission lobe is
+    /// reciprocal in the form f(wo, wi)/η_o² = f(wi, wo)/η_i², η the ior on each one's side).
     #[inline]
     pub fn eval_lobes(&self, wo: Vec3, wi: Vec3) -> Lobes {
+        if self.transmission > 0.0 {
+            return self.transmitting_lobes(wo, wi);
+        }
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Lobes::ZERO;
         }
@@ -209,16 +269,16 @@ impl MetallicRoughness {
         self.lobes_at(wo, wi, sum / len, (0.5 * len).min(1.0))
     }
 
-    /// The BRDF f(wo, wi) (not multiplied by cos θi): `eval_lobes(wo, wi).total()`.
+    /// The BSDF f(wo, wi) (not multiplied by |cos θi|): `eval_lobes(wo, wi).total()`.
     #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         self.eval_lobes(wo, wi).total()
     }
 
     /// The directional albedo of the diffuse lobe, ∫ f_diffuse(wo, wi) cos θi dωi =
-    /// (1 − metallic) · base_color · (1 − s (1 − ρ(cos θo))) with ρ =
-    /// [`crate::dielectric_diffuse_albedo`] and s the specular weight (the lobe's weight
-    /// 1 − s·F is affine in s; zero for `wo` below the surface): the factor by which an irradiance cache multiplies its
+    /// (1 − metallic) · (1 − transmission) · base_color · (1 − s (1 − ρ(cos θo))) with ρ =
+    /// [`crate::dielectric_diffuse_albedo_f0`] at the ior's F0 and s the specular weight (the
+    /// lobe's weight 1 − s·F is affine in s; zero for `wo` below the surface): the factor by which an irradiance cache multiplies its
     /// cached irradiance E, as `diffuse_albedo(wo) / π · E`, to stand for the diffuse lobe's
     /// reflected indirect light.
     ///
@@ -230,8 +290,9 @@ impl MetallicRoughness {
         if wo.z <= 0.0 {
             return Vec3::ZERO;
         }
-        let weight = 1.0 - self.specular * (1.0 - dielectric_diffuse_albedo(wo.z));
-        self.base_color * ((1.0 - self.metallic) * weight)
+        let weight =
+            1.0 - self.specular * (1.0 - dielectric_diffuse_albedo_f0(wo.z, self.dielectric_f0));
+        self.base_color * ((1.0 - self.metallic) * (1.0 - self.transmission) * weight)
     }
 
     /// The probability with which [`sample`](Self::sample) chooses the glossy lobe for `wo`:
@@ -243,8 +304,17 @@ impl MetallicRoughness {
     /// Positive whenever the glossy lobe can be non-zero (f90 > 0), below 1 whenever the diffuse
     /// lobe can be (metallic < 1 and a non-black base colour): each lobe is sampled wherever it
     /// contributes, so the mixture estimator is unbiased.
+    ///
+    /// With transmission the transmission lobe's estimate joins the two
+    /// ([`transmission_probability`](Self::transmission_probability)); for `wo` below the
+    /// surface (inside a volumetric material), where [`sample`](Self::sample) chooses between
+    /// reflection and refraction per microfacet, this is 1 (as for any `wo` below without
+    /// transmission).
     #[inline]
     pub fn glossy_probability(&self, wo: Vec3) -> f32 {
+        if self.transmission > 0.0 {
+            return self.outside_probabilities(wo).0;
+        }
         let cos_o = wo.z.clamp(0.0, 1.0);
         let glossy = luminance(self.f0 + (self.f90 - self.f0) * schlick_weight(cos_o));
         let diffuse = luminance(self.diffuse_albedo(wo));
@@ -321,8 +391,17 @@ impl MetallicRoughness {
     /// [`pdf`](Self::pdf) gives), so `f * wi.z / pdf` is the one-sample estimator's weight and
     /// `pdf` is what multiple importance sampling needs. `None` when `wo` is below the surface or
     /// the glossy reflection goes below it.
+    ///
+    /// With transmission, `u_lobe` chooses among three lobes (glossy, transmission, diffuse, in
+    /// that order along [0, 1)) for `wo` above the surface; for `wo` inside a volumetric material
+    /// it chooses reflection or refraction at the drawn microfacet, by that facet's Fresnel
+    /// weights (so total internal reflection is never lost). A transmitted `wi` lies on the other
+    /// side of the surface; the weight is then `f * |wi.z| / pdf`.
     #[inline]
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        if self.transmission > 0.0 {
+            return self.sample_transmitting(wo, u_lobe, u);
+        }
         if wo.z <= 0.0 {
             return None;
         }
@@ -351,9 +430,13 @@ impl MetallicRoughness {
 
     /// The density of [`sample`](Self::sample) at `wi` per unit solid angle: p · glossy_pdf +
     /// (1 − p) · cos θi / π with p the glossy probability for `wo`. Zero unless both directions
-    /// lie above the surface.
+    /// lie above the surface. With transmission, the mixture of all three lobes, over both
+    /// hemispheres (as [`sample`](Self::sample) draws).
     #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.transmission > 0.0 {
+            return self.transmitting_pdf(wo, wi);
+        }
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
@@ -362,4 +445,10 @@ impl MetallicRoughness {
 }
 
 #[cfg(test)]
+mod legacy;
+#[cfg(test)]
 mod tests;
+mod transmission;
+
+use transmission::pane_back_reflection;
+pub use transmission::{MAX_IOR, MIN_VOLUME_IOR, SMOOTH_ALPHA};

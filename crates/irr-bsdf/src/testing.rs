@@ -204,7 +204,7 @@ pub fn regularized_upper_gamma(a: f64, x: f64) -> f64 {
 }
 
 /// The significance level of each chi-square test: a correct sampler fails one with probability
-/// 1e-6, so the crate's ~15 tests together raise a false alarm with probability ≈ 1.5e-5 (and,
+/// 1e-6, so the crate's ~20 tests together raise a false alarm with probability ≈ 2e-5 (and,
 /// their samples being fixed, never intermittently); a sampling bug gives p-values many orders
 /// of magnitude smaller at these sample counts.
 pub const SIGNIFICANCE: f64 = 1e-6;
@@ -227,7 +227,8 @@ pub struct Chi2 {
     pub p_value: f64,
     /// Samples that the sampler rejected (`None`), a cell of their own.
     pub rejected: u64,
-    /// Samples below the horizon or not finite: the pdf is zero there, so any is a failure.
+    /// Samples outside the binned directions (below the horizon, for [`chi2_directions`]) or not
+    /// finite: the pdf is zero there, so any is a failure.
     pub impossible: u64,
     /// Σ (ΔE)² / E with ΔE the quadrature's estimated error in each cell's expected count: the
     /// most the quadrature could move the statistic, to first order. Must stay below 1.
@@ -256,26 +257,27 @@ impl fmt::Display for Chi2 {
     }
 }
 
-/// The (θ, φ) bin of a direction in the upper hemisphere.
-fn bin_of(w: Vec3) -> usize {
+/// The (θ, φ) bin of a direction, with `theta_bins` bins of π/2 / [`THETA_BINS`] each from
+/// θ = 0 (the upper hemisphere for [`THETA_BINS`], the sphere for twice as many).
+fn bin_of(w: Vec3, theta_bins: usize) -> usize {
     let w = w.as_dvec3();
     let theta = (w.x * w.x + w.y * w.y).sqrt().atan2(w.z);
     let mut phi = w.y.atan2(w.x);
     if phi < 0.0 {
         phi += TAU;
     }
-    let i = ((theta / (0.5 * PI) * THETA_BINS as f64) as usize).min(THETA_BINS - 1);
+    let i = ((theta / (0.5 * PI) * THETA_BINS as f64) as usize).min(theta_bins - 1);
     let j = ((phi / TAU * PHI_BINS as f64) as usize).min(PHI_BINS - 1);
     i * PHI_BINS + j
 }
 
 /// The probability that `pdf` gives each (θ, φ) bin: ∫ pdf sin θ dθ dφ over the bin by the
 /// midpoint rule on a k × k sub-grid.
-fn bin_probabilities(pdf: &impl Fn(Vec3) -> f32, k: usize) -> Vec<f64> {
+fn bin_probabilities(pdf: &impl Fn(Vec3) -> f32, k: usize, theta_bins: usize) -> Vec<f64> {
     let dtheta = 0.5 * PI / (THETA_BINS * k) as f64;
     let dphi = TAU / (PHI_BINS * k) as f64;
-    let mut p = vec![0.0; THETA_BINS * PHI_BINS];
-    for a in 0..THETA_BINS * k {
+    let mut p = vec![0.0; theta_bins * PHI_BINS];
+    for a in 0..theta_bins * k {
         let theta = (a as f64 + 0.5) * dtheta;
         let (sin_theta, cos_theta) = theta.sin_cos();
         for b in 0..PHI_BINS * k {
@@ -285,6 +287,25 @@ fn bin_probabilities(pdf: &impl Fn(Vec3) -> f32, k: usize) -> Vec<f64> {
         }
     }
     p
+}
+
+/// The probability that `pdf` gives bin `cell` (of [`bin_probabilities`]' layout) by the
+/// midpoint rule on a k × k sub-grid.
+fn cell_probability(pdf: &impl Fn(Vec3) -> f32, cell: usize, k: usize) -> f64 {
+    let (i, j) = (cell / PHI_BINS, cell % PHI_BINS);
+    let dtheta = 0.5 * PI / (THETA_BINS * k) as f64;
+    let dphi = TAU / (PHI_BINS * k) as f64;
+    let mut sum = 0.0;
+    for a in i * k..(i + 1) * k {
+        let theta = (a as f64 + 0.5) * dtheta;
+        let (sin_theta, cos_theta) = theta.sin_cos();
+        for b in j * k..(j + 1) * k {
+            let (sin_phi, cos_phi) = ((b as f64 + 0.5) * dphi).sin_cos();
+            let w = DVec3::new(sin_theta * cos_phi, sin_theta * sin_phi, cos_theta);
+            sum += f64::from(pdf(to_f32(w))) * sin_theta * dtheta * dphi;
+        }
+    }
+    sum
 }
 
 /// Chi-square test of `n` directions drawn by `sample(i)` (sample index i; `None` for a rejected
@@ -297,28 +318,77 @@ fn bin_probabilities(pdf: &impl Fn(Vec3) -> f32, k: usize) -> Vec<f64> {
 /// one cell that keeps absorbing cells until it too reaches 5 (Mitsuba's rule).
 pub fn chi2_directions(
     n: u64,
-    mut sample: impl FnMut(u64) -> Option<Vec3>,
+    sample: impl FnMut(u64) -> Option<Vec3>,
     pdf: impl Fn(Vec3) -> f32,
 ) -> Chi2 {
-    let cells = THETA_BINS * PHI_BINS;
+    chi2_bins(n, sample, pdf, THETA_BINS, 8)
+}
+
+/// [`chi2_directions`] over the whole sphere of directions (for a sampler that transmits as
+/// well as reflects): `pdf` per unit solid angle on the sphere, twice as many θ bins (the same
+/// angular step) to reach θ = π.
+///
+/// The expected counts are refined where needed: a refracted lobe's density has edges inside
+/// bins (GGX's D jumps from α²/π to 0 at vertical facets, χ⁺(cos θm), which a grazing view
+/// refracts through), where the midpoint rule converges only at first order. Each bin starts at
+/// 16 × 16 sub-cells against 8 × 8; while its estimated error, taken as the whole difference
+/// (first order), moves the statistic by more than 1e-4, its sub-grid is doubled (up to
+/// 256 × 256). The reported quadrature effect uses the whole differences too.
+pub fn chi2_sphere(
+    n: u64,
+    sample: impl FnMut(u64) -> Option<Vec3>,
+    pdf: impl Fn(Vec3) -> f32,
+) -> Chi2 {
+    chi2_bins(n, sample, pdf, 2 * THETA_BINS, 16)
+}
+
+/// The chi-square test over `theta_bins` × [`PHI_BINS`] cells (see [`chi2_directions`]), the
+/// expected counts on `sub` × `sub` sub-cells per bin, checked against `sub`/2.
+fn chi2_bins(
+    n: u64,
+    mut sample: impl FnMut(u64) -> Option<Vec3>,
+    pdf: impl Fn(Vec3) -> f32,
+    theta_bins: usize,
+    sub: usize,
+) -> Chi2 {
+    let cells = theta_bins * PHI_BINS;
+    let upper_only = theta_bins == THETA_BINS;
     let mut observed = vec![0u64; cells + 1];
     let mut impossible = 0;
     for i in 0..n {
         match sample(i) {
             None => observed[cells] += 1,
-            Some(w) if w.is_finite() && w.z >= 0.0 => observed[bin_of(w)] += 1,
+            Some(w) if w.is_finite() && (w.z >= 0.0 || !upper_only) => {
+                observed[bin_of(w, theta_bins)] += 1
+            }
             Some(_) => impossible += 1,
         }
     }
-    let coarse = bin_probabilities(&pdf, 4);
-    let fine = bin_probabilities(&pdf, 8);
+    let mut coarse = bin_probabilities(&pdf, sub / 2, theta_bins);
+    let mut fine = bin_probabilities(&pdf, sub, theta_bins);
     let scale = n as f64;
+    // Second order (the hemisphere's smooth densities): the finer value's error is about a
+    // third of the difference. First order (refined, over the sphere): about the difference.
+    let error_share = if upper_only { 1.0 / 3.0 } else { 1.0 };
+    if !upper_only {
+        for cell in 0..cells {
+            let mut k = sub;
+            while k < 256
+                && fine[cell] > 0.0
+                && ((fine[cell] - coarse[cell]) * scale).powi(2) / (fine[cell] * scale) > 1e-4
+            {
+                k *= 2;
+                coarse[cell] = fine[cell];
+                fine[cell] = cell_probability(&pdf, cell, k);
+            }
+        }
+    }
     let mut expected: Vec<f64> = fine.iter().map(|p| p * scale).collect();
     let quadrature_effect = coarse
         .iter()
         .zip(&fine)
         .filter(|&(_, &f)| f > 0.0)
-        .map(|(&c, &f)| ((f - c) / 3.0 * scale).powi(2) / (f * scale))
+        .map(|(&c, &f)| ((f - c) * error_share * scale).powi(2) / (f * scale))
         .sum();
     expected.push((1.0 - fine.iter().sum::<f64>()).max(0.0) * scale);
 

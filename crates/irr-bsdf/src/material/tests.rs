@@ -217,6 +217,8 @@ proptest! {
                     let rel = (f64::from(s.pdf) / f64::from(pdf) - 1.0).abs();
                     prop_assert!(rel <= tol, "{} vs {pdf}: {rel:e} > {tol:e}", s.pdf);
                 }
+                // These materials do not transmit.
+                Lobe::Transmission => prop_assert!(false, "transmission sample {s:?}"),
             }
             // And the whole BRDF value is eval's, up to the same D difference.
             let f = m.eval(wo, s.wi);
