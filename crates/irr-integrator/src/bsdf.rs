@@ -75,7 +75,8 @@ impl Bsdf {
                 metallic,
                 roughness,
                 material.specular,
-            ),
+            )
+            .with_ior(material.ior),
             frame,
             wo: frame.to_local(x.wo.normalize()),
         }
@@ -369,6 +370,39 @@ mod tests {
                 assert!((pdf / d.pdf - 1.0).abs() < 1e-5, "{pdf} vs {}", d.pdf);
             }
             assert!(drawn > 32, "{drawn} of 64 draws");
+        }
+    }
+
+    /// A material's ior reaches the BSDF both integrators shade with: the dielectric's F0 is
+    /// ((ior − 1)/(ior + 1))² (irr-bsdf's `dielectric_f0`), and the default 1.5 is the
+    /// specification's 0.04 exactly, in `Bsdf::at` and `Scene::reflection` alike.
+    #[test]
+    fn the_ior_sets_the_dielectrics_f0() {
+        for (ior, f0) in [
+            (1.5, 0.04),
+            (1.33, irr_bsdf::dielectric_f0(1.33)),
+            (2.0, 1.0 / 9.0),
+        ] {
+            let (s, x) = plane(Material {
+                ior,
+                ..Material::metallic_roughness(Vec3::ONE, 0.0, 0.5)
+            });
+            let Bsdf::Glossy { material, .. } = Bsdf::at(&s, &x) else {
+                panic!("{ior}: not glossy");
+            };
+            // (ior − 1)²/(ior + 1)² in f32: a few roundings of a number near f0.
+            assert!(
+                (material.dielectric_f0() - f0).abs() <= 4.0 * f32::EPSILON * f0,
+                "{ior}"
+            );
+            assert_eq!(
+                material.specular_f0(),
+                Vec3::splat(material.dielectric_f0())
+            );
+            assert_eq!(
+                s.reflection(x.triangle, x.b1, x.b2).dielectric_f0(),
+                material.dielectric_f0()
+            );
         }
     }
 }

@@ -164,6 +164,14 @@ impl Scene {
                     value: m.albedo,
                 });
             }
+            // irr-bsdf's `with_ior` reads 0 as an infinite ior; (0, 1) has no meaning.
+            if !(m.ior.is_finite() && (m.ior == 0.0 || m.ior >= 1.0)) {
+                return Err(SceneError::InvalidMaterial {
+                    index,
+                    what: "ior",
+                    value: Vec3::splat(m.ior),
+                });
+            }
             for (what, x) in [
                 ("metallic", m.metallic),
                 ("roughness", m.roughness),
@@ -590,12 +598,14 @@ impl Scene {
     #[inline]
     pub fn reflection(&self, triangle: u32, b1: f32, b2: f32) -> MetallicRoughness {
         let (metallic, roughness) = self.metallic_roughness(triangle, b1, b2);
+        let material = self.material_of(triangle);
         MetallicRoughness::with_specular(
             self.albedo(triangle, b1, b2),
             metallic,
             roughness,
-            self.material_of(triangle).specular,
+            material.specular,
         )
+        .with_ior(material.ior)
     }
 
     /// Radiance emitted from barycentrics (b1, b2) of triangle `triangle`, whose geometric

@@ -459,6 +459,22 @@ fn scene_rejects_missing_and_invalid_materials() {
         ),
         "{err:?}"
     );
+    for ior in [0.5, f32::NAN, -1.0] {
+        let floor = polygon(Vec3::ZERO, 1.0, 4, 1.0, 0);
+        let g = Geometry::build(&[floor]).unwrap_or_else(|e| panic!("{e}"));
+        let material = Material {
+            ior,
+            ..Material::metallic_roughness(Vec3::ONE, 0.0, 0.5)
+        };
+        let err = Scene::new(g, vec![material]).err();
+        assert!(
+            matches!(
+                err,
+                Some(crate::SceneError::InvalidMaterial { what: "ior", .. })
+            ),
+            "{ior}: {err:?}"
+        );
+    }
 }
 
 /// `li_split_many_first_hits` answers as `li_split_many` does, bit for bit, with the first hits

@@ -23,6 +23,11 @@ pub struct Material {
     /// `KHR_materials_specular`'s `specularFactor`, in [0, 1]: the dielectric's specular weight
     /// (1 without the extension; 0 leaves the dielectric Lambertian).
     pub specular: f32,
+    /// `KHR_materials_ior`'s `ior`: the dielectric's index of refraction, which sets its
+    /// specular reflectance at normal incidence F0 = ((ior − 1)/(ior + 1))² (0.04 at the
+    /// default 1.5); 0 stands for an infinite ior (F0 = 1), as the extension allows. At least
+    /// 1 otherwise, and finite.
+    pub ior: f32,
     /// Emitted radiance Le in W·sr⁻¹·m⁻² per channel, the same in every direction of an emitting
     /// side (glTF `emissiveFactor` × `KHR_materials_emissive_strength.emissiveStrength`).
     pub emission: Vec3,
@@ -88,6 +93,7 @@ impl Material {
             metallic: 0.0,
             roughness: 1.0,
             specular: 0.0,
+            ior: 1.5,
             emission: Vec3::ZERO,
             two_sided: true,
             albedo_texture: None,

@@ -126,6 +126,20 @@ impl Loader<'_> {
             // renderers without the extension: a black Lambertian that emits nothing.
             let unlit = m.unlit();
             let [metallic, roughness, specular] = if unlit { [0.0, 1.0, 0.0] } else { factors };
+            // KHR_materials_ior: 0 is an infinite ior; other values below 1 are outside the
+            // extension's range and read as 1 (F0 = 0), counted with the clamped factors.
+            let ior = m.ior().unwrap_or(1.5);
+            if !ior.is_finite() {
+                return Err(self.err(format!(
+                    "material {name}: KHR_materials_ior ior {ior} is not finite"
+                )));
+            }
+            let ior = if ior != 0.0 && ior < 1.0 {
+                clamped_factors += 1;
+                1.0
+            } else {
+                ior
+            };
             let strength = m.emissive_strength().unwrap_or(1.0);
             let emission = Vec3::from_array(m.emissive_factor()) * strength;
             if !emission.is_finite() || emission.min_element() < 0.0 {
@@ -214,6 +228,7 @@ impl Loader<'_> {
                 metallic,
                 roughness,
                 specular,
+                ior: if unlit { 1.5 } else { ior },
                 albedo_texture,
                 emission_texture,
                 metallic_roughness_texture,
@@ -234,7 +249,7 @@ impl Loader<'_> {
         });
         self.warnings.add("factor-clamped", clamped_factors, |n| {
             format!(
-                "{} outside [0, 1] (metallicFactor, roughnessFactor, specularFactor or baseColorFactor's alpha): clamped",
+                "{} outside [0, 1] (metallicFactor, roughnessFactor, specularFactor, ior or baseColorFactor's alpha): clamped",
                 plural(n, "factor", "factors")
             )
         });

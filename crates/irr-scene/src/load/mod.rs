@@ -12,8 +12,8 @@
 //! - Materials: the metallic-roughness model (irr-bsdf, the specification's Appendix B):
 //!   `baseColorFactor.rgb`, `metallicFactor` and `roughnessFactor` (clamped into [0, 1], with a
 //!   warning), and `KHR_materials_specular`'s `specularFactor` (1 without the extension; 0 with
-//!   `metallicFactor` 0 makes a Lambertian surface of albedo `baseColorFactor`);
-//!   `emissiveFactor` times
+//!   `metallicFactor` 0 makes a Lambertian surface of albedo `baseColorFactor`) and
+//!   `KHR_materials_ior`'s `ior` (the dielectric's F0; 1.5 without it); `emissiveFactor` times
 //!   `KHR_materials_emissive_strength.emissiveStrength` (1 without the extension) is the emitted
 //!   radiance in W·sr⁻¹·m⁻²; `doubleSided` says whether a surface emits from both faces or only
 //!   from its front face (counter-clockwise winding). A primitive without a material gets glTF's
@@ -52,8 +52,9 @@
 //! `animation`: those that move a camera's node or a node above it are read), points and lines,
 //! orthographic cameras, other
 //! scenes, a light's `range` (a non-physical cut-off), lights no node of the scene places, and
-//! every extension except `KHR_materials_emissive_strength`, `KHR_materials_specular`,
-//! `KHR_texture_transform`, `KHR_lights_punctual` and `KHR_materials_unlit` (transmission, …). A textured material on a
+//! every extension except `KHR_materials_emissive_strength`, `KHR_materials_ior`,
+//! `KHR_materials_specular`, `KHR_texture_transform`, `KHR_lights_punctual` and
+//! `KHR_materials_unlit` (transmission, …). A textured material on a
 //! primitive without the `TEXCOORD_n` it reads is read at (0, 0). Each becomes one [`Warning`]
 //! with a count.
 //!
@@ -107,8 +108,9 @@ use std::path::{Path, PathBuf};
 pub const MAX_COORDINATE: f32 = 1e18;
 
 /// The extensions irr reads.
-const SUPPORTED_EXTENSIONS: [&str; 5] = [
+const SUPPORTED_EXTENSIONS: [&str; 6] = [
     "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
     "KHR_materials_specular",
     "KHR_texture_transform",
     "KHR_lights_punctual",

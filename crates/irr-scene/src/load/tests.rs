@@ -498,6 +498,42 @@ fn a_required_extension_that_irr_reads_loads() {
     assert_eq!(s.materials[0].specular, 0.25);
 }
 
+/// `KHR_materials_ior`, required: each material's ior is read (1.5 without the extension, 0
+/// kept as the extension's infinite ior), and an ior the extension does not allow (in (0, 1))
+/// reads as 1 with the clamping warning; no warning names the extension.
+#[test]
+fn khr_materials_ior_is_read() {
+    let d = dir();
+    let mut g = Gltf::default();
+    let p = g.vec3(&TRIANGLE);
+    let ior = |v: &str| format!(r#"{{"extensions":{{"KHR_materials_ior":{{"ior":{v}}}}}}}"#);
+    let json = g.json(&format!(
+        r#""extensionsUsed":["KHR_materials_ior"],"extensionsRequired":["KHR_materials_ior"],
+        "scene":0,"scenes":[{{"nodes":[0,1,2,3]}}],
+        "nodes":[{{"mesh":0}},{{"mesh":1}},{{"mesh":2}},{{"mesh":3}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p}}},"material":0}}]}},
+                  {{"primitives":[{{"attributes":{{"POSITION":{p}}},"material":1}}]}},
+                  {{"primitives":[{{"attributes":{{"POSITION":{p}}},"material":2}}]}},
+                  {{"primitives":[{{"attributes":{{"POSITION":{p}}},"material":3}}]}}],
+        "materials":[{},{},{},{{}}]"#,
+        ior("1.33"),
+        ior("0"),
+        ior("0.5"),
+    ));
+    let s = load(&write(d.path(), "ior.gltf", json));
+    let iors: Vec<f32> = s.materials.iter().map(|m| m.ior).collect();
+    assert_eq!(iors, [1.33, 0.0, 1.0, 1.5]);
+    let features: Vec<&str> = s.warnings.iter().map(|w| w.feature.as_str()).collect();
+    assert!(features.iter().all(|f| !f.contains("ior")), "{features:?}");
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.message.contains("ior") && w.count == 1),
+        "{:?}",
+        s.warnings
+    );
+}
+
 /// `KHR_materials_unlit`, required or only used: the material is unlit with its base colour,
 /// coverage and sides; its other factors and textures (the extension's fallbacks) are a black
 /// Lambertian's that emits nothing, and no warning names the extension. A scene lit by nothing
