@@ -7,6 +7,7 @@ mod extreme_scenes;
 mod extremes;
 mod fuzz;
 mod geometry;
+mod glass;
 mod hostile;
 mod ic;
 mod lights;

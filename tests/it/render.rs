@@ -77,7 +77,7 @@ fn write_failure_images(name: &str, actual: &Image, reference: &Image) -> String
 /// The per-channel mean of the pixels and its standard error s/√N, where s² is the sample
 /// variance of the N pixel values. Pixels use disjoint sample keys, so they are independent
 /// estimates of the same quantity when the answer is constant over the image.
-fn mean_and_standard_error(image: &Image) -> ([f64; 3], [f64; 3]) {
+pub(crate) fn mean_and_standard_error(image: &Image) -> ([f64; 3], [f64; 3]) {
     let n = image.pixels().len() as f64;
     let mut mean = [0.0; 3];
     for p in image.pixels() {
@@ -98,7 +98,14 @@ fn mean_and_standard_error(image: &Image) -> ([f64; 3], [f64; 3]) {
 /// Checks that the image's mean is `expected` within `z` standard errors plus `bias` (a bound
 /// on any known systematic difference) plus `rounding` (f32 arithmetic), per channel; on
 /// failure, writes the images.
-fn assert_mean(name: &str, image: &Image, expected: Vec3, z: f64, bias: f64, rounding: f64) {
+pub(crate) fn assert_mean(
+    name: &str,
+    image: &Image,
+    expected: Vec3,
+    z: f64,
+    bias: f64,
+    rounding: f64,
+) {
     let (mean, se) = mean_and_standard_error(image);
     for c in 0..3 {
         let tolerance = z * se[c] + bias + rounding;

@@ -51,6 +51,9 @@ pub struct MetallicRoughness {
     /// Whether the transmission is through a thin sheet (no `KHR_materials_volume`) rather than
     /// into a volume.
     thin_walled: bool,
+    /// Whether the thin sheet's transmission is left to the renderer's straight rays
+    /// ([`with_straight_transmission`](Self::with_straight_transmission)): no transmission lobe.
+    straight: bool,
 }
 
 /// One of the material's lobes.
@@ -168,6 +171,7 @@ impl MetallicRoughness {
             dielectric_f0: DIELECTRIC_F0,
             transmission: 0.0,
             thin_walled: true,
+            straight: false,
         }
     }
 

@@ -343,6 +343,14 @@ impl Geometry {
         out
     }
 
+    /// The unit geometric normal of triangle `id` (as [`Geometry::surface`] gives it: normalised
+    /// (p1 − p0) × (p2 − p0), computed in f64 at the build).
+    #[inline]
+    #[must_use]
+    pub fn geometric_normal(&self, id: u32) -> Vec3 {
+        self.stored(id).normal()
+    }
+
     /// Triangle `id` as stored in the BVH's leaves.
     #[inline]
     pub(crate) fn stored(&self, id: u32) -> TriSoa {

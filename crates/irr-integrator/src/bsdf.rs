@@ -34,6 +34,10 @@ pub enum Bsdf {
         frame: Frame,
         /// The direction towards the viewer, in the frame.
         wo: Vec3,
+        /// The factor on the BSDF's values: 1, except on glass, where a ray meets the sheet's
+        /// reflection only when it did not pass straight through (`Scene::pass_probability`
+        /// p), so the reflection is divided by 1 − p there.
+        scale: f32,
     },
 }
 
@@ -63,22 +67,23 @@ impl Bsdf {
                 ns: x.ns,
             };
         }
-        let albedo = scene.albedo(x.triangle, x.b1, x.b2);
-        if material.is_lambertian() {
+        if material.is_lambertian() && !material.transmits() {
+            let albedo = scene.albedo(x.triangle, x.b1, x.b2);
             return Bsdf::Lambertian { albedo, ns: x.ns };
         }
         let frame = Frame::from_normal(x.ns);
-        let (metallic, roughness) = scene.metallic_roughness(x.triangle, x.b1, x.b2);
+        let scale = if material.transmits() {
+            let p = scene.pass_probability(x.triangle, x.b1, x.b2, x.wo);
+            // A filtered query never stops a ray where p = 1.
+            if p < 1.0 { 1.0 / (1.0 - p) } else { 0.0 }
+        } else {
+            1.0
+        };
         Bsdf::Glossy {
-            material: MetallicRoughness::with_specular(
-                albedo,
-                metallic,
-                roughness,
-                material.specular,
-            )
-            .with_ior(material.ior),
+            material: scene.reflection(x.triangle, x.b1, x.b2),
             frame,
             wo: frame.to_local(x.wo.normalize()),
+            scale,
         }
     }
 
@@ -107,8 +112,8 @@ impl Bsdf {
                 material,
                 frame,
                 wo,
-                ..
-            } => material.eval(*wo, frame.to_local(wi)),
+                scale,
+            } => material.eval(*wo, frame.to_local(wi)) * *scale,
         }
     }
 
@@ -148,7 +153,7 @@ impl Bsdf {
                 material,
                 frame,
                 wo,
-                ..
+                scale,
             } => {
                 let p = material.glossy_probability(*wo);
                 let (u_lobe, x) = if u.x < p {
@@ -159,7 +164,7 @@ impl Bsdf {
                 let s = material.sample(*wo, u_lobe, Vec2::new(x.min(ONE_BELOW), u.y))?;
                 Some(BsdfDraw {
                     wi: frame.to_world(s.wi),
-                    weight: s.f * (s.wi.z / s.pdf),
+                    weight: s.f * (*scale * s.wi.z / s.pdf),
                     pdf: s.pdf,
                     cos: s.wi.z,
                 })
@@ -217,7 +222,12 @@ impl Bsdf {
     pub fn diffuse_reflectance(&self) -> Vec3 {
         match self {
             Bsdf::Lambertian { albedo, .. } => *albedo,
-            Bsdf::Glossy { material, wo, .. } => material.diffuse_albedo(*wo),
+            Bsdf::Glossy {
+                material,
+                wo,
+                scale,
+                ..
+            } => material.diffuse_albedo(*wo) * *scale,
         }
     }
 
@@ -233,13 +243,13 @@ impl Bsdf {
                 material,
                 frame,
                 wo,
-                ..
+                scale,
             } => {
                 let local = frame.to_local(wi);
                 if local.z <= 0.0 {
                     return Vec3::ZERO;
                 }
-                material.eval(*wo, local) - material.diffuse_albedo(*wo) * FRAC_1_PI
+                (material.eval(*wo, local) - material.diffuse_albedo(*wo) * FRAC_1_PI) * *scale
             }
         }
     }
@@ -269,10 +279,15 @@ impl Bsdf {
     pub fn albedo_estimate(&self) -> Vec3 {
         match self {
             Bsdf::Lambertian { albedo, .. } => *albedo,
-            Bsdf::Glossy { material, wo, .. } => {
+            Bsdf::Glossy {
+                material,
+                wo,
+                scale,
+                ..
+            } => {
                 let f0 = material.specular_f0();
                 let w = irr_bsdf::fresnel::schlick_weight(wo.z.clamp(0.0, 1.0));
-                material.diffuse_albedo(*wo) + f0 + (material.specular_f90() - f0) * w
+                (material.diffuse_albedo(*wo) + f0 + (material.specular_f90() - f0) * w) * *scale
             }
         }
     }

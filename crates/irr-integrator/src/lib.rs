@@ -87,7 +87,7 @@ pub use irr_scene::{
 };
 pub use light::{LightSample, LightSampler};
 pub use path::{PathSettings, PathTracer, Radiance};
-pub use scene::{Scene, SceneError, coverage_sample};
+pub use scene::{Scene, SceneError, coverage_sample, pass_sample};
 
 #[cfg(test)]
 mod light_tests;

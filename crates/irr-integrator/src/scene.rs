@@ -176,6 +176,7 @@ impl Scene {
                 ("metallic", m.metallic),
                 ("roughness", m.roughness),
                 ("specular", m.specular),
+                ("transmission", m.transmission),
             ] {
                 if !(0.0..=1.0).contains(&x) {
                     return Err(SceneError::InvalidMaterial {
@@ -433,17 +434,45 @@ impl Scene {
 
     /// Whether the coverage α of `hit`'s surface stops `ray` ([`Scene::blocks`] without the
     /// unlit surfaces' exception).
+    /// Glass ([`Material::transmits`]) lets the ray pass with
+    /// [`Scene::pass_probability`], decided by another hash of the ray and the triangle.
     #[inline]
     fn covers(&self, ray: &Ray, hit: &Hit) -> bool {
         let m = self.material_of(hit.triangle);
-        match m.alpha_mode {
+        let covered = match m.alpha_mode {
             AlphaMode::Opaque => true,
             AlphaMode::Mask(cutoff) => self.alpha(hit.triangle, hit.b1, hit.b2) >= cutoff,
             AlphaMode::Blend => {
                 let a = self.alpha(hit.triangle, hit.b1, hit.b2);
                 a >= 1.0 || (a > 0.0 && coverage_sample(ray, hit.triangle) < a)
             }
+        };
+        covered
+            && !(m.transmits()
+                && pass_sample(ray, hit.triangle)
+                    < self.pass_probability(hit.triangle, hit.b1, hit.b2, ray.direction))
+    }
+
+    /// The probability with which a ray along `direction` passes straight through the glass
+    /// at barycentrics (b1, b2) of triangle `triangle` ([`Material::transmits`]; 0 for any
+    /// other material): the mean over the colour channels of the sheet's straight
+    /// transmittance τ (1 − F)/(1 + F) at the ray's angle to the winding normal (irr-bsdf's
+    /// `sheet_transmittance`), τ the base colour × transmission × (1 − metallic).
+    ///
+    /// A ray stopped there meets the sheet's reflection divided by the probability of
+    /// stopping (`Bsdf::at`), so the pair is unbiased: for a grey base colour exactly what a
+    /// smooth thin pane transmits and reflects, shadow rays and the light cache's paths
+    /// included. A coloured base colour's hue is not given to the light passing through (the
+    /// loader warns): a ray either passes or not, and carries no tint.
+    #[inline]
+    pub fn pass_probability(&self, triangle: u32, b1: f32, b2: f32, direction: Vec3) -> f32 {
+        if !self.material_of(triangle).transmits() {
+            return 0.0;
         }
+        let ng = self.geometry.geometric_normal(triangle);
+        let cos = direction.dot(ng).abs() / direction.length();
+        let t = self.reflection(triangle, b1, b2).sheet_transmittance(cos);
+        (t.x + t.y + t.z) / 3.0
     }
 
     /// The radiance a light sample takes from barycentrics (b1, b2) of emitting triangle
@@ -599,13 +628,20 @@ impl Scene {
     pub fn reflection(&self, triangle: u32, b1: f32, b2: f32) -> MetallicRoughness {
         let (metallic, roughness) = self.metallic_roughness(triangle, b1, b2);
         let material = self.material_of(triangle);
-        MetallicRoughness::with_specular(
+        let reflection = MetallicRoughness::with_specular(
             self.albedo(triangle, b1, b2),
             metallic,
             roughness,
             material.specular,
         )
-        .with_ior(material.ior)
+        .with_ior(material.ior);
+        if material.transmits() {
+            reflection
+                .with_transmission(material.transmission, true)
+                .with_straight_transmission()
+        } else {
+            reflection
+        }
     }
 
     /// Radiance emitted from barycentrics (b1, b2) of triangle `triangle`, whose geometric
@@ -766,14 +802,22 @@ impl HitFilter for Scene {
 /// one answer.
 #[inline]
 pub fn coverage_sample(ray: &Ray, triangle: u32) -> f32 {
+    ray_sample(ray, u64::from(triangle))
+}
+
+/// [`coverage_sample`]'s number for glass ([`Scene::pass_probability`]), independent of it (a
+/// material may both blend and transmit).
+#[inline]
+pub fn pass_sample(ray: &Ray, triangle: u32) -> f32 {
+    ray_sample(ray, u64::from(triangle) | 1 << 32)
+}
+
+/// A uniform number in [0, 1) from the ray's bits and `key`.
+#[inline]
+fn ray_sample(ray: &Ray, key: u64) -> f32 {
     let bits = |a: f32, b: f32| (u64::from(a.to_bits()) << 32) | u64::from(b.to_bits());
     let (o, d) = (ray.origin, ray.direction);
-    let key = irr_sampling::rng::hash_keys(&[
-        bits(o.x, o.y),
-        bits(o.z, d.x),
-        bits(d.y, d.z),
-        u64::from(triangle),
-    ]);
+    let key = irr_sampling::rng::hash_keys(&[bits(o.x, o.y), bits(o.z, d.x), bits(d.y, d.z), key]);
     irr_sampling::rng::bits_to_unit_f32((key >> 32) as u32)
 }
 

@@ -28,6 +28,11 @@ pub struct Material {
     /// default 1.5); 0 stands for an infinite ior (F0 = 1), as the extension allows. At least
     /// 1 otherwise, and finite.
     pub ior: f32,
+    /// `KHR_materials_transmission`'s `transmissionFactor`, in [0, 1]: the share of the
+    /// dielectric's base that transmits light instead of reflecting it diffusely (glass). irr
+    /// renders the surface as a thin sheet whose transmitted light passes straight through it
+    /// ([`Material::transmits`]; irr-bsdf's `with_straight_transmission`). 0: opaque.
+    pub transmission: f32,
     /// Emitted radiance Le in W·sr⁻¹·m⁻² per channel, the same in every direction of an emitting
     /// side (glTF `emissiveFactor` × `KHR_materials_emissive_strength.emissiveStrength`).
     pub emission: Vec3,
@@ -94,6 +99,7 @@ impl Material {
             roughness: 1.0,
             specular: 0.0,
             ior: 1.5,
+            transmission: 0.0,
             emission: Vec3::ZERO,
             two_sided: true,
             albedo_texture: None,
@@ -188,14 +194,24 @@ impl Material {
     }
 
     /// Whether some ray can pass through the material's surface: a cut-out or a blend whose α
-    /// is textured or below the cutoff (below 1 for a blend). A scene none of whose materials
-    /// can is traced without asking about any hit.
+    /// is textured or below the cutoff (below 1 for a blend), or glass
+    /// ([`Material::transmits`]). A scene none of whose materials can is traced without asking
+    /// about any hit.
     pub fn can_cut_out(&self) -> bool {
-        match self.alpha_mode {
-            AlphaMode::Opaque => false,
-            AlphaMode::Mask(cutoff) => self.alpha_texture.is_some() || self.alpha < cutoff,
-            AlphaMode::Blend => self.alpha_texture.is_some() || self.alpha < 1.0,
-        }
+        self.transmits()
+            || match self.alpha_mode {
+                AlphaMode::Opaque => false,
+                AlphaMode::Mask(cutoff) => self.alpha_texture.is_some() || self.alpha < cutoff,
+                AlphaMode::Blend => self.alpha_texture.is_some() || self.alpha < 1.0,
+            }
+    }
+
+    /// Whether rays pass straight through the surface as through a thin sheet of glass, with
+    /// the probability of its straight transmittance (stochastic transparency, as a blend's):
+    /// a transmission factor above 0 on a material that neither emits (an emitter's light is
+    /// sampled as if every ray met it) nor is unlit (which no ray but the camera's meets).
+    pub fn transmits(&self) -> bool {
+        self.transmission > 0.0 && !self.unlit && !self.is_emissive()
     }
 
     /// The index among [`Material::tex_coord_sets`] of the set `texture` reads.

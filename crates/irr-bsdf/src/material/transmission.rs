@@ -147,6 +147,43 @@ impl MetallicRoughness {
         }
     }
 
+    /// This material as a thin sheet whose transmission a renderer handles itself by passing
+    /// rays straight through it (stochastic transparency with probability
+    /// [`sheet_transmittance`](Self::sheet_transmittance), as for a blended cut-out): the BSDF
+    /// keeps its reflection lobes (the pane's reflectance 2F/(1 + F) included) and loses its
+    /// transmission lobe, in [`eval`](Self::eval), [`sample`](Self::sample) and
+    /// [`pdf`](Self::pdf) alike. Exact for a smooth sheet (its transmission lobe is then a
+    /// delta about the straight direction); a rough sheet's transmitted light is then seen
+    /// sharp instead of blurred.
+    #[must_use]
+    pub fn with_straight_transmission(self) -> Self {
+        Self {
+            thin_walled: true,
+            straight: true,
+            ..self
+        }
+    }
+
+    /// Whether the transmission is left to straight rays
+    /// ([`with_straight_transmission`](Self::with_straight_transmission)).
+    pub fn is_straight(&self) -> bool {
+        self.straight
+    }
+
+    /// The transmittance of the material as a smooth thin pane for a straight ray at `cos_theta`
+    /// to its normal (either side): τ (1 − F)/(1 + F) per channel with τ the
+    /// [`transmittance_tint`](Self::transmittance_tint), whatever its roughness and
+    /// thin-walledness (what [`straight_transmittance`](Self::straight_transmittance) gives a
+    /// smooth thin material). Zero without transmission.
+    #[inline]
+    pub fn sheet_transmittance(&self, cos_theta: f32) -> Vec3 {
+        if self.transmission == 0.0 {
+            return Vec3::ZERO;
+        }
+        let f = self.fresnel_outside(cos_theta.abs().min(1.0));
+        self.transmittance_tint() * pane_transmission(f)
+    }
+
     /// The index of refraction, in [1, [`MAX_IOR`]] or +∞ (see [`with_ior`](Self::with_ior)).
     pub fn ior(&self) -> f32 {
         self.ior
@@ -271,7 +308,11 @@ impl MetallicRoughness {
         let f = self.fresnel_outside(cos_o);
         let transmission = if self.thin_walled {
             glossy += tau * pane_back_reflection(f);
-            tau * pane_transmission(f).max(f32::EPSILON)
+            if self.straight {
+                0.0
+            } else {
+                tau * pane_transmission(f).max(f32::EPSILON)
+            }
         } else if self.refracts() {
             let eta = self.eta();
             tau * (1.0 - f).max(f32::EPSILON) / (eta * eta)
@@ -400,6 +441,9 @@ impl MetallicRoughness {
             let sum = wo + wi;
             let len = sum.length();
             return self.lobes_at(wo, wi, sum / len, (0.5 * len).min(1.0));
+        }
+        if self.straight {
+            return Lobes::ZERO;
         }
         if self.thin_walled {
             // wi below: the pane's transmission at wi mirrored.

@@ -822,6 +822,7 @@ mod tests {
             material,
             frame: Frame::from_normal(Vec3::Z),
             wo: Vec3::new((1.0 - cos_o * cos_o).sqrt(), 0.0, cos_o),
+            scale: 1.0,
         };
         let metal = MetallicRoughness::new(Vec3::new(1.0, 0.77, 0.34), 1.0, 0.3);
         let dielectric = MetallicRoughness::new(Vec3::splat(0.8), 0.0, 1.0);

@@ -110,8 +110,11 @@ impl RadianceCaching {
     pub(super) fn covers(&self, bsdf: &Bsdf) -> bool {
         match bsdf {
             Bsdf::Lambertian { .. } => false,
+            // Glass's reflection is scaled by its stopping probability (`Bsdf::Glossy`'s
+            // `scale`), which the tables do not know: path-traced.
             Bsdf::Glossy { material, wo, .. } => {
-                self.table.reconstruction_error(material.roughness(), wo.z) <= self.max_error
+                material.transmission() == 0.0
+                    && self.table.reconstruction_error(material.roughness(), wo.z) <= self.max_error
             }
         }
     }
@@ -570,6 +573,7 @@ mod tests {
             material: m,
             frame,
             wo,
+            scale: 1.0,
         };
         let reflected = |order: usize| {
             let rc = caching(order);

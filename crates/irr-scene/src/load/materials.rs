@@ -87,6 +87,8 @@ impl Loader<'_> {
     ) -> Result<(Vec<Material>, u32, Vec<Texture>), LoadError> {
         let mut out = Vec::new();
         let (mut clamped, mut clamped_factors) = (0, 0);
+        // Glass read in part: see the warnings after the loop.
+        let mut glass = GlassWarnings::default();
         let mut textures = Textures::default();
         let document = self.document;
         for (m, json) in document.materials().zip(&document.as_json().materials) {
@@ -139,6 +141,22 @@ impl Loader<'_> {
                 1.0
             } else {
                 ior
+            };
+            // KHR_materials_transmission, read from the JSON (the typed accessor of its texture
+            // unwraps the texture's index).
+            let extensions = json.extensions.as_ref();
+            let transmission_json = extensions.and_then(|e| e.transmission.as_ref());
+            let transmission = transmission_json.map_or(0.0, |t| t.transmission_factor.0);
+            if !transmission.is_finite() {
+                return Err(self.err(format!(
+                    "material {name}: KHR_materials_transmission transmissionFactor {transmission} is not finite"
+                )));
+            }
+            let transmission = if (0.0..=1.0).contains(&transmission) {
+                transmission
+            } else {
+                clamped_factors += 1;
+                transmission.clamp(0.0, 1.0)
             };
             let strength = m.emissive_strength().unwrap_or(1.0);
             let emission = Vec3::from_array(m.emissive_factor()) * strength;
@@ -229,6 +247,7 @@ impl Loader<'_> {
                 roughness,
                 specular,
                 ior: if unlit { 1.5 } else { ior },
+                transmission: if unlit { 0.0 } else { transmission },
                 albedo_texture,
                 emission_texture,
                 metallic_roughness_texture,
@@ -239,7 +258,18 @@ impl Loader<'_> {
                 alpha_texture,
                 unlit,
             });
+            if let Some(m) = out.last().filter(|m| m.transmission > 0.0 && !m.unlit) {
+                let volume = extensions
+                    .and_then(|e| e.volume.as_ref())
+                    .is_some_and(|v| v.thickness_factor.0 > 0.0 || v.thickness_texture.is_some());
+                glass.count(
+                    m,
+                    transmission_json.is_some_and(|t| t.transmission_texture.is_some()),
+                    volume,
+                );
+            }
         }
+        glass.warn(self);
         textures.warn(self);
         self.warnings.add("albedo-clamped", clamped, |n| {
             format!(
@@ -281,5 +311,69 @@ impl Loader<'_> {
             }),
             extras: Default::default(),
         })
+    }
+}
+
+/// What of glTF's glass the renderer leaves out, counted per material (`Material::transmits`).
+#[derive(Default)]
+struct GlassWarnings {
+    texture: usize,
+    volume: usize,
+    rough: usize,
+    tinted: usize,
+    emissive: usize,
+}
+
+impl GlassWarnings {
+    /// The roughness up to which a thin sheet's transmitted light is sharp in glTF's model too:
+    /// α = roughness² at irr-bsdf's floor `SMOOTH_ALPHA` (1e-3).
+    const SMOOTH_ROUGHNESS: f32 = 0.0316;
+
+    fn count(&mut self, m: &Material, texture: bool, volume: bool) {
+        if m.is_emissive() {
+            self.emissive += 1;
+            return;
+        }
+        self.texture += usize::from(texture);
+        self.volume += usize::from(volume);
+        self.rough += usize::from(
+            m.roughness > Self::SMOOTH_ROUGHNESS || m.metallic_roughness_texture.is_some(),
+        );
+        let a = m.albedo;
+        self.tinted += usize::from(a.x != a.y || a.y != a.z || m.albedo_texture.is_some());
+    }
+
+    fn warn(&self, loader: &mut Loader<'_>) {
+        let w = &mut loader.warnings;
+        w.add("transmission-texture", self.texture, |n| {
+            format!(
+                "{} KHR_materials_transmission transmissionTexture: ignored (the factor is used)",
+                plural(n, "material has a", "materials have a")
+            )
+        });
+        w.add("transmission-volume", self.volume, |n| {
+            format!(
+                "{} KHR_materials_volume: rendered as a thin sheet (no refraction, no absorption)",
+                plural(n, "glass material has", "glass materials have")
+            )
+        });
+        w.add("transmission-rough", self.rough, |n| {
+            format!(
+                "{} rougher than 0.03: light passing through is seen sharp, not blurred (the reflection keeps its roughness)",
+                plural(n, "glass material is", "glass materials are")
+            )
+        });
+        w.add("transmission-tint", self.tinted, |n| {
+            format!(
+                "{} a coloured or textured base colour: light passing through is dimmed by its mean, not tinted",
+                plural(n, "glass material has", "glass materials have")
+            )
+        });
+        w.add("transmission-emissive", self.emissive, |n| {
+            format!(
+                "{} KHR_materials_transmission ignored: an emitter is opaque in irr",
+                plural(n, "emissive material has", "emissive materials have")
+            )
+        });
     }
 }

@@ -13,7 +13,10 @@
 //!   `baseColorFactor.rgb`, `metallicFactor` and `roughnessFactor` (clamped into [0, 1], with a
 //!   warning), and `KHR_materials_specular`'s `specularFactor` (1 without the extension; 0 with
 //!   `metallicFactor` 0 makes a Lambertian surface of albedo `baseColorFactor`) and
-//!   `KHR_materials_ior`'s `ior` (the dielectric's F0; 1.5 without it); `emissiveFactor` times
+//!   `KHR_materials_ior`'s `ior` (the dielectric's F0; 1.5 without it) and
+//!   `KHR_materials_transmission`'s factor (glass, rendered as a thin sheet that light passes
+//!   straight through: its texture, `KHR_materials_volume`, the blur of a rough sheet and the
+//!   tint of a coloured one are left out, each with a warning); `emissiveFactor` times
 //!   `KHR_materials_emissive_strength.emissiveStrength` (1 without the extension) is the emitted
 //!   radiance in W·sr⁻¹·m⁻²; `doubleSided` says whether a surface emits from both faces or only
 //!   from its front face (counter-clockwise winding). A primitive without a material gets glTF's
@@ -53,8 +56,8 @@
 //! orthographic cameras, other
 //! scenes, a light's `range` (a non-physical cut-off), lights no node of the scene places, and
 //! every extension except `KHR_materials_emissive_strength`, `KHR_materials_ior`,
-//! `KHR_materials_specular`, `KHR_texture_transform`, `KHR_lights_punctual` and
-//! `KHR_materials_unlit` (transmission, …). A textured material on a
+//! `KHR_materials_specular`, `KHR_materials_transmission`, `KHR_texture_transform`,
+//! `KHR_lights_punctual` and `KHR_materials_unlit` (volume, clearcoat, …). A textured material on a
 //! primitive without the `TEXCOORD_n` it reads is read at (0, 0). Each becomes one [`Warning`]
 //! with a count.
 //!
@@ -108,10 +111,11 @@ use std::path::{Path, PathBuf};
 pub const MAX_COORDINATE: f32 = 1e18;
 
 /// The extensions irr reads.
-const SUPPORTED_EXTENSIONS: [&str; 6] = [
+const SUPPORTED_EXTENSIONS: [&str; 7] = [
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_specular",
+    "KHR_materials_transmission",
     "KHR_texture_transform",
     "KHR_lights_punctual",
     "KHR_materials_unlit",

@@ -234,7 +234,7 @@ fn ignored_features_are_counted_in_warnings() {
     let mut g = Gltf::default();
     let p = g.vec3(&TRIANGLE);
     let json = g.json(&format!(
-        r#""extensionsUsed":["EXT_lights_image_based","KHR_materials_transmission"],
+        r#""extensionsUsed":["EXT_lights_image_based","KHR_materials_clearcoat"],
         "extensions":{{"EXT_lights_image_based":{{"lights":[]}}}},
         "scene":0,"scenes":[{{"nodes":[0,1,2]}},{{"nodes":[]}}],
         "nodes":[{{"mesh":0}},{{"extensions":{{"EXT_lights_image_based":{{"light":0}}}}}},{{"mesh":1}}],
@@ -246,7 +246,7 @@ fn ignored_features_are_counted_in_warnings() {
         "materials":[{{"occlusionTexture":{{"index":1}},
                        "pbrMetallicRoughness":{{"roughnessFactor":1.5}}}},
                      {{"pbrMetallicRoughness":{{"metallicFactor":0}},"alphaMode":"BLEND",
-                       "extensions":{{"KHR_materials_transmission":{{"transmissionFactor":1}},
+                       "extensions":{{"KHR_materials_clearcoat":{{"clearcoatFactor":1}},
                                       "KHR_materials_specular":{{"specularFactor":0.5,
                                                                  "specularColorFactor":[1,0.5,1]}}}}}}]"#
     ));
@@ -258,7 +258,7 @@ fn ignored_features_are_counted_in_warnings() {
         .collect();
     for expected in [
         ("extension:EXT_lights_image_based", 2),
-        ("extension:KHR_materials_transmission", 1),
+        ("extension:KHR_materials_clearcoat", 1),
         ("textures", 2),
         ("images", 1),
         ("occlusion-maps", 1),
@@ -531,6 +531,74 @@ fn khr_materials_ior_is_read() {
             .any(|w| w.message.contains("ior") && w.count == 1),
         "{:?}",
         s.warnings
+    );
+}
+
+/// `KHR_materials_transmission`, required: each material's factor is read (clamped into
+/// [0, 1]), and what irr's thin straight sheet leaves out is counted per material: the
+/// transmission texture, a volume of some thickness, a roughness above the smooth floor (glTF's
+/// default roughness 1 included), a coloured base colour, and an emitter's transmission.
+#[test]
+fn khr_materials_transmission_is_read_with_what_it_leaves_out() {
+    let d = dir();
+    let mut g = Gltf::default();
+    let p = g.vec3(&TRIANGLE);
+    let glass = |extra: &str, pbr: &str| {
+        format!(
+            r#"{{"pbrMetallicRoughness":{{{pbr}}},"extensions":{{"KHR_materials_transmission":{{"transmissionFactor":1{extra}}}}}}}"#
+        )
+    };
+    let materials = [
+        glass("", r#""roughnessFactor":0"#),
+        glass(r#","transmissionTexture":{"index":0}"#, r#""roughnessFactor":0"#),
+        glass("", r#""roughnessFactor":0.5"#),
+        glass("", r#""roughnessFactor":0,"baseColorFactor":[1,0.5,0.5,1]"#),
+        r#"{"pbrMetallicRoughness":{"roughnessFactor":0},"emissiveFactor":[1,1,1],"extensions":{"KHR_materials_transmission":{"transmissionFactor":0.5}}}"#.to_string(),
+        r#"{"pbrMetallicRoughness":{"roughnessFactor":0},"extensions":{"KHR_materials_transmission":{"transmissionFactor":1.5},"KHR_materials_volume":{"thicknessFactor":0.1}}}"#.to_string(),
+    ];
+    let n = materials.len();
+    let nodes: Vec<String> = (0..n).map(|k| format!(r#"{{"mesh":{k}}}"#)).collect();
+    let meshes: Vec<String> = (0..n)
+        .map(|k| {
+            format!(r#"{{"primitives":[{{"attributes":{{"POSITION":{p}}},"material":{k}}}]}}"#)
+        })
+        .collect();
+    let roots: Vec<String> = (0..n).map(|k| k.to_string()).collect();
+    let json = g.json(&format!(
+        r#""extensionsUsed":["KHR_materials_transmission","KHR_materials_volume"],
+        "extensionsRequired":["KHR_materials_transmission"],
+        "images":[{{"uri":"a.png"}}],"textures":[{{"source":0}}],
+        "scene":0,"scenes":[{{"nodes":[{}]}}],"nodes":[{}],"meshes":[{}],"materials":[{}]"#,
+        roots.join(","),
+        nodes.join(","),
+        meshes.join(","),
+        materials.join(",")
+    ));
+    let s = load(&write(d.path(), "glass.gltf", json));
+    let factors: Vec<f32> = s.materials.iter().map(|m| m.transmission).collect();
+    assert_eq!(factors, [1.0, 1.0, 1.0, 1.0, 0.5, 1.0]);
+    let transmits: Vec<bool> = s.materials.iter().map(|m| m.transmits()).collect();
+    assert_eq!(transmits, [true, true, true, true, false, true]);
+    let got: Vec<(&str, usize)> = s
+        .warnings
+        .iter()
+        .map(|w| (w.feature.as_str(), w.count))
+        .collect();
+    for expected in [
+        ("transmission-texture", 1),
+        ("transmission-rough", 1),
+        ("transmission-tint", 1),
+        ("transmission-emissive", 1),
+        ("transmission-volume", 1),
+        ("extension:KHR_materials_volume", 1),
+        ("factor-clamped", 1),
+    ] {
+        assert!(got.contains(&expected), "missing {expected:?} in {got:?}");
+    }
+    assert!(
+        got.iter()
+            .all(|(f, _)| *f != "extension:KHR_materials_transmission"),
+        "{got:?}"
     );
 }
 

@@ -814,3 +814,49 @@ fn diffuse_albedo_with_transmission_and_ior() {
         }
     }
 }
+
+/// A sheet whose transmission passes straight (`with_straight_transmission`) keeps its
+/// reflection exactly and loses its transmission lobe: eval, pdf and samples below the surface
+/// are zero or absent, the values above are the thin sheet's own, bit for bit; and for a smooth
+/// white pane the reflection it keeps plus the straight transmittance is the white furnace's 1
+/// (the same bound as `thin_pane_white_furnace`: 5 standard errors + 1e-4 for the smooth lobe's
+/// masking + 1e-5 for f32 weights). `sheet_transmittance` is `straight_transmittance` where the
+/// latter is defined (smooth and thin), and the straight ray's pane formula elsewhere.
+#[test]
+fn straight_transmission_leaves_the_reflection() {
+    let mut stream = 1000;
+    for roughness in [0.0f32, 0.5] {
+        let thin = glass(roughness, 1.5, true);
+        let straight = thin.with_straight_transmission();
+        assert!(straight.is_straight() && straight.is_thin_walled());
+        for cos_o in [1.0f32, 0.5, 0.2] {
+            stream += 1;
+            let wo = direction(cos_o);
+            for k in 0..64 {
+                let key = SampleKey::new(5, stream, k);
+                let wi = irr_sampling::sample_uniform_sphere(key.uniform_2d(0));
+                if wi.z > 0.0 {
+                    assert_eq!(straight.eval(wo, wi), thin.eval(wo, wi));
+                } else {
+                    assert_eq!(straight.eval(wo, wi), Vec3::ZERO);
+                    assert_eq!(straight.pdf(wo, wi), 0.0);
+                }
+                if let Some(s) = straight.sample(wo, key.uniform(1), key.uniform_2d(2)) {
+                    assert!(s.wi.z > 0.0 && s.lobe != Lobe::Transmission, "{s:?}");
+                }
+            }
+            let t = straight.sheet_transmittance(cos_o);
+            if roughness == 0.0 {
+                assert_eq!(Some(t), thin.straight_transmittance(cos_o));
+                let e = estimate(&straight, wo, 40_000, stream);
+                assert_eq!(e.transmitted.0, 0.0);
+                let sum = e.reflected.0 + f64::from(t.x);
+                let tol = 5.0 * e.reflected.1 + 1e-4 + 1e-5;
+                assert!((sum - 1.0).abs() <= tol, "cos θo {cos_o}: R + T = {sum}");
+            } else {
+                assert_eq!(thin.straight_transmittance(cos_o), None);
+                assert_eq!(t, glass(0.0, 1.5, true).sheet_transmittance(cos_o));
+            }
+        }
+    }
+}
