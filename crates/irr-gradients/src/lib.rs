@@ -35,7 +35,8 @@
 //!
 //! # What it must not know
 //! Rays, scenes, records and the cache: the caller traces the rays and hands over the numbers;
-//! irr-cache stores the result (the integrator converts between the two crates' value traits).
+//! irr-cache stores the result (irr-gather-record pairs the two crates' value traits and makes
+//! the record).
 //! It depends on irr-sampling only for the stratification's layout.
 //!
 //! # Example

@@ -108,6 +108,7 @@ use gather::Traced;
 use glam::{Vec2, Vec3};
 use guard::Query;
 use irr_cache::{IrradianceCache, Rgb};
+use irr_gather_record::GatheredValue;
 use irr_geometry::{Ray, SurfacePoint};
 use irr_gradients::TranslationGradient;
 use irr_sampling::SampleKey;
