@@ -50,7 +50,7 @@ use std::f64::consts::PI;
 /// size + 1000, a length; a multiple of the gather's own distances keeps the result the same in
 /// any unit). A triangle at distance D contributes O(1/D²) to the Hessian, so 10³ makes the sky's
 /// own curvature 10⁻⁶ of the nearest geometry's.
-pub const FAR_FACTOR: f64 = 1e3;
+pub(crate) const FAR_FACTOR: f64 = 1e3;
 
 /// Below this sin² of the angle an edge subtends at x, its integrals are taken in the collinear
 /// limit (see [`edge_terms`]): the reduction formulas divide by Δ = 4|c|² twice, so I₃ loses
@@ -115,7 +115,7 @@ impl Curvature {
 /// ∫₀¹ {1, t}·|r|⁻⁴ and ∫₀¹ {1, t, t²}·|r|⁻⁶ along r(t) = a + t(b − a), and I₁ = ∫ |r|⁻²:
 /// `[i1, i2, j2, i3, j3, k3]`, for an edge that does not pass through the origin (the
 /// reduction formulas; no guard against Δ → 0, which [`edge_terms`] handles).
-pub fn edge_integrals(a: DVec3, b: DVec3) -> [f64; 6] {
+pub(crate) fn edge_integrals(a: DVec3, b: DVec3) -> [f64; 6] {
     let e = b - a;
     let (qa, qb, qc) = (e.length_squared(), 2.0 * a.dot(e), a.length_squared());
     let q1 = b.length_squared();
@@ -142,7 +142,7 @@ pub fn edge_integrals(a: DVec3, b: DVec3) -> [f64; 6] {
 /// each off by O(sin θ) relative, on an edge whose (n·c) factor is itself O(sin θ). An edge
 /// along a line through the origin with a and b on opposite sides would pass through the
 /// viewpoint; no fan of a hemisphere has one, and it is given no contribution.
-pub fn edge_terms(a: DVec3, b: DVec3) -> (f64, DVec3, DMat3) {
+pub(crate) fn edge_terms(a: DVec3, b: DVec3) -> (f64, DVec3, DMat3) {
     let e = b - a;
     let (aa, bb) = (a.length_squared(), b.length_squared());
     if e.length_squared() <= f64::EPSILON * aa.max(bb) {

@@ -5,7 +5,8 @@
 
 use crate::analytic::{Scene, fixed_config, gauss_legendre};
 use crate::hessian::{accumulate, fan_triangles, with_horizon};
-use crate::{Curvature, GatherSamples, edge_integrals, edge_terms};
+use crate::hessian::{edge_integrals, edge_terms};
+use crate::{Curvature, GatherSamples};
 use glam::{DMat3, DVec3};
 use irr_sampling::{HemisphereStrata, SampleKey};
 use proptest::prelude::*;

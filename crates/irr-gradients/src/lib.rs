@@ -25,8 +25,8 @@
 //!   module): the occlusion-aware translation gradient ([`TranslationGradient::OcclusionFan`])
 //!   and the relative irradiance Hessian with its tangent-plane eigen-decomposition
 //!   ([`Curvature`]), the inputs of anisotropic records (Schwarzhaupt, Jensen & Jarosz 2012;
-//!   Radiance ≥ 4.2). The edge integrals ([`edge_integrals`], [`edge_terms`]) are public, with
-//!   their closed forms derived in the module's docs.
+//!   Radiance ≥ 4.2), summed from per-edge integrals whose closed forms the module's source
+//!   derives.
 //! - [`GatherValue`]: the value type (f32, RGB `Vec3`, …), this crate's own, generic.
 //!
 //! Gradients are computed in the **local frame** of the gather (normal = +z, the frame in which
@@ -35,7 +35,8 @@
 //!
 //! # What it must not know
 //! Rays, scenes, records and the cache: the caller traces the rays and hands over the numbers;
-//! irr-cache stores the result (the integrator converts between the two crates' value traits).
+//! irr-cache stores the result (irr-gather-record pairs the two crates' value traits and makes
+//! the record).
 //! It depends on irr-sampling only for the stratification's layout.
 //!
 //! # Example
@@ -89,6 +90,6 @@ mod scene_tests;
 
 pub use cells::{CellSamples, plan_extra_samples};
 pub use gradient::{Gradients, TranslationGradient, directional, rotate_to_world};
-pub use hessian::{Curvature, FAR_FACTOR, Fan, edge_integrals, edge_terms};
+pub use hessian::{Curvature, Fan};
 pub use samples::{GatherError, GatherSamples};
 pub use value::GatherValue;

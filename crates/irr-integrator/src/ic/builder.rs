@@ -71,7 +71,7 @@ pub struct DisplayRecord {
 }
 
 /// A point of a construction pass that no record covers, with a cheap prediction of the radius
-/// its record will get (a distance-only gather of [`PROBE_M`]×[`PROBE_N`] rays). The renderer
+/// its record will get (a distance-only gather of 4×8 rays, `PROBE_M`×`PROBE_N`). The renderer
 /// selects among a pass's probes ([`CacheBuilder::select`]) before any full gather is paid for,
 /// so few full gathers are wasted on candidates that cover each other.
 #[derive(Clone, Debug)]
@@ -100,9 +100,9 @@ impl Probe {
 }
 
 /// Strata of a probe's distance-only gather along θ.
-pub const PROBE_M: u32 = 4;
+pub(super) const PROBE_M: u32 = 4;
 /// Strata of a probe's distance-only gather along φ.
-pub const PROBE_N: u32 = 8;
+pub(super) const PROBE_N: u32 = 8;
 
 /// The final pass's samples that no record of the cache covered, and the gathers made for them
 /// (the irradiance cache's samples share them within a pixel, so there may be fewer).

@@ -258,10 +258,7 @@ impl<V: IcValue> Core<V> {
             ),
             Some(variant) => {
                 let g: Gradients<V::Gathered> = samples.gradients(variant).in_world(frame);
-                Record::new(x.position, x.ns, 1.0, V::from_gathered(g.irradiance)).with_gradients(
-                    g.translation.map(V::from_gathered),
-                    g.rotation.map(V::from_gathered),
-                )
+                irr_gather_record::record(x.position, x.ns, 1.0, &g)
             }
         };
         let inputs = RadiusInputs {
@@ -340,10 +337,7 @@ impl<V: IcValue> Core<V> {
                 translation,
             }
             .in_world(frame);
-            Record::new(x.position, x.ns, 1.0, V::from_gathered(g.irradiance)).with_gradients(
-                g.translation.map(V::from_gathered),
-                g.rotation.map(V::from_gathered),
-            )
+            irr_gather_record::record(x.position, x.ns, 1.0, &g)
         } else {
             Record::new(
                 x.position,

@@ -81,15 +81,13 @@
 //! leak guard), `value` (the cached value types), `ao` (cached ambient occlusion).
 
 pub use ao::CachedAmbientOcclusion;
-pub use builder::{
-    CacheBuilder, Candidate, CommitStats, DisplayRecord, FinalPassMisses, PROBE_M, PROBE_N, Probe,
-};
+pub use builder::{CacheBuilder, Candidate, CommitStats, DisplayRecord, FinalPassMisses, Probe};
 pub use guard::GuardRecord;
 pub use light_cache::{
     CELL_BYTES, CONVERGED_SHARE, CacheView, DEEPER_READS, FILTER_CELLS, LightCache,
     LightCacheCounts, LightDeposit, LightPathTracer, MIN_DEPOSITS,
 };
-pub use radius::{HORIZON_CUT_COS, surface_spacing};
+pub use radius::surface_spacing;
 pub use settings::{
     BounceMode, GradientMode, IcMetric, IcSettings, IcSettingsError, LeakGuard, MAX_GLOSSY_SAMPLES,
     MAX_RADIANCE_ORDER, MetricKind, RadiusStatistic,
@@ -108,6 +106,7 @@ use gather::Traced;
 use glam::{Vec2, Vec3};
 use guard::Query;
 use irr_cache::{IrradianceCache, Rgb};
+use irr_gather_record::GatheredValue;
 use irr_geometry::{Ray, SurfacePoint};
 use irr_gradients::TranslationGradient;
 use irr_sampling::SampleKey;

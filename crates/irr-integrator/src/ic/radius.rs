@@ -16,7 +16,7 @@ use irr_sampling::{Frame, HemisphereStrata, SampleKey};
 
 /// cos 80°: hits less than 10° above the horizon do not size a record (Mitsuba 0.6 uses 0.173;
 /// Radiance skips them too). See `GatherSamples::harmonic_mean_distance_above`.
-pub const HORIZON_CUT_COS: f32 = 0.173_648_18;
+pub(super) const HORIZON_CUT_COS: f32 = 0.173_648_18;
 
 impl<V: IcValue> Core<V> {
     /// World-space limits of a record of level `level` at `x`: fractions of

@@ -82,7 +82,7 @@ pub enum GradientMode {
 }
 
 /// Which statistic of a gather's hit distances sizes its record (the hits more than 10° above
-/// the horizon, [`crate::ic::HORIZON_CUT_COS`]).
+/// the horizon: cos θ above `HORIZON_CUT_COS`, cos 80°).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum RadiusStatistic {
     /// The harmonic mean (Ward et al. 1988; Radiance).

@@ -1,49 +1,25 @@
-//! The values the integrator's caches hold, and their conversions between irr-gradients' and
-//! irr-cache's value types.
+//! The values the integrator's caches hold: irr-gather-record's pairing of irr-gradients' and
+//! irr-cache's value types, and what the integrator adds to it.
 
-use glam::Vec3;
-use irr_cache::{CacheValue, Record, Rgb};
-use irr_gradients::GatherValue;
+use irr_cache::{Record, Rgb};
+use irr_gather_record::GatheredValue;
 
 /// A value the integrator's caches hold: irradiance ([`Rgb`], gathered as `Vec3`) or ambient
-/// occlusion (`f32`). Converts between irr-gradients' and irr-cache's value types.
-pub trait IcValue: CacheValue {
-    /// The gather's per-cell value type.
-    type Gathered: GatherValue + Send + Sync;
+/// occlusion (`f32`). Its conversions from and to the gather's value type are
+/// irr-gather-record's [`GatheredValue`].
+pub trait IcValue: GatheredValue {
     /// Whether a record is read only where a surface's diffuse reflectance multiplies it
     /// (irradiance: a point that reflects no diffuse light, a metal or a black surface, never
     /// reads one), rather than wherever the camera looks (ambient occlusion).
     const READ_THROUGH_REFLECTANCE: bool;
-    /// The cached value of a gathered one.
-    fn from_gathered(g: Self::Gathered) -> Self;
-    /// The gathered value of a cached one.
-    fn to_gathered(self) -> Self::Gathered;
 }
 
 impl IcValue for Rgb {
-    type Gathered = Vec3;
     const READ_THROUGH_REFLECTANCE: bool = true;
-    #[inline]
-    fn from_gathered(g: Vec3) -> Self {
-        Rgb::from(g)
-    }
-    #[inline]
-    fn to_gathered(self) -> Vec3 {
-        Vec3::from_array(self.0)
-    }
 }
 
 impl IcValue for f32 {
-    type Gathered = f32;
     const READ_THROUGH_REFLECTANCE: bool = false;
-    #[inline]
-    fn from_gathered(g: f32) -> Self {
-        g
-    }
-    #[inline]
-    fn to_gathered(self) -> f32 {
-        self
-    }
 }
 
 /// A record of `Rgb` (how candidates travel) as a record of `V` (the first channel for a scalar).
