@@ -314,12 +314,20 @@ impl CacheBuildStats {
             )
         }) + &self.light.map_or_else(String::new, |l| {
             format!(
-                "; light cache: {} paths, {} deposits in {} cells ({} used, {:.1} % error), {:.2} s",
+                "; light cache: {} paths, {} deposits in {} cells ({} used, {:.1} % error{}), {:.2} s",
                 l.counts.paths,
                 l.counts.deposits,
                 l.counts.cells,
                 l.counts.used_cells,
                 100.0 * l.error,
+                if l.counts.dropped > 0 {
+                    format!(
+                        "; table full: {} deposits in new cells dropped, their reads path-traced",
+                        l.counts.dropped
+                    )
+                } else {
+                    String::new()
+                },
                 l.seconds
             )
         })

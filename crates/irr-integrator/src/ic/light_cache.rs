@@ -26,6 +26,14 @@
 //! looks, wherever it looks, and geometry the view does not approach (a far ground plane) gets
 //! coarse cells instead of coarsening every cell, as a width taken from the scene's bounds would.
 //!
+//! # Its memory
+//! At most [`MAX_CELLS`] cells, in a table of at most 2²² slots: [`TABLE_BYTES`] (420 MiB)
+//! whatever the scene and the number of paths. Once the table holds [`MAX_CELLS`] cells, a
+//! deposit in a cell it does not hold is dropped and counted ([`LightCacheCounts::dropped`]);
+//! the cells it holds keep every deposit. So no cell's mean changes, and a lookup in a cell that
+//! was never made path-traces as in a sparse one: the full table costs rays, never bias. Paths
+//! are merged in their index order, so which cells exist is the same in every run.
+//!
 //! # What a gather ray takes from it
 //! A gather ray that hits a Lambertian x₁ brings back (ρ(x₁)/π)·Ē(cell of x₁): no light sample
 //! and no continuation at all. On a glossy x₁ it brings back (ρ_d/π)·Ē plus, with the
@@ -221,6 +229,15 @@ pub struct LightDeposit {
 /// control byte, and keeps at most 7/8 of its slots full).
 pub const CELL_BYTES: usize = size_of::<CellKey>() + size_of::<CellSums>();
 
+/// The most cells the light cache holds: 7/8 of 2²² (NVIDIA's SHaRC uses 2²² entries), the
+/// most a table of 2²² slots holds before it would double (hashbrown keeps at most 7/8 of its
+/// slots full), so the table never grows past 2²² slots. Module docs, "Its memory".
+pub const MAX_CELLS: usize = 7 << 19;
+
+/// The most bytes the light cache's table takes: 2²² slots of a cell and a control byte each
+/// (hashbrown's layout; its 16 trailing control bytes aside), 420 MiB.
+pub const TABLE_BYTES: usize = (1 << 22) * (CELL_BYTES + 1);
+
 /// A cell's running sums (in f64: a cell may take millions of deposits), and the sum of its
 /// deposits' squared luminances, for the standard error of its mean.
 #[derive(Clone, Copy, Debug, Default)]
@@ -257,7 +274,11 @@ pub struct LightCache {
     /// order, and so the float sums over them (`relative_error`), depend on the deposits alone;
     /// and a gather ray's lookup hashes its key in a few instructions.
     cells: FxHashMap<CellKey, CellSums>,
+    /// The most cells it makes ([`MAX_CELLS`] but in tests).
+    capacity: usize,
     deposits: u64,
+    /// Deposits in cells it did not make, the table being full.
+    dropped: u64,
     paths: u64,
 }
 
@@ -279,8 +300,20 @@ impl LightCache {
         Self {
             grid,
             cells: FxHashMap::default(),
+            capacity: MAX_CELLS,
             deposits: 0,
+            dropped: 0,
             paths: 0,
+        }
+    }
+
+    /// This cache holding at most `cells` cells (at most [`MAX_CELLS`]), as the full table
+    /// behaves: for tests of that behaviour without millions of cells.
+    #[cfg(test)]
+    fn with_capacity(self, cells: usize) -> Self {
+        Self {
+            capacity: cells.min(MAX_CELLS),
+            ..self
         }
     }
 
@@ -310,7 +343,14 @@ impl LightCache {
         self.paths += 1;
         self.deposits += deposits.len() as u64;
         for d in deposits {
-            let c = self.cells.entry(d.key).or_default();
+            let c = if self.cells.len() < self.capacity {
+                self.cells.entry(d.key).or_default()
+            } else if let Some(c) = self.cells.get_mut(&d.key) {
+                c
+            } else {
+                self.dropped += 1;
+                continue;
+            };
             let e = d.irradiance.as_dvec3();
             c.sum += e;
             for (sum, tail) in c.tails.iter_mut().zip(d.tails) {
@@ -392,6 +432,7 @@ impl LightCache {
         LightCacheCounts {
             paths: self.paths,
             deposits: self.deposits,
+            dropped: self.dropped,
             cells: self.cells.len() as u64,
             used_cells: self
                 .cells
@@ -409,6 +450,8 @@ pub struct LightCacheCounts {
     pub paths: u64,
     /// Vertices deposited.
     pub deposits: u64,
+    /// Of those, the deposits in cells the full table did not make ([`MAX_CELLS`]).
+    pub dropped: u64,
     /// Cells with a deposit.
     pub cells: u64,
     /// Cells with enough deposits to be used ([`MIN_DEPOSITS`]).
@@ -993,6 +1036,7 @@ mod tests {
             LightCacheCounts {
                 paths: u64::from(MIN_DEPOSITS),
                 deposits: u64::from(MIN_DEPOSITS),
+                dropped: 0,
                 cells: 1,
                 used_cells: 1
             }
@@ -1063,12 +1107,58 @@ mod tests {
         }
     }
 
-    /// The bytes a cell takes, as the settings' memory bound states them: a key of 16 bytes
+    /// The bytes a cell takes, as the module's memory bound states them: a key of 16 bytes
     /// (level, three i32 coordinates, bucket, padded to 4) and sums of 88 (three DVec3s of 24,
-    /// the sum and its two tails, an f64 and a u32, padded to 8).
+    /// the sum and its two tails, an f64 and a u32, padded to 8); the table's bound, 2²² slots
+    /// of 105 bytes, is 420 MiB; and `MAX_CELLS` is what hashbrown holds in 2²² slots (7/8 of
+    /// them) before it doubles: a table of `MAX_CELLS` cells has 2²² slots.
     #[test]
-    fn a_cell_takes_104_bytes() {
+    fn a_cell_takes_104_bytes_and_the_table_420_mib() {
         assert_eq!(size_of::<CellKey>(), 16);
         assert_eq!(CELL_BYTES, 104);
+        assert_eq!(TABLE_BYTES, 420 << 20);
+        let mut table: FxHashMap<u32, ()> = FxHashMap::default();
+        table.extend((0..MAX_CELLS as u32).map(|k| (k, ())));
+        assert!(table.capacity() >= MAX_CELLS && table.capacity() < 1 << 22);
+        table.insert(u32::MAX, ());
+        assert!(
+            table.capacity() >= 1 << 22,
+            "one more cell doubles the table"
+        );
+    }
+
+    /// A full table makes no cell: deposits in new cells are dropped and counted, the cells it
+    /// holds keep taking every deposit (so their means are those of all their deposits), and a
+    /// read of a cell never made finds nothing (the reader path-traces).
+    #[test]
+    fn a_full_table_drops_deposits_in_new_cells_only() {
+        let mut cache = LightCache::new(1.0).with_capacity(2);
+        let point = |x: f32| floor_point(Vec3::new(x, 0.01, 0.5));
+        let deposit = |cache: &mut LightCache, x: f32, e: f32| {
+            let key = cache.key(&point(x));
+            cache.add_path(&[LightDeposit {
+                key,
+                irradiance: Vec3::splat(e),
+                tails: [Vec3::ZERO; DEEPER_READS],
+            }]);
+        };
+        for k in 0..MIN_DEPOSITS {
+            deposit(&mut cache, 0.5, 1.0);
+            deposit(&mut cache, 1.5, 2.0);
+            // Cells 2 and 3 arrive once the table is full.
+            deposit(&mut cache, 2.5, 3.0);
+            deposit(&mut cache, 3.5 + k as f32, 4.0);
+        }
+        // The kept cells took their later deposits too.
+        deposit(&mut cache, 0.5, 1.0 + MIN_DEPOSITS as f32 + 1.0);
+        let counts = cache.counts();
+        assert_eq!(
+            (counts.cells, counts.dropped),
+            (2, 2 * u64::from(MIN_DEPOSITS))
+        );
+        assert_eq!(counts.deposits, 4 * u64::from(MIN_DEPOSITS) + 1);
+        assert_eq!(cache.irradiance(&point(0.5)), Some(Vec3::splat(2.0)));
+        assert_eq!(cache.irradiance(&point(1.5)), Some(Vec3::splat(2.0)));
+        assert_eq!(cache.irradiance(&point(2.5)), None);
     }
 }

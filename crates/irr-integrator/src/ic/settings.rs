@@ -234,10 +234,10 @@ pub struct IcSettings {
     /// With [`BounceMode::LightCache`]: the most camera-launched paths that fill the light
     /// cache. Default: 5·2¹⁷ = 655360, the indirect-lit room's most efficient (docs/
     /// performance.md, "The light cache's paths, again"); scenes whose cells reach
-    /// `light_cache_error` first stop before it. Range: 1 to 2²². Each path deposits at most 16
-    /// times, and a cell takes `light_cache::CELL_BYTES` (104) bytes in a hash table that is at
-    /// most 7/8 full and doubles as it grows, 120 to 240 bytes a cell: at the bound, with every
-    /// deposit in a cell of its own, 8 to 16 GiB.
+    /// `light_cache_error` first stop before it. Range: 1 to 2²². The cache's memory is bounded
+    /// whatever the paths: at most `light_cache::MAX_CELLS` cells in 420 MiB
+    /// (`light_cache::TABLE_BYTES`); deposits in new cells past that are dropped and counted,
+    /// and reads there path-trace.
     pub light_cache_paths: u32,
     /// With [`BounceMode::LightCache`]: the light cache's target, the relative standard error
     /// of its cells' means (`LightCache::relative_error`). Paths are added in chunks of 2¹⁴
