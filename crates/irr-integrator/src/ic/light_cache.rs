@@ -1161,4 +1161,104 @@ mod tests {
         assert_eq!(cache.irradiance(&point(1.5)), Some(Vec3::splat(2.0)));
         assert_eq!(cache.irradiance(&point(2.5)), None);
     }
+
+    /// The light cache is consistent: at every cell width its cell means are the average of
+    /// the irradiance over their cells, so its blur shrinks with the cell, and nothing else
+    /// biases them. A floor (albedo 0.5, y = 0.05, mid-cell at every width below) lit by an
+    /// octagon of radiance 4 and radius 0.5 facing down from 1 above its centre, nothing else:
+    /// a deposit on the floor is an unbiased estimate of the irradiance E at its point (light
+    /// sample and emission hit weighted by MIS; no indirect light reaches a lone floor), and
+    /// vertical camera rays at uniform points of the region x ∈ [0.4, 2.0], z ∈ [−0.8, 0.8]
+    /// (where E falls from 81 % to 4 % of its peak) spread the deposits uniformly, so a cell's
+    /// expected mean is E's average over the cell, computed exactly here (Lambert's polygon
+    /// formula, a 16² midpoint rule inside the cell, its error bounded by halving the grid).
+    ///
+    /// For cells 0.4, 0.2 and 0.1 wide, the mean over the region's cells of (mean − average) /
+    /// average lies within 5 standard errors (the cells are independent; measured SE 0.09 to
+    /// 0.11 %, means −0.10 % to −0.03 %) plus the quadrature's error; a cache that scaled its
+    /// means by 1.01 is 9 SE away. And the blur itself, the RMS of (average − E at the cell's
+    /// centre) / E, which a read at the centre returns, falls with the cell: second order in the
+    /// width at a cell's centre, 16× from the 0.4 to the 0.1 cell (measured 1.35 %, 0.34 %,
+    /// 0.086 %); asserted 8×.
+    #[test]
+    fn cell_means_are_the_irradiance_averaged_over_their_cells() {
+        use crate::tests::{polygon, polygon_irradiance};
+        let (l, radius, floor_y) = (4.0f32, 0.5f32, 0.05f32);
+        let light_at = Vec3::new(0.0, floor_y + 1.0, 0.0);
+        let scene = scene(
+            &[
+                polygon(Vec3::new(1.2, floor_y, 0.0), 6.0, 4, 1.0, 0),
+                polygon(light_at, radius, 8, -1.0, 1),
+            ],
+            vec![
+                Material::diffuse(Vec3::splat(0.5)),
+                Material::emitter(Vec3::splat(l)),
+            ],
+        );
+        let ring: Vec<Vec3> = (0..8)
+            .map(|i| {
+                let a = std::f32::consts::TAU * i as f32 / 8.0;
+                light_at + Vec3::new(radius * a.cos(), 0.0, radius * a.sin())
+            })
+            .collect();
+        let exact = |x: f32, z: f32| {
+            let p = Vec3::new(x, floor_y, z);
+            let v: Vec<Vec3> = ring.iter().map(|q| *q - p).collect();
+            polygon_irradiance(&v, f64::from(l))
+        };
+        let average = |x0: f32, z0: f32, h: f32, n: usize| {
+            let mut sum = 0.0;
+            for i in 0..n {
+                for j in 0..n {
+                    let (u, v) = ((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                    sum += exact(x0 + u * h, z0 + v * h);
+                }
+            }
+            sum / (n * n) as f64
+        };
+        let (x_lo, z_lo, side) = (0.4f32, -0.8f32, 1.6f32);
+        let mut blur = Vec::new();
+        for cells in [4u32, 8, 16] {
+            let h = side / cells as f32;
+            let mut cache = LightCache::new(h);
+            let tracer = cache.tracer((2, 3));
+            for i in 0..200_000u64 {
+                let u = SampleKey::new(21, u64::from(cells), i).uniform_2d(0);
+                let at = Vec3::new(x_lo + side * u.x, floor_y + 0.5, z_lo + side * u.y);
+                let mut rays = RayCounter::default();
+                let deposits = tracer.trace(
+                    &scene,
+                    &Ray::new(at, -Vec3::Y),
+                    SampleKey::new(22, u64::from(cells), i),
+                    &mut rays,
+                );
+                cache.add_path(&deposits);
+            }
+            let (mut diffs, mut quadrature, mut blurs) = (Vec::new(), 0.0f64, Vec::new());
+            for a in 0..cells {
+                for b in 0..cells {
+                    let (x0, z0) = (x_lo + a as f32 * h, z_lo + b as f32 * h);
+                    let centre = Vec3::new(x0 + 0.5 * h, floor_y, z0 + 0.5 * h);
+                    let (fine, coarse) = (average(x0, z0, h, 16), average(x0, z0, h, 8));
+                    quadrature = quadrature.max((fine - coarse).abs() / fine);
+                    let read = cache
+                        .irradiance(&floor_point(centre))
+                        .unwrap_or_else(|| panic!("cell ({a}, {b}) of {cells}² has no mean"));
+                    diffs.push((f64::from(read.x) - fine) / fine);
+                    let at_centre = exact(centre.x, centre.z);
+                    blurs.push(((fine - at_centre) / at_centre).powi(2));
+                }
+            }
+            let n = diffs.len() as f64;
+            let mean = diffs.iter().sum::<f64>() / n;
+            let se = (diffs.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt();
+            let tol = 5.0 * se + quadrature;
+            assert!(
+                mean.abs() <= tol,
+                "cells {h}: mean relative difference {mean:+.4} beyond {tol:.4} (SE {se:.4})"
+            );
+            blur.push((blurs.iter().sum::<f64>() / n).sqrt());
+        }
+        assert!(blur[2] * 8.0 < blur[0], "the blur did not shrink: {blur:?}");
+    }
 }
