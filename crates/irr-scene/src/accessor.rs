@@ -2,8 +2,10 @@
 //! count checked against the bytes that are really there. A file that lies about its sizes gives
 //! an error naming the accessor, never a panic or an out-of-bounds read.
 //!
-//! Supported: `FLOAT` vectors (positions, normals), `FLOAT` or normalized `UNSIGNED_BYTE` /
-//! `UNSIGNED_SHORT` `VEC2`s (texture coordinates), `UNSIGNED_BYTE`/`SHORT`/`INT` scalars
+//! Supported: the mesh attributes' component types of glTF 2.0 and of `KHR_mesh_quantization`
+//! (positions, normals, tangents and texture coordinates as `FLOAT`s or as 8- or 16-bit
+//! integers, normalized or not where the extension allows: [`Quantized`]), `FLOAT` or
+//! normalized `UNSIGNED_BYTE` / `UNSIGNED_SHORT` colours, `UNSIGNED_BYTE`/`SHORT`/`INT` scalars
 //! (indices), interleaved views (`byteStride`), accessors without a buffer view (all zeros) and
 //! sparse accessors (§3.6.2.3).
 
@@ -226,7 +228,89 @@ where
     Ok(out)
 }
 
-/// Reads a `VEC3` of `FLOAT` accessor (positions, normals).
+/// A mesh attribute, and the component types glTF 2.0 allows it, and `KHR_mesh_quantization`
+/// where the file uses the extension (its table of attribute types).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Quantized {
+    /// `POSITION` (`VEC3`): `FLOAT`; with the extension `BYTE`, `UNSIGNED_BYTE`, `SHORT` or
+    /// `UNSIGNED_SHORT`, normalized or not.
+    Position,
+    /// `NORMAL` (`VEC3`): `FLOAT`; with the extension normalized `BYTE` or `SHORT`.
+    Normal,
+    /// `TANGENT` (`VEC4`): `FLOAT`; with the extension normalized `BYTE` or `SHORT`.
+    Tangent,
+    /// `TEXCOORD_n` (`VEC2`): `FLOAT` or normalized `UNSIGNED_BYTE` or `UNSIGNED_SHORT`; with
+    /// the extension also normalized `BYTE` or `SHORT`, and the four not normalized.
+    TexCoord,
+}
+
+impl Quantized {
+    fn dimensions(self) -> Dimensions {
+        match self {
+            Quantized::Position | Quantized::Normal => Dimensions::Vec3,
+            Quantized::Tangent => Dimensions::Vec4,
+            Quantized::TexCoord => Dimensions::Vec2,
+        }
+    }
+
+    fn allows(self, t: DataType, normalized: bool, extension: bool) -> bool {
+        use DataType::{F32, I8, I16, U8, U16};
+        match (self, t) {
+            (_, F32) => true,
+            (Quantized::TexCoord, U8 | U16) => normalized || extension,
+            (Quantized::TexCoord, I8 | I16) => extension,
+            (Quantized::Position, I8 | U8 | I16 | U16) => extension,
+            (Quantized::Normal | Quantized::Tangent, I8 | I16) => extension && normalized,
+            _ => false,
+        }
+    }
+
+    fn wanted(self, extension: bool) -> String {
+        let core = match self {
+            Quantized::TexCoord => {
+                "VEC2 of FLOAT, or of normalized UNSIGNED_BYTE or UNSIGNED_SHORT"
+            }
+            Quantized::Position | Quantized::Normal => "VEC3 of FLOAT",
+            Quantized::Tangent => "VEC4 of FLOAT",
+        };
+        let more = match self {
+            Quantized::Position => "8- or 16-bit integers, normalized or not",
+            Quantized::Normal | Quantized::Tangent => "normalized BYTE or SHORT",
+            Quantized::TexCoord => "BYTE or SHORT normalized, or any 8- or 16-bit integer not",
+        };
+        if extension {
+            format!("{core}, or {more} (KHR_mesh_quantization)")
+        } else {
+            format!("{core} (KHR_mesh_quantization, which the file does not use, allows {more})")
+        }
+    }
+}
+
+/// Reads a mesh attribute `kind` of `N` components (2, 3 or 4 as `kind` has) as floats: a
+/// `FLOAT` as it is, an integer component by [`component`]'s rule. `extension`: whether the
+/// file uses `KHR_mesh_quantization` (else only glTF 2.0's own types are read).
+pub(crate) fn read_attribute<const N: usize>(
+    what: &str,
+    accessor: &gltf::Accessor<'_>,
+    (kind, extension): (Quantized, bool),
+    buffers: &Buffers,
+    budget: &mut Budget,
+) -> Result<Vec<[f32; N]>, String> {
+    let (t, d, normalized) = (
+        accessor.data_type(),
+        accessor.dimensions(),
+        accessor.normalized(),
+    );
+    if d != kind.dimensions() || !kind.allows(t, normalized, extension) {
+        return Err(unreadable(what, accessor, &kind.wanted(extension)));
+    }
+    let size = component_size(t);
+    read_elements(what, accessor, N * size, buffers, budget, [0.0; N], |b| {
+        std::array::from_fn(|k| component(t, normalized, b, k))
+    })
+}
+
+/// Reads a `VEC3` of `FLOAT` accessor (an animation's translations and scales).
 pub(crate) fn read_vec3(
     what: &str,
     accessor: &gltf::Accessor<'_>,
@@ -236,7 +320,7 @@ pub(crate) fn read_vec3(
     read_floats(what, accessor, Dimensions::Vec3, buffers, budget)
 }
 
-/// Reads a `VEC4` accessor of `FLOAT` (`TANGENT`).
+/// Reads a `VEC4` accessor of `FLOAT` (an animation's rotations).
 pub(crate) fn read_vec4(
     what: &str,
     accessor: &gltf::Accessor<'_>,
@@ -286,30 +370,6 @@ fn read_floats<const N: usize>(
     })
 }
 
-/// Reads a `VEC2` texture coordinate accessor (`TEXCOORD_n`): `FLOAT`, or normalized
-/// `UNSIGNED_BYTE` / `UNSIGNED_SHORT` mapped to [0, 1] by c / 255 and c / 65535 (glTF 2.0
-/// §3.7.2.1 "Meshes", §3.11 "Animations"' normalization rule).
-pub(crate) fn read_tex_coords(
-    what: &str,
-    accessor: &gltf::Accessor<'_>,
-    buffers: &Buffers,
-    budget: &mut Budget,
-) -> Result<Vec<[f32; 2]>, String> {
-    let (t, d) = (accessor.data_type(), accessor.dimensions());
-    if d != Dimensions::Vec2 || !float_or_normalized(accessor) {
-        return Err(unreadable(
-            what,
-            accessor,
-            "VEC2 of FLOAT, or of normalized UNSIGNED_BYTE or UNSIGNED_SHORT \
-             (KHR_mesh_quantization is not supported)",
-        ));
-    }
-    let size = component_size(t);
-    read_elements(what, accessor, 2 * size, buffers, budget, [0.0; 2], |b| {
-        [0, 1].map(|k| float_component(t, b, k))
-    })
-}
-
 /// The message for an accessor (`what`) of a shape or type irr does not read: what it is, and
 /// what irr reads (`wanted`).
 fn unreadable(what: &str, accessor: &gltf::Accessor<'_>, wanted: &str) -> String {
@@ -339,9 +399,26 @@ fn float_or_normalized(accessor: &gltf::Accessor<'_>) -> bool {
 /// `UNSIGNED_BYTE` or `UNSIGNED_SHORT` as c / 255 or c / 65535 (glTF 2.0 §3.11's rule). The
 /// caller has checked that `b` holds the element's components.
 fn float_component(t: DataType, b: &[u8], k: usize) -> f32 {
+    component(t, true, b, k)
+}
+
+/// Component `k` of element `b` of type `t` as a float: a `FLOAT` as it is; an integer c,
+/// normalized, by glTF 2.0 §3.11's rule (c / 255, max(c / 127, −1), c / 65535,
+/// max(c / 32767, −1)), and as its value otherwise. The caller has checked that `b` holds the
+/// element's components (and that `t` is not `UNSIGNED_INT`, which no float attribute uses).
+fn component(t: DataType, normalized: bool, b: &[u8], k: usize) -> f32 {
+    let scale = |c: f32, max: f32| if normalized { (c / max).max(-1.0) } else { c };
     match t {
-        DataType::U8 => f32::from(b[k]) / 255.0,
-        DataType::U16 => f32::from(u16::from_le_bytes([b[2 * k], b[2 * k + 1]])) / 65535.0,
+        DataType::U8 => scale(f32::from(b[k]), 255.0),
+        DataType::I8 => scale(f32::from(b[k].cast_signed()), 127.0),
+        DataType::U16 => scale(
+            f32::from(u16::from_le_bytes([b[2 * k], b[2 * k + 1]])),
+            65535.0,
+        ),
+        DataType::I16 => scale(
+            f32::from(i16::from_le_bytes([b[2 * k], b[2 * k + 1]])),
+            32767.0,
+        ),
         _ => f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]]),
     }
 }
@@ -405,4 +482,44 @@ pub(crate) fn read_indices(
     read_elements(what, accessor, component_size(t), buffers, budget, 0, |b| {
         read_index(t, b)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// glTF 2.0 §3.11's normalization, every integer type at its ends and between, and the
+    /// values as they are when not normalized; a normalized `FLOAT` or `UNSIGNED_BYTE` reads as
+    /// before (`float_component`).
+    #[test]
+    fn integer_components_follow_the_normalization_rule() {
+        let i8s = [127i8, -127, -128, 64].map(i8::cast_unsigned);
+        let got = |t, n, b: &[u8], k| component(t, n, b, k);
+        assert_eq!(got(DataType::I8, true, &i8s, 0), 1.0);
+        assert_eq!(got(DataType::I8, true, &i8s, 1), -1.0);
+        assert_eq!(got(DataType::I8, true, &i8s, 2), -1.0, "−128 clamps to −1");
+        assert_eq!(got(DataType::I8, true, &i8s, 3), 64.0 / 127.0);
+        assert_eq!(got(DataType::I8, false, &i8s, 2), -128.0);
+        assert_eq!(got(DataType::U8, true, &[255, 0], 0), 1.0);
+        assert_eq!(got(DataType::U8, false, &[255, 0], 0), 255.0);
+        let i16s: Vec<u8> = [32767i16, -32768, 100]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        assert_eq!(got(DataType::I16, true, &i16s, 0), 1.0);
+        assert_eq!(got(DataType::I16, true, &i16s, 1), -1.0);
+        assert_eq!(got(DataType::I16, true, &i16s, 2), 100.0 / 32767.0);
+        assert_eq!(got(DataType::I16, false, &i16s, 1), -32768.0);
+        let u16s = 65535u16.to_le_bytes();
+        assert_eq!(got(DataType::U16, true, &u16s, 0), 1.0);
+        assert_eq!(got(DataType::U16, false, &u16s, 0), 65535.0);
+        for c in 0..=255u8 {
+            assert_eq!(
+                float_component(DataType::U8, &[c], 0).to_bits(),
+                (f32::from(c) / 255.0).to_bits()
+            );
+        }
+        let f = 0.3f32.to_le_bytes();
+        assert_eq!(got(DataType::F32, false, &f, 0), 0.3);
+    }
 }

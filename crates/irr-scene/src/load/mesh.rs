@@ -2,7 +2,7 @@
 //! colours.
 
 use super::{Loader, MAX_COORDINATE, describe, plural};
-use crate::accessor::{read_colours, read_indices, read_tex_coords, read_vec3, read_vec4};
+use crate::accessor::{Quantized, read_attribute, read_colours, read_indices};
 use crate::error::LoadError;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use irr_geometry::TriangleMesh;
@@ -27,6 +27,14 @@ pub(super) struct Primitive {
 }
 
 impl Loader<'_> {
+    /// Whether the file uses `KHR_mesh_quantization`, whose integer attribute types irr then
+    /// reads too.
+    fn quantization(&self) -> bool {
+        self.document
+            .extensions_used()
+            .any(|e| e == "KHR_mesh_quantization")
+    }
+
     /// One primitive instance in world space with material `material.0`, the texture
     /// coordinates of its triangles for the sets `material.1` its material reads (see
     /// `SceneData::tex_coords`), and their tangents if the material has a normal texture,
@@ -84,9 +92,10 @@ impl Loader<'_> {
         let positions_accessor = primitive
             .get(&gltf::Semantic::Positions)
             .ok_or_else(|| self.err(format!("{what} has no POSITION attribute")))?;
-        let local = read_vec3(
+        let local = read_attribute::<3>(
             &format!("{what} POSITION accessor {}", positions_accessor.index()),
             &positions_accessor,
+            (Quantized::Position, self.quantization()),
             buffers,
             &mut self.budget,
         )
@@ -171,9 +180,10 @@ impl Loader<'_> {
         let normals = match primitive.get(&gltf::Semantic::Normals) {
             None => None,
             Some(acc) => {
-                let local = read_vec3(
+                let local = read_attribute::<3>(
                     &format!("{what} NORMAL accessor {}", acc.index()),
                     &acc,
+                    (Quantized::Normal, self.quantization()),
                     buffers,
                     &mut self.budget,
                 )
@@ -273,8 +283,14 @@ impl Loader<'_> {
         }
         if let Some(acc) = file_tangents {
             let label = format!("{what} TANGENT accessor {}", acc.index());
-            let local =
-                read_vec4(&label, &acc, buffers, &mut self.budget).map_err(|e| self.err(e))?;
+            let local = read_attribute::<4>(
+                &label,
+                &acc,
+                (Quantized::Tangent, self.quantization()),
+                buffers,
+                &mut self.budget,
+            )
+            .map_err(|e| self.err(e))?;
             let n = mesh.positions.len();
             if local.len() != n {
                 return Err(self.err(format!(
@@ -472,8 +488,15 @@ impl Loader<'_> {
                 continue;
             };
             let label = format!("{what} TEXCOORD_{set} accessor {}", acc.index());
-            let uv = read_tex_coords(&label, &acc, buffers, &mut self.budget)
-                .map_err(|e| self.err(e))?;
+            let quantization = self.quantization();
+            let uv = read_attribute::<2>(
+                &label,
+                &acc,
+                (Quantized::TexCoord, quantization),
+                buffers,
+                &mut self.budget,
+            )
+            .map_err(|e| self.err(e))?;
             if uv.len() != n {
                 return Err(self.err(format!(
                     "{what}: TEXCOORD_{set} has {} elements but POSITION has {n}",

@@ -7,7 +7,8 @@
 //!   front face stays where the file meant it).
 //! - Triangle primitives (`TRIANGLES`, `TRIANGLE_STRIP`, `TRIANGLE_FAN`), indexed (u8, u16, u32
 //!   indices) or not; `POSITION`, `NORMAL` if present, and the `TEXCOORD_n` a textured material
-//!   reads (float, or normalized unsigned byte or short); `COLOR_0` (RGB or RGBA, float or
+//!   reads (float, or normalized unsigned byte or short; with `KHR_mesh_quantization` the 8- and
+//!   16-bit integer types it allows, `TANGENT` too); `COLOR_0` (RGB or RGBA, float or
 //!   normalized), which multiplies the base colour.
 //! - Materials: the metallic-roughness model (irr-bsdf, the specification's Appendix B):
 //!   `baseColorFactor.rgb`, `metallicFactor` and `roughnessFactor` (clamped into [0, 1], with a
@@ -111,7 +112,7 @@ use std::path::{Path, PathBuf};
 pub const MAX_COORDINATE: f32 = 1e18;
 
 /// The extensions irr reads.
-const SUPPORTED_EXTENSIONS: [&str; 7] = [
+const SUPPORTED_EXTENSIONS: [&str; 8] = [
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_specular",
@@ -119,6 +120,7 @@ const SUPPORTED_EXTENSIONS: [&str; 7] = [
     "KHR_texture_transform",
     "KHR_lights_punctual",
     "KHR_materials_unlit",
+    "KHR_mesh_quantization",
 ];
 
 /// A feature of the file that irr ignored, with how many times it occurs.

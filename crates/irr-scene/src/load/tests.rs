@@ -602,6 +602,71 @@ fn khr_materials_transmission_is_read_with_what_it_leaves_out() {
     );
 }
 
+/// `KHR_mesh_quantization`, required: positions as normalized SHORTs (dequantized by the
+/// node's scale and translation, as gltfpack writes them) and normals as normalized BYTEs load
+/// as the floats they stand for; a normal of SHORTs that are not normalized, which the extension does not allow, is refused naming the accessor, and so
+/// are the quantized positions of a file that does not use the extension.
+#[test]
+fn khr_mesh_quantization_is_read() {
+    let d = dir();
+    let mut g = Gltf::default();
+    let shorts = |v: &[[i16; 3]]| -> Vec<u8> {
+        v.iter()
+            .flat_map(|p| p.iter().flat_map(|c| c.to_le_bytes()).chain([0, 0]))
+            .collect()
+    };
+    // A VEC3 of SHORTs takes 6 bytes and one of BYTEs 3, padded to 8 and 4 by a byteStride
+    // (glTF 2.0 §3.6.2.4 aligns each element to 4 bytes).
+    let p = g.accessor(
+        &shorts(&[[0, 0, 0], [32767, 0, 0], [0, 0, -32767]]),
+        r#""componentType":5122,"normalized":true,"count":3,"type":"VEC3""#,
+    );
+    let n = g.accessor(
+        &[0u8, 127, 0, 0, 0, 127, 0, 0, 0, 127, 0, 0],
+        r#""componentType":5120,"normalized":true,"count":3,"type":"VEC3""#,
+    );
+    let bad = g.accessor(
+        &shorts(&[[0, 1, 0], [0, 1, 0], [0, 1, 0]]),
+        r#""componentType":5122,"count":3,"type":"VEC3""#,
+    );
+    // Each accessor has a view of its own, with the view's index.
+    for (v, stride) in [(p, 8), (n, 4), (bad, 8)] {
+        g.views[v] = g.views[v].replace('}', &format!(r#","byteStride":{stride}}}"#));
+    }
+    let json = |normal: usize, used: bool| {
+        let extension = if used {
+            r#""extensionsUsed":["KHR_mesh_quantization"],"extensionsRequired":["KHR_mesh_quantization"],"#
+        } else {
+            ""
+        };
+        g.json(&format!(
+            r#"{extension}
+            "scene":0,"scenes":[{{"nodes":[0]}}],
+            "nodes":[{{"mesh":0,"scale":[2,2,2],"translation":[1,0,0]}}],
+            "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p},"NORMAL":{normal}}}}}]}}]"#
+        ))
+    };
+    let s = load(&write(d.path(), "quantized.gltf", json(n, true)));
+    let mesh = &s.meshes[0];
+    assert_eq!(
+        mesh.positions,
+        [
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(3.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, -2.0)
+        ]
+    );
+    assert_eq!(mesh.normals.as_deref(), Some(&[Vec3::Y; 3][..]));
+    let e = load_err(&write(d.path(), "bad.gltf", json(bad, true)));
+    assert!(e.contains("NORMAL accessor") && e.contains("SHORT"), "{e}");
+    // Without the extension, glTF 2.0 allows positions of FLOAT only.
+    let e = load_err(&write(d.path(), "unused.gltf", json(n, false)));
+    assert!(
+        e.contains("POSITION accessor") && e.contains("which the file does not use"),
+        "{e}"
+    );
+}
+
 /// `KHR_materials_unlit`, required or only used: the material is unlit with its base colour,
 /// coverage and sides; its other factors and textures (the extension's fallbacks) are a black
 /// Lambertian's that emits nothing, and no warning names the extension. A scene lit by nothing
