@@ -10,6 +10,7 @@ mod geometry;
 mod glass;
 mod hostile;
 mod ic;
+mod khronos;
 mod lights;
 mod normal_maps;
 mod render;

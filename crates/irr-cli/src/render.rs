@@ -822,7 +822,7 @@ fn render_view(
         Some(c) => c,
         None => {
             eprintln!(
-                "note: {} has no camera: irr frames the scene's bounds from +Z with a 45° vertical field of view",
+                "note: {} has no camera: irr frames the scene's bounds from +Z (a scene flat in y or x from above or from +X, tilted 45°) with a 45° vertical field of view",
                 scene_path.display()
             );
             Camera::framing(

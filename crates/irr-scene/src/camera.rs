@@ -21,6 +21,14 @@
 use crate::animation::CameraPath;
 use glam::{DMat4, DVec4, Mat4, Vec2, Vec3};
 
+/// How thin, as a fraction of its largest extent, a box must be along x or y for
+/// [`Camera::framing`] to call it flat and look at it from that side. Seen from +Z, such a box
+/// is a band under 1.5 % of the image's height (or width) across: the frame's shorter side
+/// spans 2r/cos(h) at the camera's distance d = r/sin(h) (r the bounding sphere's radius, at
+/// least half the largest extent; h ≤ 22.5° the narrower half field of view), and at the box's
+/// nearest, d − r, it spans 2r(1 − sin h)/cos h ≥ 1.33·r.
+const FLAT: f32 = 0.01;
+
 /// A pinhole camera in world space (metres).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
@@ -129,6 +137,13 @@ impl Camera {
     /// height): from the +Z side of the box's centre, looking down −Z (the orientation of a glTF
     /// camera with an identity transform), vertical field of view 45°, far enough away that the
     /// box's bounding sphere fits in both the vertical and horizontal fields of view.
+    ///
+    /// A box flat across that view (thinner in x or y than 1 % of its largest extent) would be
+    /// seen edge-on, as a line or nothing: flat in y (a floor, a plane in y = 0) it is seen from
+    /// above instead, the view tilted 45° down from +Z about the x axis; flat in x (a wall in
+    /// the yz-plane), from the +X side, turned 45° about the y axis. The distance is the same
+    /// (the bounding sphere fits in every direction), and every other box is framed exactly as
+    /// before.
     pub fn framing(lo: Vec3, hi: Vec3, aspect: f32) -> Self {
         let yfov = std::f32::consts::FRAC_PI_4;
         let centre = 0.5 * (lo + hi);
@@ -136,11 +151,39 @@ impl Camera {
         let half_y = 0.5 * yfov;
         let half_x = (half_y.tan() * aspect.max(f32::MIN_POSITIVE)).atan();
         let distance = radius / half_y.min(half_x).sin();
+        let size = hi - lo;
+        let flat = |extent: f32| extent < FLAT * size.max_element();
+        let s = std::f32::consts::FRAC_1_SQRT_2;
+        // (direction from the centre to the camera, up, right), with right = forward × up.
+        let (position, forward, up, right) = if flat(size.y) {
+            let back = Vec3::new(0.0, s, s);
+            (
+                centre + back * distance,
+                -back,
+                Vec3::new(0.0, s, -s),
+                Vec3::X,
+            )
+        } else if flat(size.x) {
+            let back = Vec3::new(s, 0.0, s);
+            (
+                centre + back * distance,
+                -back,
+                Vec3::Y,
+                Vec3::new(s, 0.0, -s),
+            )
+        } else {
+            (
+                centre + Vec3::new(0.0, 0.0, distance),
+                Vec3::NEG_Z,
+                Vec3::Y,
+                Vec3::X,
+            )
+        };
         Self {
-            position: centre + Vec3::new(0.0, 0.0, distance),
-            forward: Vec3::NEG_Z,
-            up: Vec3::Y,
-            right: Vec3::X,
+            position,
+            forward,
+            up,
+            right,
             yfov,
             znear: 0.0,
             zfar: None,
@@ -373,6 +416,76 @@ mod tests {
         assert!(((r.origin - c.position).length() - r.origin_distance).abs() < 1e-6);
     }
 
+    /// Where the ray through the image's centre crosses the plane through `centre` across
+    /// axis `axis`, or `None` if it runs parallel to it or away from it.
+    fn centre_ray_meets(c: &Camera, centre: Vec3, axis: usize) -> Option<Vec3> {
+        let r = c.ray(Vec2::new(12.0, 12.0), 24, 24);
+        let t = (centre[axis] - r.origin[axis]) / r.direction[axis];
+        (t.is_finite() && t > 0.0).then(|| r.origin + t * r.direction)
+    }
+
+    /// A scene that is one quad in y = 0 (as TwoSidedPlane is) and has no camera: the framing
+    /// camera looks at it from above, the ray through the image's centre meets the quad's
+    /// centre, and the quad's far edge (−z) is at the top of the image. The same for a quad in
+    /// x = 0, seen from the +X side, and for quads away from the origin.
+    #[test]
+    fn a_flat_quad_is_framed_from_its_thin_side() {
+        for (lo, hi, axis) in [
+            (Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0), 1),
+            (Vec3::new(3.0, -2.0, 5.0), Vec3::new(7.0, -2.0, 6.0), 1),
+            (Vec3::new(0.0, -1.0, -1.0), Vec3::new(0.0, 1.0, 1.0), 0),
+            (Vec3::new(-4.0, 2.0, -9.0), Vec3::new(-4.0, 3.0, -1.0), 0),
+        ] {
+            let c = Camera::framing(lo, hi, 1.0);
+            let centre = 0.5 * (lo + hi);
+            assert!(c.position[axis] > centre[axis], "{lo} {hi}: {c:?}");
+            let hit = centre_ray_meets(&c, centre, axis)
+                .unwrap_or_else(|| panic!("{lo} {hi}: the centre ray misses the plane: {c:?}"));
+            // It meets the quad at its centre, to the rounding of a few f32 operations on
+            // coordinates as large as the camera's position (2⁻²⁴ relative each).
+            let slack = 8.0 * f32::EPSILON * c.position.length().max(1.0);
+            assert!(
+                (hit - centre).length() <= slack,
+                "{lo} {hi}: the centre ray meets the plane at {hit}, not at the quad's centre {centre}"
+            );
+            let inside = (0..3).all(|k| lo[k] - slack <= hit[k] && hit[k] <= hi[k] + slack);
+            assert!(inside, "{lo} {hi}: {hit} is outside the quad");
+            // The image's up is the scene's: over a floor, the side away from the viewer is at
+            // the top of the image; on a wall, the side towards +y.
+            let ndc = c.world_to_ndc(24, 24);
+            let raster_y = |p: Vec3| {
+                let h = ndc * p.as_dvec3().extend(1.0);
+                h.y / h.w
+            };
+            let up = if axis == 1 {
+                (centre - c.position).with_y(0.0).normalize()
+            } else {
+                Vec3::Y
+            };
+            assert!(raster_y(centre + up) < raster_y(centre), "{lo} {hi}: {c:?}");
+        }
+    }
+
+    /// The framing before flat boxes were seen from their thin side: from +Z.
+    fn framing_from_plus_z(lo: Vec3, hi: Vec3, aspect: f32) -> Camera {
+        let yfov = std::f32::consts::FRAC_PI_4;
+        let centre = 0.5 * (lo + hi);
+        let radius = (0.5 * (hi - lo).length()).max(f32::MIN_POSITIVE);
+        let half_y = 0.5 * yfov;
+        let half_x = (half_y.tan() * aspect.max(f32::MIN_POSITIVE)).atan();
+        let distance = radius / half_y.min(half_x).sin();
+        Camera {
+            position: centre + Vec3::new(0.0, 0.0, distance),
+            forward: Vec3::NEG_Z,
+            up: Vec3::Y,
+            right: Vec3::X,
+            yfov,
+            znear: 0.0,
+            zfar: None,
+            aspect_ratio_in_file: None,
+        }
+    }
+
     proptest! {
         /// Every ray of the image is a unit vector in front of the camera, and rays through the
         /// image centre follow `forward` (to f32 rounding: 1e-6).
@@ -416,6 +529,53 @@ mod tests {
                 // Inside the frustum, with a relative margin of 1e-4 for rounding.
                 prop_assert!(v.dot(c.up).abs() <= z * tan_half * (1.0 + 1e-4));
                 prop_assert!(v.dot(c.right).abs() <= z * tan_half * aspect * (1.0 + 1e-4));
+            }
+        }
+
+        /// A box that is not flat (its x and y extents at least 1 % of its largest) is framed
+        /// bit for bit as before: from +Z. Boxes flat only in z are among them.
+        #[test]
+        fn framing_of_boxes_not_flat_is_unchanged(
+            lx in -100.0f32..100.0, ly in -100.0f32..100.0, lz in -100.0f32..100.0,
+            sx in 0.0f32..50.0, sy in 0.0f32..50.0, sz in 0.0f32..50.0, aspect in 0.2f32..5.0,
+        ) {
+            let lo = Vec3::new(lx, ly, lz);
+            let hi = lo + Vec3::new(sx, sy, sz);
+            let size = hi - lo;
+            prop_assume!(size.x.min(size.y) >= 0.01 * size.max_element());
+            prop_assert_eq!(Camera::framing(lo, hi, aspect), framing_from_plus_z(lo, hi, aspect));
+        }
+
+        /// A box flat in y or x (thinner there than 1 % of its largest extent) is seen from
+        /// that side: every corner in the image, and the ray through the image's centre meets
+        /// the box's mid-plane across its thin axis inside the box.
+        #[test]
+        fn flat_boxes_are_seen_from_their_thin_side(
+            lx in -100.0f32..100.0, ly in -100.0f32..100.0, lz in -100.0f32..100.0,
+            a in 0.01f32..50.0, b in 0.01f32..50.0, thin in 0.0f32..0.009,
+            axis in 0usize..2, aspect in 0.2f32..5.0,
+        ) {
+            // Flat across `axis` only (a box flat in both x and y is seen from above), clear of
+            // the threshold by more than the rounding of `hi − lo`.
+            prop_assume!(a >= 2.0 * FLAT * b);
+            let lo = Vec3::new(lx, ly, lz);
+            let mut size = Vec3::new(a, a, b);
+            size[axis] = thin * a.max(b);
+            let hi = lo + size;
+            let c = Camera::framing(lo, hi, aspect);
+            let centre = 0.5 * (lo + hi);
+            prop_assert!(c.position[axis] > centre[axis]);
+            let hit = centre_ray_meets(&c, centre, axis);
+            prop_assert!(hit.is_some());
+            let hit = hit.unwrap_or(Vec3::NAN);
+            // Inside, but for the rounding of a few f32 operations on coordinates as large as
+            // the camera's position (2⁻²⁴ relative each).
+            let slack = 8.0 * f32::EPSILON * c.position.length().max(1.0);
+            for k in 0..3 {
+                prop_assert!(
+                    lo[k] - slack <= hit[k] && hit[k] <= hi[k] + slack,
+                    "{} {}", hit, c.position
+                );
             }
         }
     }
