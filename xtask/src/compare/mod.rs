@@ -27,6 +27,7 @@ mod figures;
 pub mod metrics;
 mod pictures;
 mod reference;
+pub mod stats;
 
 use clap::{Args, ValueEnum};
 use figures::{Curve, Group, Method, Run, level_rows, pareto_front};
