@@ -50,7 +50,7 @@ use std::f32::consts::FRAC_1_PI;
 use std::ops::Add;
 
 /// Settings of [`PathTracer`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PathSettings {
     /// Maximum number of bounces: paths of up to this many reflections are counted (0: emission
     /// seen directly only; 1: plus direct lighting). Default: 64. Range: any `u32`.
@@ -58,6 +58,10 @@ pub struct PathSettings {
     /// The bounce from which Russian roulette may end a path. Default: 5, as Mitsuba 3's
     /// `rr_depth` (docs/performance.md, "Russian roulette"). Range: any `u32`.
     pub rr_start: u32,
+    /// Adaptive camera sampling ([`Integrator::pixel_error`]): the relative standard error of
+    /// a pixel's mean luminance at which it may stop before its `spp`. Default: 0, every pixel
+    /// takes every sample (the unbiased reference). Range: finite, ≥ 0.
+    pub pixel_error: f32,
 }
 
 impl Default for PathSettings {
@@ -65,6 +69,7 @@ impl Default for PathSettings {
         Self {
             max_depth: 64,
             rr_start: 5,
+            pixel_error: 0.0,
         }
     }
 }
@@ -689,6 +694,10 @@ impl Integrator for PathTracer {
 
     fn li(&self, scene: &Scene, ray: &Ray, dims: &mut Dimensions, rays: &mut RayCounter) -> Vec3 {
         self.li_split(scene, ray, dims, rays).total()
+    }
+
+    fn pixel_error(&self) -> f32 {
+        self.settings.pixel_error
     }
 
     fn li_split(

@@ -194,6 +194,7 @@ fn white_furnace_unbounded_depth_with_roulette() {
         let pt = PathTracer::new(PathSettings {
             max_depth: u32::MAX,
             rr_start: 0,
+            ..PathSettings::default()
         });
         let mut rays = RayCounter::default();
         let est = estimate(20_000, |i| {
@@ -225,6 +226,7 @@ fn white_furnace_bounded_depth() {
         let pt = PathTracer::new(PathSettings {
             max_depth: d,
             rr_start,
+            ..PathSettings::default()
         });
         let mut rays = RayCounter::default();
         let est = estimate(20_000, |i| {
@@ -616,6 +618,7 @@ fn glossy_furnace_one_bounce() {
         let path = PathSettings {
             max_depth: 1,
             rr_start: 5,
+            ..PathSettings::default()
         };
         let pt = PathTracer::new(path);
         // The cache's direct light: its light samples weighted against the BSDF samples it
@@ -692,6 +695,7 @@ fn a_background_reflected_once_counts_at_depth_one() {
         let path = PathSettings {
             max_depth: 1,
             rr_start: 5,
+            ..PathSettings::default()
         };
         let mut ic = crate::IrradianceCacheIntegrator::new(crate::IcSettings {
             path,

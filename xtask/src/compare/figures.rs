@@ -55,6 +55,8 @@ impl Method {
 pub enum Group {
     /// The path tracer's spp series (raw or denoised).
     Spp,
+    /// The path tracer with adaptive camera sampling (a pixel error target).
+    Adaptive,
     /// The cache's consistency ladder: κ with the gathers' M×N growing alongside.
     Ladder,
     /// The default κ with other strata.
@@ -74,6 +76,7 @@ impl Group {
     pub fn name(self) -> &'static str {
         match self {
             Group::Spp => "spp",
+            Group::Adaptive => "adaptive",
             Group::Ladder => "kappa",
             Group::Strata => "strata",
             Group::Hessian => "hessian",
@@ -89,7 +92,7 @@ impl Group {
     }
 }
 
-/// One measured run.
+/// One measured setting, over every seed: its figures are the means over the seeds.
 #[derive(Clone, Debug)]
 pub struct Run {
     /// The method.
@@ -100,18 +103,24 @@ pub struct Run {
     pub group: Group,
     /// The cache's error parameter (NaN for the path tracer).
     pub kappa: f32,
-    /// Wall-clock seconds: construction, final pass and, for a denoised run, the denoiser.
+    /// Wall-clock seconds: construction, final pass and, for a denoised run, the denoiser;
+    /// the mean over the seeds of each seed's median over its repeats.
     pub seconds: f64,
-    /// Of which the denoiser's.
+    /// The standard error of `seconds` across the seeds.
+    pub seconds_se: f64,
+    /// Of which the denoiser's (the same mean of medians).
     pub denoise_seconds: f64,
-    /// Rays traced.
+    /// Rays traced (mean over the seeds).
     pub rays: u64,
-    /// Records (0 for the path tracer).
+    /// Records (mean over the seeds; 0 for the path tracer).
     pub records: usize,
-    /// Errors against the reference.
+    /// Errors against the reference, each the mean over the seeds; `rel_mse_se` is relMSE's
+    /// standard error across the seeds.
     pub metrics: Metrics,
-    /// relMSE by block, with the blocks' weights ([`super::metrics::block_errors`]).
-    pub blocks: Vec<(f64, f64)>,
+    /// relMSE of each seed, in the seeds' order (paired seed by seed between settings).
+    pub seed_errors: Vec<f64>,
+    /// Each seed's timed repeats (seconds), in the seeds' order and the order they ran.
+    pub times: Vec<Vec<f64>>,
 }
 
 /// The runs no faster run beats in relMSE, in order of time: along it the error falls strictly,
@@ -361,6 +370,7 @@ mod tests {
             group,
             kappa: f32::NAN,
             seconds,
+            seconds_se: 0.0,
             denoise_seconds: 0.0,
             rays: 0,
             records: 0,
@@ -369,7 +379,8 @@ mod tests {
                 flip,
                 ..Metrics::default()
             },
-            blocks: Vec::new(),
+            seed_errors: Vec::new(),
+            times: Vec::new(),
         }
     }
 

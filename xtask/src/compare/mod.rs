@@ -2,11 +2,17 @@
 //! would otherwise run, the path tracer, raw and denoised, measured on a list of scenes.
 //!
 //! For each scene:
-//! 1. A reference ([`reference`](mod@reference)): the path tracer at high spp as two halves of their own seeds,
-//!    cached under target/compare/cache/ by everything that decides its pixels (the scene's
-//!    bytes, the size, the samples, the seeds, the path tracer's settings, the renderer's
-//!    source). relMSE between the halves / 4 is its own noise, printed beside every error.
-//! 2. Runs, all with seed [`RUN_SEED`]: the path tracer over spp, raw and denoised by OIDN; the
+//! 1. A reference ([`reference`](mod@reference)): the path tracer at high spp, non-adaptive, as
+//!    two halves of their own seeds, cached under target/compare/cache/ by everything that
+//!    decides its pixels (the scene's bytes, the size, the samples, the seeds, the path
+//!    tracer's settings, the renderer's source). relMSE between the halves / 4 is its own
+//!    noise, printed beside every error.
+//! 2. Runs, each setting with every seed of [`run_seeds`] (`--seeds`; the light cache's paths
+//!    draw from the same seed as the pixels) and timed `--repeats` times, the renders
+//!    interleaved round-robin over the settings ([`stats`]): a setting's errors are the means
+//!    over its seeds, relMSE ± its standard error across them, and its time the mean over the
+//!    seeds of each seed's median. The settings: the path tracer over spp and with its adaptive
+//!    sampling, raw and denoised by OIDN; the
 //!    irradiance cache along its κ ladder, raw and denoised; the Hessian metric's ladder (its
 //!    accuracy a with the strata, beside the κ ladder); on a scene with glossy materials, the
 //!    κ ladder with radiance records for the glossy lobes (raw and denoised) and other orders
@@ -16,7 +22,10 @@
 //!    denoised run's time includes the auxiliary images and the denoiser.
 //! 3. A report in target/compare/SCENE/ (`runs.csv`, `report.md`, `plot.svg`, heat maps,
 //!    crops): each method's front along its primary series, and at each error level which of
-//!    the four methods is fastest, with FLIP beside relMSE ([`figures`]).
+//!    the four methods is fastest, with FLIP beside relMSE ([`figures`]); it names the seeds,
+//!    the repeats and the machine, and whether the defaults were tuned on the scene
+//!    ([`TUNED_SCENES`]). After the last scene, a summary (target/compare/summary.md) puts the
+//!    tuned scenes and the others in two tables.
 //!
 //! With `--layer indirect|glossy-indirect` every image, the reference's too, is that AOV of
 //! the render (a denoised run denoises it), and the report goes to
@@ -27,6 +36,7 @@ mod figures;
 pub mod metrics;
 mod pictures;
 mod reference;
+pub mod stats;
 
 use clap::{Args, ValueEnum};
 use figures::{Curve, Group, Method, Run, level_rows, pareto_front};
@@ -35,9 +45,9 @@ use irr_render::{
     Integrator, IrradianceCacheIntegrator, LoadedScene, MetricKind, PathSettings, PathTracer,
     RadiusStatistic, RenderSettings, build_cache, denoise, load_scene, render_with_aovs,
 };
-use metrics::{block_errors, metrics, metrics_with_flip};
+use metrics::{metrics, metrics_with_flip};
 use pictures::{HEAT_MAP_MAX, worst_window, write_crops, write_heat_map, write_plot};
-use reference::{NOISE_SEEDS, RUN_SEED, reference};
+use reference::reference;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -50,6 +60,30 @@ pub const DEFAULT_SCENES: [&str; 3] = [
     "indirect-room.gltf",
     "textured-room.gltf",
 ];
+
+/// The scenes in assets/ the defaults were tuned on (docs/performance.md measures the cache's
+/// settings on them): a figure on one of them is not a held-out result. Any other scene
+/// (`--scenes`) is only reported, and the summary lists it apart.
+pub const TUNED_SCENES: [&str; 4] = [
+    "cornell-box.gltf",
+    "indirect-room.gltf",
+    "glossy-room.gltf",
+    "textured-room.gltf",
+];
+
+/// Whether `scene` is one of [`TUNED_SCENES`] in the workspace's assets/ (the same file, however
+/// its path is written; the workspace is this checkout's, wherever the report goes).
+pub fn tuned(scene: &Path) -> bool {
+    let (Ok(scene), Ok(root)) = (scene.canonicalize(), crate::workspace_root()) else {
+        return false;
+    };
+    TUNED_SCENES.iter().any(|s| {
+        root.join("assets")
+            .join(s)
+            .canonicalize()
+            .is_ok_and(|t| t == scene)
+    })
+}
 
 /// Compare the irradiance cache with the path tracer, raw and denoised, on a list of scenes.
 #[derive(Args, Debug)]
@@ -64,9 +98,17 @@ pub struct CompareArgs {
     /// Image height in pixels
     #[arg(long, default_value_t = 256)]
     pub height: u32,
-    /// A small version: 48×48, a few settings (under a minute on 2 cores for all scenes)
+    /// A small version: 48×48, a few settings
     #[arg(long)]
     pub quick: bool,
+    /// Seeds per setting (at least 2): each setting, the path tracer's too, is rendered with
+    /// seeds 1 to N, and its errors are the mean over them ± the standard error across them
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(2..))]
+    pub seeds: u32,
+    /// Timed renders per setting and seed, interleaved round-robin over the settings; a
+    /// setting's time for a seed is their median
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
+    pub repeats: u32,
     /// Render the references again even if cached ones exist
     #[arg(long)]
     pub fresh: bool,
@@ -152,18 +194,22 @@ pub struct Report {
     pub ic_noise: f64,
     /// The report's folder.
     pub folder: PathBuf,
+    /// The scene.
+    pub scene: PathBuf,
+    /// Whether the defaults were tuned on it ([`TUNED_SCENES`]).
+    pub tuned: bool,
 }
 
-/// Renders with the path tracer, denoised if asked: the image, wall-clock seconds (all of it),
-/// of which the denoiser's, and rays.
+/// Renders with the path tracer (adaptive where `path.pixel_error` > 0), denoised if asked: the
+/// image, wall-clock seconds (all of it), of which the denoiser's, and rays.
 fn path_render(
     loaded: &LoadedScene,
     settings: &RenderSettings,
-    denoised: bool,
-    layer: Layer,
+    path: PathSettings,
+    (denoised, layer): (bool, Layer),
 ) -> Result<(Image, f64, f64, u64), String> {
     let start = Instant::now();
-    let mut pt = PathTracer::new(PathSettings::default());
+    let mut pt = PathTracer::new(path);
     pt.preprocess(&loaded.scene);
     let camera = loaded.camera_for(settings.width, settings.height);
     finish(loaded, &camera, &pt, settings, (denoised, layer), start)
@@ -527,7 +573,25 @@ struct Job {
     kappa: f32,
     /// `None` for the path tracer.
     ic: Option<IcSettings>,
+    /// The path tracer's settings (its adaptive sampling); unused by the cache.
+    path: PathSettings,
     spp: u32,
+}
+
+/// A path-tracer setting with adaptive sampling: (spp, pixel error).
+type Adaptive = (u32, f32);
+
+/// The path tracer's adaptive rows: (spp, pixel error), its pixels stopping at a quarter, half
+/// or all of `spp` once their mean's relative standard error reaches the target
+/// ([`PathSettings::pixel_error`]); raw, then denoised. Each target is two to three times a
+/// typical pixel's relative error at `spp` on the Cornell box (√relMSE: 0.018 at 256 spp, 0.009
+/// at 1024), so a quiet pixel stops at a quarter of `spp` and a noisy one goes on.
+fn adaptive_path(quick: bool) -> (&'static [Adaptive], &'static [Adaptive]) {
+    if quick {
+        (&[(64, 0.1)], &[(16, 0.2)])
+    } else {
+        (&[(256, 0.05), (1024, 0.02)], &[(64, 0.1), (256, 0.05)])
+    }
 }
 
 /// Every render of a scene's comparison, in order.
@@ -538,25 +602,38 @@ fn jobs(args: &CompareArgs, denoiser: bool, glossy: bool) -> Result<Vec<Job>, St
     } else {
         (&[16, 64, 256, 1024], &[4, 16, 64, 256])
     };
+    let path_job = |method: Method, spp: u32, pixel_error: f32| Job {
+        method,
+        group: if pixel_error > 0.0 {
+            Group::Adaptive
+        } else {
+            Group::Spp
+        },
+        label: if pixel_error > 0.0 {
+            format!("spp={spp} pixel-error={pixel_error}")
+        } else {
+            format!("spp={spp}")
+        },
+        kappa: f32::NAN,
+        ic: None,
+        path: PathSettings {
+            pixel_error,
+            ..PathSettings::default()
+        },
+        spp,
+    };
+    let (adaptive, adaptive_denoised) = adaptive_path(args.quick);
     for &spp in path_spps {
-        out.push(Job {
-            method: Method::Path,
-            group: Group::Spp,
-            label: format!("spp={spp}"),
-            kappa: f32::NAN,
-            ic: None,
-            spp,
-        });
+        out.push(path_job(Method::Path, spp, 0.0));
+    }
+    for &(spp, e) in adaptive {
+        out.push(path_job(Method::Path, spp, e));
     }
     for &spp in denoised_spps.iter().filter(|_| denoiser) {
-        out.push(Job {
-            method: Method::PathDenoised,
-            group: Group::Spp,
-            label: format!("spp={spp}"),
-            kappa: f32::NAN,
-            ic: None,
-            spp,
-        });
+        out.push(path_job(Method::PathDenoised, spp, 0.0));
+    }
+    for &(spp, e) in adaptive_denoised.iter().filter(|_| denoiser) {
+        out.push(path_job(Method::PathDenoised, spp, e));
     }
     let mut sweep = ic_sweep(args.quick, glossy);
     for extra in &args.extra {
@@ -576,6 +653,7 @@ fn jobs(args: &CompareArgs, denoiser: bool, glossy: bool) -> Result<Vec<Job>, St
             direct_samples: args.direct_samples,
             ..sw.settings
         }),
+        path: PathSettings::default(),
         spp,
     };
     for sw in &sweep {
@@ -597,21 +675,104 @@ fn jobs(args: &CompareArgs, denoiser: bool, glossy: bool) -> Result<Vec<Job>, St
 
 /// Runs `cargo xtask compare`.
 pub fn run(args: CompareArgs, root: &Path) -> Result<(), String> {
+    let mut reports = Vec::new();
     for scene in scenes(&args, root) {
         let report = compare(&args, &scene, root)?;
         if args.publish {
             publish(&report, root)?;
         }
         println!(
-            "{}: {} runs; reference noise {:.2e}, one cache image's noise {:.2e}; wrote {} (report.md, runs.csv, plot.svg, heat maps, crops)",
+            "{}: {} settings × {} seeds × {} repeats; reference noise {:.2e}, one cache image's noise {:.2e}; wrote {} (report.md, runs.csv, seeds.csv, plot.svg, heat maps, crops)",
             scene.display(),
             report.runs.len(),
+            args.seeds,
+            args.repeats,
             report.reference_noise,
             report.ic_noise,
             report.folder.display()
         );
+        reports.push(report);
     }
+    let machine = stats::Machine::this();
+    let mut md = format!(
+        "## Summary\n\nSeeds 1–{} per setting, each time the median of {} interleaved runs; {}, \
+         {} cores ({} logical), rendering on {} threads. The cache's default κ against the path \
+         tracer's time for its error (~: beyond its runs, by its fit).\n",
+        args.seeds,
+        args.repeats,
+        machine.model,
+        machine.cores,
+        machine.logical,
+        rayon_threads(args.threads)
+    );
+    for (tuned, title) in [
+        (true, "Scenes the defaults were tuned on"),
+        (false, "Scenes only reported (held out)"),
+    ] {
+        let rows: Vec<&Report> = reports.iter().filter(|r| r.tuned == tuned).collect();
+        if !rows.is_empty() {
+            let _ = write!(md, "\n{title}:\n\n{}", summary_table(&rows));
+        }
+    }
+    let path = root.join("target").join("compare").join("summary.md");
+    std::fs::write(&path, &md).map_err(|e| format!("{}: {e}", path.display()))?;
+    println!("{md}");
     Ok(())
+}
+
+/// One row per scene: its cache run at the default κ (the ladder's rung, else its middle one),
+/// relMSE ± s.e. and seconds, and the path tracer's time, raw and denoised, for that error.
+fn summary_table(reports: &[&Report]) -> String {
+    let mut md = String::from(
+        "| scene | ic settings | relMSE ± s.e. | ic s | path s | path+oidn s | ref. noise |\n\
+         |---|---|---|---|---|---|---|\n",
+    );
+    let default_kappa = IcSettings::default().error;
+    for report in reports {
+        let ladder: Vec<&Run> = report
+            .runs
+            .iter()
+            .filter(|r| r.method == Method::Cache && r.group == Group::Ladder)
+            .collect();
+        let name = report
+            .scene
+            .file_stem()
+            .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+        let Some(ic) = ladder
+            .iter()
+            .find(|r| r.kappa == default_kappa)
+            .or_else(|| ladder.get(ladder.len() / 2))
+        else {
+            let _ = writeln!(
+                md,
+                "| {name} | – | – | – | – | – | {:.1e} |",
+                report.reference_noise
+            );
+            continue;
+        };
+        let e = ic.metrics.rel_mse;
+        let time = |m: Method| {
+            let t = Curve::of(m, &report.runs).and_then(|c| c.time_at(e));
+            match t {
+                Some(t) if t.extrapolated => format!("~{:.2}", t.seconds),
+                Some(t) => format!("{:.2}", t.seconds),
+                None => "–".into(),
+            }
+        };
+        let _ = writeln!(
+            md,
+            "| {name} | {} | {:.2e} ± {:.1e} | {:.2} ± {:.2} | {} | {} | {:.1e} |",
+            ic.label,
+            e,
+            ic.metrics.rel_mse_se,
+            ic.seconds,
+            ic.seconds_se,
+            time(Method::Path),
+            time(Method::PathDenoised),
+            report.reference_noise
+        );
+    }
+    md
 }
 
 /// The scenes to compare: `--scenes`, or [`DEFAULT_SCENES`] in the workspace's assets/.
@@ -706,6 +867,73 @@ fn seconds_text(t: Option<figures::TimeAt>) -> String {
     }
 }
 
+/// The seeds of the measured runs, `1..=n`: none is a reference half's
+/// ([`reference::REFERENCE_SEEDS`], far above any `u32`), so no run shares samples with the
+/// reference it is scored against.
+pub fn run_seeds(n: u32) -> Vec<u64> {
+    (1..=u64::from(n)).collect()
+}
+
+/// What the first render of one (setting, seed) measured, and the times of all its repeats.
+struct Measured {
+    seconds: Vec<f64>,
+    denoise_seconds: Vec<f64>,
+    rays: u64,
+    records: usize,
+    metrics: metrics::Metrics,
+    /// A digest of the first render's pixels: every repeat must render the same.
+    digest: u64,
+}
+
+/// A digest of an image's pixels (their bits).
+fn image_digest(image: &Image) -> u64 {
+    let bytes: Vec<u8> = image
+        .pixels()
+        .iter()
+        .flat_map(|p| p.to_array().map(f32::to_bits))
+        .flat_map(u32::to_le_bytes)
+        .collect();
+    irr_render::fingerprint(&[&bytes])
+}
+
+/// One setting's [`Run`] from its seeds' measurements: each seed's time the median of its
+/// repeats, every figure the mean over the seeds, relMSE's and the time's standard errors the
+/// spread across the seeds.
+fn summarise(job: &Job, seeds: &[Measured]) -> Run {
+    let n = seeds.len().max(1) as f64;
+    let times: Vec<f64> = seeds.iter().map(|m| stats::median(&m.seconds)).collect();
+    let (seconds, seconds_se) = stats::mean_and_standard_error(&times);
+    let denoise: Vec<f64> = seeds
+        .iter()
+        .map(|m| stats::median(&m.denoise_seconds))
+        .collect();
+    let seed_errors: Vec<f64> = seeds.iter().map(|m| m.metrics.rel_mse).collect();
+    let (rel_mse, rel_mse_se) = stats::mean_and_standard_error(&seed_errors);
+    let mean =
+        |f: fn(&metrics::Metrics) -> f64| seeds.iter().map(|m| f(&m.metrics)).sum::<f64>() / n;
+    Run {
+        method: job.method,
+        label: job.label.clone(),
+        group: job.group,
+        kappa: job.kappa,
+        seconds,
+        seconds_se,
+        denoise_seconds: stats::mean_and_standard_error(&denoise).0,
+        rays: (seeds.iter().map(|m| m.rays as f64).sum::<f64>() / n).round() as u64,
+        records: (seeds.iter().map(|m| m.records as f64).sum::<f64>() / n).round() as usize,
+        metrics: metrics::Metrics {
+            rel_mse,
+            rel_mse_se,
+            bias_percent: mean(|m| m.bias_percent),
+            mae: mean(|m| m.mae),
+            p99_rel: mean(|m| m.p99_rel),
+            flip: mean(|m| m.flip),
+        },
+        seed_errors,
+        times: seeds.iter().map(|m| m.seconds.clone()).collect(),
+    }
+}
+
 /// The measurement behind `run`, for one scene.
 pub fn compare(args: &CompareArgs, scene_path: &Path, root: &Path) -> Result<Report, String> {
     let (width, height) = if args.quick {
@@ -713,11 +941,12 @@ pub fn compare(args: &CompareArgs, scene_path: &Path, root: &Path) -> Result<Rep
     } else {
         (args.width, args.height)
     };
+    let seeds = run_seeds(args.seeds);
     let base = RenderSettings {
         width,
         height,
         spp: args.ic_spp,
-        seed: RUN_SEED,
+        seed: seeds[0],
         threads: args.threads,
     };
     base.validate().map_err(|e| e.to_string())?;
@@ -753,60 +982,110 @@ pub fn compare(args: &CompareArgs, scene_path: &Path, root: &Path) -> Result<Rep
 
     let glossy = loaded.scene.materials().iter().any(|m| !m.is_lambertian());
     let jobs = jobs(args, denoiser, glossy)?;
-    let bar = indicatif::ProgressBar::new(jobs.len() as u64);
+    let order = stats::interleaved(jobs.len(), seeds.len(), args.repeats as usize);
+    let bar = indicatif::ProgressBar::new(order.len() as u64);
     if let Ok(style) = indicatif::ProgressStyle::with_template(
-        "{elapsed_precise} [{wide_bar}] {pos}/{len} runs: {msg}",
+        "{elapsed_precise} [{wide_bar}] {pos}/{len} renders: {msg}",
     ) {
         bar.set_style(style);
     }
-    let mut runs = Vec::new();
-    let mut images: Vec<Image> = Vec::new();
-    for job in &jobs {
-        bar.set_message(format!("{stem}: {} {}", job.method.name(), job.label));
+    // The cache's noise is measured on the tightest ladder setting, from its first two seeds.
+    let noise_job = jobs
+        .iter()
+        .rposition(|j| j.method == Method::Cache && j.group == Group::Ladder);
+    let mut measured: Vec<Vec<Measured>> = jobs.iter().map(|_| Vec::new()).collect();
+    let mut images: Vec<Option<Image>> = jobs.iter().map(|_| None).collect();
+    let mut second_seed: Option<Image> = None;
+    let mut unstable: Vec<String> = Vec::new();
+    for slot in order {
+        let job = &jobs[slot.job];
+        bar.set_message(format!(
+            "{stem}: {} {} (seed {}, repeat {})",
+            job.method.name(),
+            job.label,
+            seeds[slot.seed],
+            slot.repeat + 1
+        ));
         let settings = RenderSettings {
             spp: job.spp,
+            seed: seeds[slot.seed],
             ..base
         };
         let (image, seconds, denoise_seconds, rays, records) = match job.ic {
             None => {
-                let (i, s, d, r) = path_render(&loaded, &settings, job.method.denoised(), layer)?;
+                let (i, s, d, r) =
+                    path_render(&loaded, &settings, job.path, (job.method.denoised(), layer))?;
                 (i, s, d, r, 0)
             }
             Some(ic) => ic_render(&loaded, &settings, ic, (job.method.denoised(), layer))?,
         };
-        runs.push(Run {
-            method: job.method,
-            label: job.label.clone(),
-            group: job.group,
-            kappa: job.kappa,
-            seconds,
-            denoise_seconds,
-            rays,
-            records,
-            metrics: metrics_with_flip(&image, &reference),
-            blocks: block_errors(&image, &reference),
-        });
-        images.push(image);
+        let digest = image_digest(&image);
+        // The interleaved order puts every (setting, seed)'s first render in the first repeat:
+        // its image is scored, the later repeats are only timed (and checked to be the same).
+        match measured[slot.job].get_mut(slot.seed) {
+            Some(m) => {
+                m.seconds.push(seconds);
+                m.denoise_seconds.push(denoise_seconds);
+                if m.digest != digest {
+                    unstable.push(format!(
+                        "{} {} seed {}",
+                        job.method.name(),
+                        job.label,
+                        seeds[slot.seed]
+                    ));
+                }
+            }
+            None => {
+                measured[slot.job].push(Measured {
+                    seconds: vec![seconds],
+                    denoise_seconds: vec![denoise_seconds],
+                    rays,
+                    records,
+                    metrics: metrics_with_flip(&image, &reference),
+                    digest,
+                });
+                if slot.seed == 0 {
+                    images[slot.job] = Some(image);
+                } else if slot.seed == 1 && Some(slot.job) == noise_job {
+                    second_seed = Some(image);
+                }
+            }
+        }
         bar.inc(1);
     }
     bar.finish_and_clear();
-    // One cache image's own noise at the tightest ladder setting: the same settings with two
-    // other seeds, relMSE(a, b)/2 (each image carries half the difference's variance).
-    let ic_noise = match jobs
+    unstable.sort();
+    unstable.dedup();
+    let runs: Vec<Run> = jobs
         .iter()
-        .rfind(|j| j.method == Method::Cache && j.group == Group::Ladder)
-    {
-        Some(Job { ic: Some(ic), .. }) => {
-            let [a, b] = NOISE_SEEDS.map(|seed| RenderSettings { seed, ..base });
-            let (a, ..) = ic_render(&loaded, &a, *ic, (false, layer))?;
-            let (b, ..) = ic_render(&loaded, &b, *ic, (false, layer))?;
-            metrics(&a, &b).rel_mse / 2.0
-        }
+        .zip(&measured)
+        .map(|(job, m)| summarise(job, m))
+        .collect();
+    let images: Vec<Image> = images
+        .into_iter()
+        .map(|i| i.ok_or("a setting was never rendered"))
+        .collect::<Result<_, _>>()?;
+    // One cache image's own noise at the tightest ladder setting: relMSE between its images of
+    // two seeds, halved (each image carries half the difference's variance).
+    let ic_noise = match (noise_job, &second_seed) {
+        (Some(j), Some(b)) => metrics(&images[j], b).rel_mse / 2.0,
         _ => 0.0,
     };
-
+    let tuned = tuned(scene_path);
+    let measurement = Measurement {
+        seeds: &seeds,
+        repeats: args.repeats,
+        machine: stats::Machine::this(),
+        tuned,
+        unstable: &unstable,
+    };
     let md = write_report(
-        args, &stem, &runs, &images, &reference, noise, ic_noise, &out_dir,
+        args,
+        &stem,
+        (&runs, &images, &reference),
+        (noise, ic_noise),
+        &measurement,
+        &out_dir,
     )?;
     println!("{md}");
     Ok(Report {
@@ -814,28 +1093,75 @@ pub fn compare(args: &CompareArgs, scene_path: &Path, root: &Path) -> Result<Rep
         reference_noise: noise,
         ic_noise,
         folder: out_dir,
+        scene: scene_path.to_path_buf(),
+        tuned,
     })
 }
 
-/// Writes runs.csv, report.md and the pictures; returns report.md's text.
-#[expect(
-    clippy::too_many_arguments,
-    reason = "one call, from compare: the measured pieces of one scene"
-)]
+/// How one scene's runs were measured, as the report states it.
+struct Measurement<'a> {
+    seeds: &'a [u64],
+    repeats: u32,
+    machine: stats::Machine,
+    tuned: bool,
+    /// The (setting, seed)s whose repeats rendered different pixels.
+    unstable: &'a [String],
+}
+
+/// Writes runs.csv (a row per setting, its means over the seeds), seeds.csv (a row per setting
+/// and seed, with every repeat's time), report.md and the pictures; returns report.md's text.
 fn write_report(
     args: &CompareArgs,
     stem: &str,
-    runs: &[Run],
-    images: &[Image],
-    reference: &Image,
-    noise: f64,
-    ic_noise: f64,
+    (runs, images, reference): (&[Run], &[Image], &Image),
+    (noise, ic_noise): (f64, f64),
+    measurement: &Measurement,
     out_dir: &Path,
 ) -> Result<String, String> {
     let (width, height) = (reference.width(), reference.height());
     let mut csv = String::from(
-        "method,settings,group,seconds,denoise_seconds,rays,records,rel_mse,rel_mse_se,reference_noise,bias_percent,mae,p99_rel,flip\n",
+        "method,settings,group,seeds,seconds,seconds_se,denoise_seconds,rays,records,rel_mse,rel_mse_se,reference_noise,bias_percent,mae,p99_rel,flip\n",
     );
+    let mut seeds_csv =
+        String::from("method,settings,seed,seconds_median,rel_mse,repeat_seconds\n");
+    for r in runs {
+        for ((seed, e), times) in measurement.seeds.iter().zip(&r.seed_errors).zip(&r.times) {
+            let _ = writeln!(
+                seeds_csv,
+                "{},{},{seed},{:.4},{e:.6e},{}",
+                r.method.name(),
+                r.label,
+                stats::median(times),
+                times
+                    .iter()
+                    .map(|t| format!("{t:.4}"))
+                    .collect::<Vec<_>>()
+                    .join(";")
+            );
+        }
+    }
+    let machine = &measurement.machine;
+    let seeds_text = measurement
+        .seeds
+        .iter()
+        .map(u64::to_string)
+        .collect::<Vec<_>>()
+        .join(", ");
+    let tuned = if measurement.tuned {
+        "The defaults were tuned on this scene (docs/performance.md): these figures are not a \
+         held-out result."
+    } else {
+        "The defaults were not tuned on this scene: a held-out result."
+    };
+    let unstable = if measurement.unstable.is_empty() {
+        String::new()
+    } else {
+        format!(
+            " **Repeats that rendered other pixels than their first** (the render is not \
+             deterministic there): {}.",
+            measurement.unstable.join(", ")
+        )
+    };
     let denoiser = match DENOISER {
         Some(name) => format!(
             "Denoised runs: {name}, {} camera samples per pixel for the cache, their time \
@@ -852,12 +1178,16 @@ fn write_report(
         None => String::new(),
     };
     let mut md = format!(
-        "# {stem}: the irradiance cache against the path tracer, raw and denoised\n\n{scored}\
-         {width}×{height}; the cache with {} camera samples per pixel and {} light sample(s) per \
-         camera hit. {denoiser} Reference: the path tracer at {} spp, its own relMSE {noise:.2e} \
-         (the column ref. % is its share of each run's relMSE); one cache image's own noise at \
-         the tightest κ setting {ic_noise:.2e}. relMSE ± its standard error over {}×{}-pixel \
-         blocks. Times are wall-clock on this machine ({} threads).\n\n\
+        "# {stem}: the irradiance cache against the path tracer, raw and denoised\n\n{tuned} \
+         {scored}{width}×{height}; the cache with {} camera samples per pixel and {} light \
+         sample(s) per camera hit. {denoiser} Reference: the path tracer at {} spp, \
+         non-adaptive, with seeds of its own; its own relMSE {noise:.2e} (the column ref. % is \
+         its share of each run's relMSE); one cache image's own noise at the tightest κ setting \
+         {ic_noise:.2e} (two seeds' images). Every setting is rendered with seeds {seeds_text}: \
+         each error column is the mean over them, relMSE ± its standard error across them. \
+         Seconds: wall-clock, the mean over the seeds of each seed's median of {} runs, the runs \
+         interleaved round-robin over the settings; {}, {} cores ({} logical), rendering on {} \
+         threads.{unstable}\n\n\
          | method | settings | seconds | M rays | records | relMSE ± s.e. | ref. % | bias % | MAE | p99 rel. | FLIP |\n\
          |---|---|---|---|---|---|---|---|---|---|---|\n",
         args.ic_spp,
@@ -867,19 +1197,23 @@ fn write_report(
         } else {
             REFERENCE_SPP
         }),
-        metrics::BLOCK,
-        metrics::BLOCK,
+        measurement.repeats,
+        machine.model,
+        machine.cores,
+        machine.logical,
         rayon_threads(args.threads)
     );
     for r in runs {
         let m = &r.metrics;
         let _ = writeln!(
             csv,
-            "{},{},{},{:.4},{:.4},{},{},{:.6e},{:.6e},{:.6e},{:.4},{:.6e},{:.6e},{:.6e}",
+            "{},{},{},{},{:.4},{:.4},{:.4},{},{},{:.6e},{:.6e},{:.6e},{:.4},{:.6e},{:.6e},{:.6e}",
             r.method.name(),
             r.label,
             r.group.name(),
+            r.seed_errors.len(),
             r.seconds,
+            r.seconds_se,
             r.denoise_seconds,
             r.rays,
             r.records,
@@ -1059,8 +1393,9 @@ fn write_report(
         let _ = writeln!(
             md,
             "- Consistency: along the κ ladder relMSE ∝ κ^{slope:.2} (negative: the error falls as \
-             κ tightens); each step's change ± its standard error (from the blocks' paired \
-             differences, which leave out the noise the runs share): {}; bias by κ: {}.",
+             κ tightens); each step's change ± its standard error (from the seeds' paired \
+             differences, which leave out the noise two settings of one seed share): {}; bias \
+             by κ: {}.",
             ladder
                 .windows(2)
                 .map(|w| format!(
@@ -1068,7 +1403,7 @@ fn write_report(
                     w[0].kappa,
                     w[1].kappa,
                     w[1].metrics.rel_mse - w[0].metrics.rel_mse,
-                    metrics::paired_standard_error(&w[1].blocks, &w[0].blocks)
+                    stats::paired_standard_error(&w[1].seed_errors, &w[0].seed_errors)
                 ))
                 .collect::<Vec<_>>()
                 .join(", "),
@@ -1086,8 +1421,10 @@ fn write_report(
     )?;
     md.push_str("\n![relMSE against time](plot.svg)\n");
     write_pictures(runs, images, reference, out_dir, &mut md)?;
-    std::fs::write(out_dir.join("runs.csv"), csv)
-        .map_err(|e| format!("{}: {e}", out_dir.join("runs.csv").display()))?;
+    for (name, text) in [("runs.csv", &csv), ("seeds.csv", &seeds_csv)] {
+        std::fs::write(out_dir.join(name), text)
+            .map_err(|e| format!("{}: {e}", out_dir.join(name).display()))?;
+    }
     std::fs::write(out_dir.join("report.md"), &md)
         .map_err(|e| format!("{}: {e}", out_dir.join("report.md").display()))?;
     Ok(md)
@@ -1199,6 +1536,8 @@ mod tests {
             width: 48,
             height: 48,
             quick: true,
+            seeds: 2,
+            repeats: 1,
             fresh: false,
             reference_spp: None,
             threads: 0,
@@ -1222,6 +1561,21 @@ mod tests {
             "# irr\n<!-- compare:box -->\n| a | b |\n|---|---|\n- figure\n\n| c |\n|---|\n\n![plot](docs/compare/box/plot.svg)\n<!-- /compare:box -->\nend\n"
         );
         assert!(readme_section("no markers", "box", report).is_none());
+    }
+
+    /// The four scenes the defaults were tuned on are tuned however their path is written; a
+    /// scene of assets/ not among them, and a missing file, are not.
+    #[test]
+    fn tuned_scenes_are_told_from_reported_ones() {
+        let assets = crate::workspace_root()
+            .unwrap_or_else(|e| panic!("{e}"))
+            .join("assets");
+        for scene in TUNED_SCENES {
+            assert!(tuned(&assets.join(scene)), "{scene}");
+        }
+        assert!(tuned(&assets.join("../assets/cornell-box.gltf")));
+        assert!(!tuned(&assets.join("detail-room.gltf")));
+        assert!(!tuned(&assets.join("no-such-scene.gltf")));
     }
 
     /// `--layer glossy-indirect` on the glossy room: the report goes to its own folder and says
@@ -1258,13 +1612,12 @@ mod tests {
         }
     }
 
-    /// `cargo xtask compare --quick` on every default scene: the report's files exist, the CSV
-    /// parses with every error finite, a row per run, and the error falls along the cache's κ
-    /// ladder. The runs share their seed and the reference, so their errors share noise: each
-    /// step is judged by its blocks' paired differences ([`metrics::paired_standard_error`]),
-    /// allowed to rise by at most 2.31 standard errors (Student's t at 97.5 % for the 8 degrees
-    /// of freedom of a 48×48 image's 9 blocks), and from the first step to the last the error
-    /// must fall by more than that.
+    /// `cargo xtask compare --quick` on every default scene with two seeds: the report's files
+    /// exist, the CSVs parse with every error finite, a row per run (and per run and seed), and
+    /// the error falls along the cache's κ ladder. Two settings of one seed share its samples
+    /// and the reference, so their errors share noise: each step is judged by the seeds' paired
+    /// differences ([`stats::paired_standard_error`]), allowed to rise by Student's t times
+    /// that standard error, and from the first step to the last the error must fall by more.
     #[test]
     fn quick_compare_writes_a_sound_report_for_every_scene_raw_and_denoised() {
         let root = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
@@ -1275,6 +1628,7 @@ mod tests {
             let report = compare(&args, &path, root.path()).unwrap_or_else(|e| panic!("{e}"));
             let mut files = vec![
                 "runs.csv",
+                "seeds.csv",
                 "report.md",
                 "plot.svg",
                 "heat-ic.png",
@@ -1294,7 +1648,7 @@ mod tests {
             let mut rows = 0;
             for line in csv.lines().skip(1) {
                 let cols: Vec<&str> = line.split(',').collect();
-                assert_eq!(cols.len(), 14, "{line}");
+                assert_eq!(cols.len(), 16, "{line}");
                 for c in &cols[3..] {
                     let v: f64 = c.parse().unwrap_or(f64::NAN);
                     assert!(v.is_finite(), "{line}");
@@ -1302,6 +1656,13 @@ mod tests {
                 rows += 1;
             }
             assert_eq!(rows, report.runs.len());
+            let by_seed =
+                std::fs::read_to_string(report.folder.join("seeds.csv")).unwrap_or_default();
+            assert_eq!(
+                by_seed.lines().count() - 1,
+                report.runs.len() * args.seeds as usize
+            );
+            assert!(report.tuned, "{scene}");
             for m in Method::ALL
                 .into_iter()
                 .filter(|m| !m.denoised() || DENOISER.is_some())
@@ -1318,11 +1679,12 @@ mod tests {
                 .collect();
             assert!(ladder.len() >= 3);
             // Both claims are one-sided (no step rises, the whole ladder falls): Student's t at
-            // 95 % one-sided with 8 degrees of freedom (9 blocks of 16² in a 48² image) is 1.86.
-            let t = 1.86;
+            // 95 % one-sided with 1 degree of freedom (two seeds' paired differences) is 6.31.
+            assert_eq!(args.seeds, 2);
+            let t = 6.31;
             let errors: Vec<f64> = ladder.iter().map(|r| r.metrics.rel_mse).collect();
             let allowed =
-                |a: &Run, b: &Run| t * metrics::paired_standard_error(&a.blocks, &b.blocks);
+                |a: &Run, b: &Run| t * stats::paired_standard_error(&a.seed_errors, &b.seed_errors);
             for w in ladder.windows(2) {
                 assert!(
                     w[1].metrics.rel_mse <= w[0].metrics.rel_mse + allowed(w[0], w[1]),

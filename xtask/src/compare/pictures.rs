@@ -1,7 +1,7 @@
 //! The report's pictures: the error-against-time plot (SVG), heat maps of the per-pixel
 //! relative error and magnified crops (PNG).
 
-use super::figures::{Method, Run};
+use super::figures::{Group, Method, Run};
 use super::metrics::relative_errors;
 use irr_render::{Image, tone_map};
 use std::path::Path;
@@ -93,8 +93,8 @@ pub fn write_crops(
 }
 
 /// Log-log plot of relMSE against seconds, as SVG (plotters; text needs no font file in SVG):
-/// each method's primary series as a line with its points labelled, the cache's ablations as
-/// grey labelled points.
+/// each method's primary series as a line with its points labelled, the path tracer's adaptive
+/// runs as crosses of its colour, the cache's ablations as grey labelled points.
 pub fn write_plot(path: &Path, runs: &[Run], title: &str) -> Result<(), String> {
     use plotters::prelude::*;
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
@@ -177,9 +177,23 @@ pub fn write_plot(path: &Path, runs: &[Run], title: &str) -> Result<(), String> 
                     + Text::new(p.2.clone(), (6, -6), ("sans-serif", 11).into_font())
             }))
             .map_err(|e| err(&e))?;
+        chart
+            .draw_series(
+                runs.iter()
+                    .filter(|r| r.method == method && r.group == Group::Adaptive)
+                    .map(|r| {
+                        EmptyElement::at((r.seconds, r.metrics.rel_mse))
+                            + Cross::new((0, 0), 5, colour.stroke_width(2))
+                            + Text::new(r.label.clone(), (6, 4), ("sans-serif", 11).into_font())
+                    }),
+            )
+            .map_err(|e| err(&e))?;
     }
     let grey = RGBColor(130, 130, 130);
-    let ablations: Vec<&Run> = runs.iter().filter(|r| !r.group.primary()).collect();
+    let ablations: Vec<&Run> = runs
+        .iter()
+        .filter(|r| r.method.cache() && !r.group.primary())
+        .collect();
     if !ablations.is_empty() {
         chart
             .draw_series(ablations.iter().map(|r| {

@@ -7,16 +7,19 @@ use std::path::{Path, PathBuf};
 use super::metrics::metrics;
 use super::{Layer, path_render};
 
-/// The seed of every measured run. The reference's halves and the cache's noise estimate draw
-/// seeds of their own ([`REFERENCE_SEEDS`], [`NOISE_SEEDS`]): a run that shared a half's seed
-/// would draw that half's first samples per pixel, and its error against it would read low.
-pub const RUN_SEED: u64 = 1;
-
-/// The seeds of the reference's two halves.
+/// The seeds of the reference's two halves: above any run's seed (`super::run_seeds`, at most
+/// `u32::MAX`), since a run that shared a half's seed would draw that half's first samples per
+/// pixel, and its error against it would read low.
 pub const REFERENCE_SEEDS: [u64; 2] = [0x5eed_0000_0000_0001, 0x5eed_0000_0000_0002];
 
-/// The seeds of the two extra renders that measure one cache image's own noise.
-pub const NOISE_SEEDS: [u64; 2] = [101, 202];
+/// The path tracer's settings for the reference: the defaults, and never adaptive (a pixel that
+/// stops on its own samples is biased slightly; the reference must not be).
+pub fn reference_path() -> PathSettings {
+    PathSettings {
+        pixel_error: 0.0,
+        ..PathSettings::default()
+    }
+}
 
 /// A digest of the source of every crate that renders (geometry, sampling, cache, gradients,
 /// integrator, render) and of Cargo.lock, from xtask's build script: a reference rendered by
@@ -37,7 +40,7 @@ pub fn reference_key(
         "scene digest {:016x}; {width}x{height}; {spp} spp as 2 halves, seeds {REFERENCE_SEEDS:?}; \
          {:?}; renderer source {RENDERER_DIGEST}",
         loaded.digest,
-        PathSettings::default()
+        reference_path()
     );
     if let Some(aov) = layer.aov() {
         key.push_str(&format!("; layer {aov}"));
@@ -81,8 +84,8 @@ pub fn reference(
         seed,
         ..*base
     });
-    let (ia, ..) = path_render(loaded, &a, false, layer)?;
-    let (ib, ..) = path_render(loaded, &b, false, layer)?;
+    let (ia, ..) = path_render(loaded, &a, reference_path(), (false, layer))?;
+    let (ib, ..) = path_render(loaded, &b, reference_path(), (false, layer))?;
     let pixels = ia
         .pixels()
         .iter()
@@ -106,16 +109,17 @@ pub fn reference(
 mod tests {
     use super::*;
 
-    /// The runs' seeds are none of the reference's, nor of the noise estimate's.
+    /// The runs' seeds, for any `--seeds`, are none of the reference's, and the reference is
+    /// not adaptive.
     #[test]
-    fn seeds_are_disjoint() {
-        let mut all = vec![RUN_SEED];
-        all.extend(REFERENCE_SEEDS);
-        all.extend(NOISE_SEEDS);
-        let mut sorted = all.clone();
-        sorted.sort_unstable();
-        sorted.dedup();
-        assert_eq!(sorted.len(), all.len(), "{all:?}");
+    fn seeds_are_disjoint_and_the_reference_is_not_adaptive() {
+        for n in [2, 3, 1000] {
+            let seeds = super::super::run_seeds(n);
+            assert!(REFERENCE_SEEDS.iter().all(|s| !seeds.contains(s)), "{n}");
+        }
+        // run_seeds is 1..=n, so its largest is n: every reference seed lies above u32::MAX.
+        assert!(REFERENCE_SEEDS.iter().all(|&s| s > u64::from(u32::MAX)));
+        assert_eq!(reference_path().pixel_error, 0.0);
     }
 
     /// The key names the renderer's source digest, the seeds and the path tracer's settings,
@@ -132,10 +136,7 @@ mod tests {
             key.contains(RENDERER_DIGEST) && RENDERER_DIGEST.len() == 16,
             "{key}"
         );
-        assert!(
-            key.contains(&format!("{:?}", PathSettings::default())),
-            "{key}"
-        );
+        assert!(key.contains(&format!("{:?}", reference_path())), "{key}");
         assert!(key.contains(&format!("{REFERENCE_SEEDS:?}")), "{key}");
         for other in [
             reference_key(&a, 48, 40, 512, Layer::Colour),
