@@ -297,6 +297,38 @@ mod tests {
         RadianceCaching::new(order, 0.5, &[(0.0, 1.0)], order).unwrap_or_else(|e| panic!("{e}"))
     }
 
+    /// Calls `f` at the centre of each cell of the upper hemisphere's midpoint grid, `rows`
+    /// uniform in cos θ by `columns` in φ (every cell of solid angle 2π/(rows·columns)).
+    fn midpoint(rows: usize, columns: usize, mut f: impl FnMut(Vec3)) {
+        for i in 0..rows {
+            let z = (i as f32 + 0.5) / rows as f32;
+            let s = (1.0 - z * z).sqrt();
+            for k in 0..columns {
+                let p = TAU * (k as f32 + 0.5) / columns as f32;
+                f(Vec3::new(s * p.cos(), s * p.sin(), z));
+            }
+        }
+    }
+
+    /// The coefficients in `rc`'s basis of L cos θ·χ(θ < π/2) for the incoming radiance
+    /// `light`, by the midpoint rule on 512 × 64 cells (exact in φ for products of azimuthal
+    /// frequency below 64).
+    fn project(rc: &RadianceCaching, light: impl Fn(Vec3) -> f32) -> Vec<Vec3> {
+        let (rows, columns) = (512, 64);
+        let mut c = vec![Vec3::ZERO; rc.count()];
+        let mut values = vec![0.0f32; rc.count()];
+        midpoint(rows, columns, |w| {
+            rc.basis
+                .eval(w, &mut values)
+                .unwrap_or_else(|e| panic!("{e}"));
+            let weight = light(w) * w.z * TAU / (rows * columns) as f32;
+            for (o, y) in c.iter_mut().zip(&values) {
+                *o += Vec3::splat(weight * y);
+            }
+        });
+        c
+    }
+
     /// A gather of `strata` whose cell (j, k) brings back `radiance(j, k)` from `distance(j, k)`,
     /// one ray per cell: its samples and its log.
     fn gather(
@@ -578,39 +610,16 @@ mod tests {
         let reflected = |order: usize| {
             let rc = caching(order);
             // The exact coefficients of cos θ·χ(θ < π/2), by a fine midpoint rule.
-            let (rows, columns) = (512, 64);
-            let mut c = vec![Vec3::ZERO; rc.count()];
-            let mut values = vec![0.0f32; rc.count()];
-            for i in 0..rows {
-                let z = (i as f32 + 0.5) / rows as f32;
-                let s = (1.0 - z * z).sqrt();
-                for k in 0..columns {
-                    let p = TAU * (k as f32 + 0.5) / columns as f32;
-                    let w = Vec3::new(s * p.cos(), s * p.sin(), z);
-                    rc.basis
-                        .eval(w, &mut values)
-                        .unwrap_or_else(|e| panic!("{e}"));
-                    let weight = z * TAU / (rows * columns) as f32;
-                    for (o, y) in c.iter_mut().zip(&values) {
-                        *o += Vec3::splat(weight * y);
-                    }
-                }
-            }
+            let mut c = project(&rc, |_| 1.0);
             let mut scratch = vec![Vec3::ZERO; rc.count()];
             rc.reflect(&bsdf, &mut c, &mut scratch)
         };
         let albedo = |rows: usize| {
             let columns = 2 * rows;
             let mut sum = Vec3::ZERO;
-            for i in 0..rows {
-                let z = (i as f32 + 0.5) / rows as f32;
-                let s = (1.0 - z * z).sqrt();
-                for k in 0..columns {
-                    let p = TAU * (k as f32 + 0.5) / columns as f32;
-                    let wi = Vec3::new(s * p.cos(), s * p.sin(), z);
-                    sum += m.eval_lobes(wo, wi).glossy * z;
-                }
-            }
+            midpoint(rows, columns, |wi| {
+                sum += m.eval_lobes(wo, wi).glossy * wi.z
+            });
             sum * (TAU / (rows * columns) as f32)
         };
         let (want, half) = (albedo(256), albedo(128));
@@ -639,29 +648,12 @@ mod tests {
         // Each order's caching and the coefficients of L cos θ·χ(θ < π/2) in it, by a fine
         // midpoint rule (L cos θ has azimuthal frequencies up to 1, the basis up to 7: 64
         // columns integrate their products exactly in φ).
-        let project = |order: usize| {
+        let projected = |order: usize| {
             let rc = caching(order);
-            let (rows, columns) = (512, 64);
-            let mut c = vec![Vec3::ZERO; rc.count()];
-            let mut values = vec![0.0f32; rc.count()];
-            for i in 0..rows {
-                let z = (i as f32 + 0.5) / rows as f32;
-                let s = (1.0 - z * z).sqrt();
-                for k in 0..columns {
-                    let p = TAU * (k as f32 + 0.5) / columns as f32;
-                    let w = Vec3::new(s * p.cos(), s * p.sin(), z);
-                    rc.basis
-                        .eval(w, &mut values)
-                        .unwrap_or_else(|e| panic!("{e}"));
-                    let weight = light(w) * z * TAU / (rows * columns) as f32;
-                    for (o, y) in c.iter_mut().zip(&values) {
-                        *o += Vec3::splat(weight * y);
-                    }
-                }
-            }
+            let c = project(&rc, light);
             (rc, c)
         };
-        let (six, eight) = (project(6), project(8));
+        let (six, eight) = (projected(6), projected(8));
         let frame = Frame::from_normal(Vec3::Z);
         let theta = 33f32.to_radians();
         for phi in [0.0f32, 1.0, 2.0, 4.0] {
@@ -685,17 +677,11 @@ mod tests {
             let direct = |rows: usize| {
                 let columns = 2 * rows;
                 let (mut sum, mut size) = (Vec3::ZERO, Vec3::ZERO);
-                for i in 0..rows {
-                    let z = (i as f32 + 0.5) / rows as f32;
-                    let s = (1.0 - z * z).sqrt();
-                    for k in 0..columns {
-                        let p = TAU * (k as f32 + 0.5) / columns as f32;
-                        let wi = Vec3::new(s * p.cos(), s * p.sin(), z);
-                        let r = bsdf.residual(wi) * (light(wi) * z);
-                        sum += r;
-                        size += r.abs();
-                    }
-                }
+                midpoint(rows, columns, |wi| {
+                    let r = bsdf.residual(wi) * (light(wi) * wi.z);
+                    sum += r;
+                    size += r.abs();
+                });
                 let cell = TAU / (rows * columns) as f32;
                 (sum * cell, size * cell)
             };
