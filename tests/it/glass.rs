@@ -1,6 +1,7 @@
 //! Glass (`KHR_materials_transmission`) as irr renders it, a thin sheet that rays pass straight
 //! through with its transmittance: the known answers of a pane in both integrators.
 
+use crate::normal_maps::settings;
 use crate::render::assert_mean;
 use crate::support::{cuboid, ic_image, quad};
 use glam::Vec3;
@@ -23,16 +24,6 @@ const PANE_T: f64 = 0.96 / 1.04;
 fn scene(meshes: &[TriangleMesh], materials: Vec<Material>) -> Scene {
     let g = Geometry::build(meshes).unwrap_or_else(|e| panic!("{e}"));
     Scene::new(g, materials).unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn settings(spp: u32) -> RenderSettings {
-    RenderSettings {
-        width: 16,
-        height: 16,
-        spp,
-        seed: 3,
-        threads: 0,
-    }
 }
 
 /// Both integrators' images at path depth `depth`. The cache's adaptive pixel stop is off: it
