@@ -1,5 +1,6 @@
-//! Glass (`KHR_materials_transmission`) as irr renders it, a thin sheet that rays pass straight
-//! through with its transmittance: the known answers of a pane in both integrators.
+//! Glass (`KHR_materials_transmission`) as irr renders it: a thin sheet that rays pass straight
+//! through with its transmittance, or the boundary of a volume (`KHR_materials_volume`) that
+//! refracts; the known answers of each in both integrators.
 
 use crate::normal_maps::settings;
 use crate::render::assert_mean;
@@ -14,6 +15,14 @@ fn clear_glass() -> Material {
     Material {
         transmission: 1.0,
         ..Material::metallic_roughness(Vec3::ONE, 0.0, 0.0)
+    }
+}
+
+/// Clear glass bounding a volume (ior 1.5): its surfaces refract.
+fn volume_glass() -> Material {
+    Material {
+        thin_walled: false,
+        ..clear_glass()
     }
 }
 
@@ -176,6 +185,75 @@ fn a_clear_glass_box_vanishes_under_a_uniform_sky() {
             5.0,
             1e-3,
             1e-5,
+        );
+    }
+}
+
+/// A closed box of clear glass bounding a volume, under a uniform sky of radiance 1, is
+/// invisible: radiance over the squared index is invariant along a path through smooth
+/// boundaries (L/η² crosses each with the share 1 − F, the rest reflected), and a path that
+/// enters the box leaves it (a ray entering a cube refracts to within the critical angle of the
+/// face's normal, so it meets the opposite face below it; the side faces reflect it totally).
+/// What remains is the smooth lobe's masking (below 1e-4 a reflection at α = 1e-3) over the
+/// few interactions a path makes (bias bound 1e-3), the sampler's noise (5 SE), and rounding.
+/// Refraction's radiance scale 1/η² on entering and η² on leaving must cancel: either one
+/// alone is a factor 2.25.
+#[test]
+fn a_clear_glass_volume_vanishes_under_a_uniform_sky() {
+    let sc = scene(
+        &cuboid(Vec3::splat(-0.5), Vec3::splat(0.5), 0),
+        vec![volume_glass()],
+    )
+    .with_background(Vec3::ONE)
+    .unwrap_or_else(|e| panic!("{e}"));
+    let camera = Camera::look_at(Vec3::new(1.2, 0.9, 2.0), Vec3::ZERO, Vec3::Y, 0.8)
+        .unwrap_or_else(|| panic!("camera"));
+    for (name, image) in both(&sc, &camera, &settings(64), 64) {
+        assert_mean(
+            &format!("glass-volume-{name}"),
+            &image,
+            Vec3::ONE,
+            5.0,
+            1e-3,
+            1e-5,
+        );
+    }
+}
+
+/// An emitter of radiance 1 inside a box of clear glass, seen head-on through the box's face
+/// (a 0.1 rad field of view: cos θ ≥ 0.9987, Schlick's F = F0 = 0.04 within 1e-14): radiance
+/// crossing into air keeps L/η², so the camera sees (1 − F)/η² = 0.96/2.25 = 0.42667, nothing
+/// else (the reflection off the face sees an empty scene, the emitter reflects nothing). The
+/// boundary's orientation decides it: a box taken inside out shows 0.96·2.25 = 2.16, a thin
+/// sheet 0.923. Tolerance: 5 standard errors, plus rounding.
+#[test]
+fn an_emitter_inside_glass_is_seen_through_the_refraction() {
+    let emitter = Material {
+        emission: Vec3::ONE,
+        ..Material::diffuse(Vec3::ZERO)
+    };
+    let mut meshes = cuboid(Vec3::new(-2.0, -2.0, -3.0), Vec3::new(2.0, 2.0, -1.0), 1);
+    meshes.push(quad(
+        [
+            Vec3::new(-1.5, -1.5, -2.5),
+            Vec3::new(1.5, -1.5, -2.5),
+            Vec3::new(1.5, 1.5, -2.5),
+            Vec3::new(-1.5, 1.5, -2.5),
+        ],
+        0,
+        Vec3::Z,
+    ));
+    let sc = scene(&meshes, vec![emitter, volume_glass()]);
+    let camera =
+        Camera::look_at(Vec3::ZERO, -Vec3::Z, Vec3::Y, 0.1).unwrap_or_else(|| panic!("camera"));
+    for (name, image) in both(&sc, &camera, &settings(64), 64) {
+        assert_mean(
+            &format!("emitter-in-glass-{name}"),
+            &image,
+            Vec3::splat(0.96 / 2.25),
+            5.0,
+            0.0,
+            1e-6,
         );
     }
 }

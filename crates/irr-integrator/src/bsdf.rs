@@ -13,6 +13,7 @@ use crate::path::ShadingPoint;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use irr_bsdf::MetallicRoughness;
+use irr_sampling::rng::Dimensions;
 use irr_sampling::{Frame, cosine_hemisphere_pdf, sample_cosine_hemisphere};
 use std::f32::consts::FRAC_1_PI;
 
@@ -47,12 +48,34 @@ pub enum Bsdf {
 pub struct BsdfDraw {
     /// The incident direction, world space, unit.
     pub wi: Vec3,
-    /// f·cos θi / pdf (the albedo, for a Lambertian surface).
+    /// f·|cos θi| / pdf (the albedo, for a Lambertian surface).
     pub weight: Vec3,
     /// The density of `wi` per unit solid angle (for multiple importance sampling).
     pub pdf: f32,
-    /// cos θi at the shading normal.
+    /// |cos θi| at the shading normal.
     pub cos: f32,
+    /// Whether `wi` crosses the surface (refraction through a volume's boundary): the light
+    /// comes from the side opposite the viewer's, where no light sample looks, so an emitter
+    /// it finds takes the whole weight.
+    pub transmitted: bool,
+}
+
+impl BsdfDraw {
+    /// Whether `wi` leaves the surface on the side it should, against the geometric normal
+    /// `ng` turned to the viewer: above it for a reflection, below for a transmission (a
+    /// shading normal can send either under the geometric surface: no light there).
+    #[inline]
+    pub fn leaves(&self, ng: Vec3) -> bool {
+        let d = self.wi.dot(ng);
+        if self.transmitted { d < 0.0 } else { d > 0.0 }
+    }
+
+    /// The number of light samples an emitter this draw finds is weighted against (the power
+    /// heuristic's): `light_samples`, or none after a transmission.
+    #[inline]
+    pub fn light_samples(&self, light_samples: f32) -> f32 {
+        if self.transmitted { 0.0 } else { light_samples }
+    }
 }
 
 impl Bsdf {
@@ -71,8 +94,16 @@ impl Bsdf {
             let albedo = scene.albedo(x.triangle, x.b1, x.b2);
             return Bsdf::Lambertian { albedo, ns: x.ns };
         }
-        let frame = Frame::from_normal(x.ns);
-        let scale = if material.transmits() {
+        // A volume's boundary refracts by which side the light comes from: its frame's normal
+        // is the outward one (the winding normal's side), so `wo` lies below it from inside.
+        let ns = if material.transmits() && !material.thin_walled {
+            let outward = scene.geometry().geometric_normal(x.triangle);
+            if x.ng.dot(outward) < 0.0 { -x.ns } else { x.ns }
+        } else {
+            x.ns
+        };
+        let frame = Frame::from_normal(ns);
+        let scale = if material.passes_straight() {
             let p = scene.pass_probability(x.triangle, x.b1, x.b2, x.wo);
             // A filtered query never stops a ray where p = 1.
             if p < 1.0 { 1.0 / (1.0 - p) } else { 0.0 }
@@ -147,6 +178,7 @@ impl Bsdf {
                     weight: *albedo,
                     pdf: cosine_hemisphere_pdf(cos),
                     cos,
+                    transmitted: false,
                 })
             }
             Bsdf::Glossy {
@@ -167,9 +199,48 @@ impl Bsdf {
                     weight: s.f * (*scale * s.wi.z / s.pdf),
                     pdf: s.pdf,
                     cos: s.wi.z,
+                    transmitted: false,
                 })
             }
         }
+    }
+
+    /// Whether the BSDF refracts (a volume's boundary): its draws may cross the surface, and
+    /// take a third random number ([`Bsdf::draw`]).
+    #[inline]
+    pub fn refracts(&self) -> bool {
+        matches!(self, Bsdf::Glossy { material, .. }
+            if material.transmission() > 0.0 && !material.is_thin_walled())
+    }
+
+    /// A direction drawn from `dims`: [`Bsdf::sample`] of the next two numbers, except where
+    /// the BSDF refracts, whose lobe choice (among reflection, refraction and diffuse; from
+    /// inside, reflection or refraction at the drawn microfacet) takes a third, so that the
+    /// streams of every other surface stay as they were.
+    #[inline]
+    pub fn draw(&self, dims: &mut Dimensions) -> Option<BsdfDraw> {
+        let u = dims.next_2d();
+        let Bsdf::Glossy {
+            material,
+            frame,
+            wo,
+            scale,
+        } = self
+        else {
+            return self.sample(u);
+        };
+        if !self.refracts() {
+            return self.sample(u);
+        }
+        let s = material.sample(*wo, dims.next_1d(), u)?;
+        let cos = s.wi.z.abs();
+        (s.pdf > 0.0).then(|| BsdfDraw {
+            wi: frame.to_world(s.wi),
+            weight: s.f * (*scale * cos / s.pdf),
+            pdf: s.pdf,
+            cos,
+            transmitted: s.wi.z * wo.z < 0.0,
+        })
     }
 
     /// [`Bsdf::sample`] made defensive for estimating irradiance as well as reflection: on a
@@ -199,6 +270,7 @@ impl Bsdf {
             weight: self.eval(wi) * (cos / pdf),
             pdf,
             cos,
+            transmitted: false,
         })
     }
 
@@ -222,6 +294,8 @@ impl Bsdf {
     pub fn diffuse_reflectance(&self) -> Vec3 {
         match self {
             Bsdf::Lambertian { albedo, .. } => *albedo,
+            // From inside a volume, no diffuse base faces the viewer.
+            Bsdf::Glossy { wo, .. } if wo.z <= 0.0 && self.refracts() => Vec3::ZERO,
             Bsdf::Glossy {
                 material,
                 wo,
@@ -246,6 +320,16 @@ impl Bsdf {
                 scale,
             } => {
                 let local = frame.to_local(wi);
+                if self.refracts() {
+                    // The diffuse stand-in covers the outside's reflection only; across the
+                    // boundary, and from inside, the whole BSDF is the residual.
+                    let f = material.eval(*wo, local);
+                    return if wo.z > 0.0 && local.z > 0.0 {
+                        f - material.diffuse_albedo(*wo) * FRAC_1_PI
+                    } else {
+                        f
+                    };
+                }
                 if local.z <= 0.0 {
                     return Vec3::ZERO;
                 }
@@ -274,11 +358,17 @@ impl Bsdf {
 
     /// An estimate of the directional albedo, for Russian roulette: ρ on a Lambertian
     /// surface; on a glossy one the diffuse lobe's albedo plus Schlick's F at cos θo (the glossy
-    /// lobe's albedo at low roughness, an overestimate when rough).
+    /// lobe's albedo at low roughness, an overestimate when rough); on a refracting one, which
+    /// passes on what it does not reflect, the base colour's share that is transmitted or
+    /// reflected, at most 1 (clear glass goes on with certainty).
     #[inline]
     pub fn albedo_estimate(&self) -> Vec3 {
         match self {
             Bsdf::Lambertian { albedo, .. } => *albedo,
+            Bsdf::Glossy { material, .. } if self.refracts() => {
+                let t = material.transmission() * (1.0 - material.metallic());
+                (material.base_color() * t + material.specular_f90() * (1.0 - t)).min(Vec3::ONE)
+            }
             Bsdf::Glossy {
                 material,
                 wo,

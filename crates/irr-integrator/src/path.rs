@@ -524,16 +524,19 @@ impl PathTracer {
         };
         // BSDF sampling: a cosine-distributed direction on a Lambertian surface, a lobe and a
         // direction from it on a glossy one.
-        let draw = bsdf.sample(path.dims.next_2d());
-        // A shading normal can send the direction under the geometric surface: end the path
-        // there rather than let light leak through.
+        let draw = bsdf.draw(&mut path.dims);
+        // A shading normal can send the direction under the geometric surface (or a
+        // refraction above it): end the path there rather than let light leak through.
         let (wi, weight, pdf_bsdf) =
             draw.map_or((Vec3::ZERO, Vec3::ZERO, 0.0), |d| (d.wi, d.weight, d.pdf));
-        let ray = (pdf_bsdf > 0.0 && wi.dot(x.ng) > 0.0).then(|| Ray::spawn(x.position, x.ng, wi));
+        let ray = draw
+            .filter(|d| pdf_bsdf > 0.0 && d.leaves(x.ng))
+            .map(|_| Ray::spawn(x.position, x.ng, wi));
         rays.closest += u64::from(ray.is_some());
         // The share of that weight the residual f − ρ_d/π carries, at x₀ of a camera path:
         // (f − ρ_d/π)·cos/pdf, from the draw's own f·cos/pdf (no second evaluation of f).
         let residual = match draw {
+            Some(d) if path.glossy && path.depth == 0 && d.transmitted => d.weight,
             Some(d) if path.glossy && path.depth == 0 && !bsdf.is_lambertian() => {
                 d.weight - bsdf.diffuse_reflectance() * (FRAC_1_PI * d.cos / d.pdf)
             }
@@ -548,6 +551,7 @@ impl PathTracer {
             shadow,
             wi,
             pdf_bsdf,
+            light_samples: draw.map_or(1.0, |d| d.light_samples(1.0)),
             ray,
         })
     }
@@ -591,7 +595,7 @@ impl PathTracer {
                     let le = scene.emitted_at(&surface, -b.wi);
                     if le != Vec3::ZERO {
                         let ray = (path.x.position, b.wi);
-                        let w = emission_weight(scene, &surface, ray, b.pdf_bsdf, 1.0);
+                        let w = emission_weight(scene, &surface, ray, b.pdf_bsdf, b.light_samples);
                         contribution += weight * le * w;
                     }
                     next = Some(surface);
@@ -684,6 +688,9 @@ struct Bounce {
     shadow: Option<Ray>,
     wi: Vec3,
     pdf_bsdf: f32,
+    /// The light samples an emitter the BSDF's ray finds is weighed against (none after a
+    /// refraction: `BsdfDraw::light_samples`).
+    light_samples: f32,
     ray: Option<Ray>,
 }
 

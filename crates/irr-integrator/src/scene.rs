@@ -448,14 +448,14 @@ impl Scene {
             }
         };
         covered
-            && !(m.transmits()
+            && !(m.passes_straight()
                 && pass_sample(ray, hit.triangle)
                     < self.pass_probability(hit.triangle, hit.b1, hit.b2, ray.direction))
     }
 
     /// The probability with which a ray along `direction` passes straight through the glass
-    /// at barycentrics (b1, b2) of triangle `triangle` ([`Material::transmits`]; 0 for any
-    /// other material): the mean over the colour channels of the sheet's straight
+    /// at barycentrics (b1, b2) of triangle `triangle` ([`Material::passes_straight`]; 0 for
+    /// any other material, a volume's refracting boundary included): the mean over the colour channels of the sheet's straight
     /// transmittance τ (1 − F)/(1 + F) at the ray's angle to the winding normal (irr-bsdf's
     /// `sheet_transmittance`), τ the base colour × transmission × (1 − metallic).
     ///
@@ -466,7 +466,7 @@ impl Scene {
     /// loader warns): a ray either passes or not, and carries no tint.
     #[inline]
     pub fn pass_probability(&self, triangle: u32, b1: f32, b2: f32, direction: Vec3) -> f32 {
-        if !self.material_of(triangle).transmits() {
+        if !self.material_of(triangle).passes_straight() {
             return 0.0;
         }
         let ng = self.geometry.geometric_normal(triangle);
@@ -635,10 +635,12 @@ impl Scene {
             material.specular,
         )
         .with_ior(material.ior);
-        if material.transmits() {
+        if material.passes_straight() {
             reflection
                 .with_transmission(material.transmission, true)
                 .with_straight_transmission()
+        } else if material.transmits() {
+            reflection.with_transmission(material.transmission, false)
         } else {
             reflection
         }

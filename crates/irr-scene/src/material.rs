@@ -29,10 +29,14 @@ pub struct Material {
     /// 1 otherwise, and finite.
     pub ior: f32,
     /// `KHR_materials_transmission`'s `transmissionFactor`, in [0, 1]: the share of the
-    /// dielectric's base that transmits light instead of reflecting it diffusely (glass). irr
-    /// renders the surface as a thin sheet whose transmitted light passes straight through it
-    /// ([`Material::transmits`]; irr-bsdf's `with_straight_transmission`). 0: opaque.
+    /// dielectric's base that transmits light instead of reflecting it diffusely (glass). A
+    /// thin sheet ([`Material::thin_walled`]) lets its transmitted light pass straight through
+    /// ([`Material::passes_straight`]; irr-bsdf's `with_straight_transmission`); a volume's
+    /// boundary refracts it (irr-bsdf's rough dielectric BTDF). 0: opaque.
     pub transmission: f32,
+    /// Whether a transmitting material is a thin sheet (glTF's default) rather than the
+    /// boundary of a volume (`KHR_materials_volume` with a thickness above 0), which refracts.
+    pub thin_walled: bool,
     /// Emitted radiance Le in W·sr⁻¹·m⁻² per channel, the same in every direction of an emitting
     /// side (glTF `emissiveFactor` × `KHR_materials_emissive_strength.emissiveStrength`).
     pub emission: Vec3,
@@ -100,6 +104,7 @@ impl Material {
             specular: 0.0,
             ior: 1.5,
             transmission: 0.0,
+            thin_walled: true,
             emission: Vec3::ZERO,
             two_sided: true,
             albedo_texture: None,
@@ -198,7 +203,7 @@ impl Material {
     /// ([`Material::transmits`]). A scene none of whose materials can is traced without asking
     /// about any hit.
     pub fn can_cut_out(&self) -> bool {
-        self.transmits()
+        self.passes_straight()
             || match self.alpha_mode {
                 AlphaMode::Opaque => false,
                 AlphaMode::Mask(cutoff) => self.alpha_texture.is_some() || self.alpha < cutoff,
@@ -206,12 +211,18 @@ impl Material {
             }
     }
 
-    /// Whether rays pass straight through the surface as through a thin sheet of glass, with
-    /// the probability of its straight transmittance (stochastic transparency, as a blend's):
-    /// a transmission factor above 0 on a material that neither emits (an emitter's light is
-    /// sampled as if every ray met it) nor is unlit (which no ray but the camera's meets).
+    /// Whether the material transmits light (glass): a transmission factor above 0 on a
+    /// material that neither emits (an emitter's light is sampled as if every ray met it) nor
+    /// is unlit (which no ray but the camera's meets).
     pub fn transmits(&self) -> bool {
         self.transmission > 0.0 && !self.unlit && !self.is_emissive()
+    }
+
+    /// Whether rays pass straight through the surface, with the probability of its straight
+    /// transmittance: a transmitting thin sheet ([`Material::transmits`] and
+    /// [`Material::thin_walled`]). A volume's boundary stops every ray and refracts by its BSDF.
+    pub fn passes_straight(&self) -> bool {
+        self.transmits() && self.thin_walled
     }
 
     /// The index among [`Material::tex_coord_sets`] of the set `texture` reads.

@@ -567,7 +567,7 @@ fn trace_light_path(
     let mut ray = *ray;
     let mut j = 0usize;
     // The density and origin of the last vertex's draw, for weighting the emission it finds.
-    let mut last_draw: Option<(f32, Vec3)> = None;
+    let mut last_draw: Option<(f32, Vec3, f32)> = None;
     loop {
         rays.closest += 1;
         let Some(hit) = scene.intersect(&ray) else {
@@ -580,10 +580,11 @@ fn trace_light_path(
         let surface = geometry.surface(&ray, &hit);
         // Emission the last vertex's draw found: light arriving there, weighted against its
         // light sample by the power heuristic (as the path tracer weighs them).
-        if let Some((pdf_draw, from)) = last_draw {
+        if let Some((pdf_draw, from, light_samples)) = last_draw {
             let le = scene.emitted_at(&surface, -ray.direction);
             if le != Vec3::ZERO {
-                let w = emission_weight(scene, &surface, (from, ray.direction), pdf_draw, 1.0);
+                let ray = (from, ray.direction);
+                let w = emission_weight(scene, &surface, ray, pdf_draw, light_samples);
                 add(&mut slots, j - 1, le * w);
             }
         }
@@ -593,6 +594,9 @@ fn trace_light_path(
         }
         let x = scene.shading_point(&surface, -ray.direction);
         let bsdf = Bsdf::at(scene, &x);
+        // A refracting vertex (a volume's boundary) is crossed by BSDF sampling alone, and
+        // deposits nothing: its diffuse part, if any, path-traces where its cell is sparse.
+        let refracts = bsdf.refracts();
         if j < DEPOSITS_PER_PATH {
             slots.push(Slot {
                 key: grid.key(x.position, x.ns),
@@ -601,7 +605,7 @@ fn trace_light_path(
                 irradiance: Vec3::ZERO,
                 // Black vertices reflect nothing (their walk ends there, so their estimate
                 // would lack its indirect part).
-                deposit: !bsdf.is_black(),
+                deposit: !bsdf.is_black() && !refracts,
             });
         }
         // One light sample, weighted against this vertex's draw by the power heuristic (a
@@ -611,6 +615,8 @@ fn trace_light_path(
         if let Some(a) = sample_light(scene, &x, &mut dims, rays) {
             let w = if a.delta {
                 1.0
+            } else if refracts {
+                power_heuristic(a.pdf, bsdf.pdf(a.wi))
             } else {
                 power_heuristic(a.pdf, bsdf.pdf_defensive(a.wi))
             };
@@ -639,11 +645,17 @@ fn trace_light_path(
         };
         let u_rr = dims.next_1d();
         // Defensive on glossy vertices: half the draws cosine-distributed, so that the
-        // irradiance weight cos θ/pdf stays bounded under a narrow lobe.
-        let draw = bsdf.sample_defensive(dims.next_2d());
-        // A direction below the geometric surface carries no light (as in the path tracer).
+        // irradiance weight cos θ/pdf stays bounded under a narrow lobe; a refracting vertex,
+        // which deposits nothing, by its BSDF alone (cosine draws would not cross it).
+        let draw = if refracts {
+            bsdf.draw(&mut dims)
+        } else {
+            bsdf.sample_defensive(dims.next_2d())
+        };
+        // A direction below the geometric surface carries no light (as in the path tracer),
+        // unless it refracts through it.
         let Some(d) = draw.filter(|d| {
-            !bsdf.is_black() && u_rr < q && d.wi.dot(x.ng) > 0.0 && d.cos > 0.0 && d.pdf > 0.0
+            !bsdf.is_black() && u_rr < q && d.leaves(x.ng) && d.cos > 0.0 && d.pdf > 0.0
         }) else {
             break;
         };
@@ -657,7 +669,7 @@ fn trace_light_path(
                 slot.factor *= d.weight / q;
             }
         }
-        last_draw = Some((d.pdf, x.position));
+        last_draw = Some((d.pdf, x.position, d.light_samples(1.0)));
         ray = Ray::spawn(x.position, x.ng, d.wi);
         j += 1;
     }

@@ -529,10 +529,10 @@ impl IrradianceCacheIntegrator {
         dims: &mut Dimensions,
         rays: &mut RayCounter,
     ) -> (Vec3, Vec3, Vec3) {
-        let Some(draw) = bsdf.sample(dims.next_2d()) else {
+        let Some(draw) = bsdf.draw(dims) else {
             return (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
         };
-        if draw.wi.dot(x.ng) <= 0.0 {
+        if !draw.leaves(x.ng) {
             return (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
         }
         let share = bsdf.residual(draw.wi) * (draw.cos / draw.pdf);
@@ -551,7 +551,13 @@ impl IrradianceCacheIntegrator {
             let ray = (x.position, draw.wi);
             // With m BSDF samples the heuristic weighs m·p_bsdf (`direct_light`).
             let pdf = bsdf_samples as f32 * draw.pdf;
-            let w = emission_weight(scene, &surface, ray, pdf, light_samples as f32);
+            let w = emission_weight(
+                scene,
+                &surface,
+                ray,
+                pdf,
+                draw.light_samples(light_samples as f32),
+            );
             direct = draw.weight * le * w;
         }
         // What the hit reflects, as a level-0 gather ray would bring it back (from the light
@@ -595,10 +601,10 @@ impl IrradianceCacheIntegrator {
             };
             value += bsdf.residual(nee.wi) * nee.le * (nee.cos_surface * w / nee.pdf);
         }
-        let Some(draw) = bsdf.sample(dims.next_2d()) else {
+        let Some(draw) = bsdf.draw(dims) else {
             return value;
         };
-        if draw.wi.dot(x.ng) <= 0.0 {
+        if !draw.leaves(x.ng) {
             return value;
         }
         let weight = bsdf.residual(draw.wi) * (draw.cos / draw.pdf);
@@ -612,7 +618,13 @@ impl IrradianceCacheIntegrator {
         if le != Vec3::ZERO {
             value += weight
                 * le
-                * emission_weight(scene, &surface, (x.position, draw.wi), draw.pdf, 1.0);
+                * emission_weight(
+                    scene,
+                    &surface,
+                    (x.position, draw.wi),
+                    draw.pdf,
+                    draw.light_samples(1.0),
+                );
         }
         if lobe {
             let read = lobe_read(dims, 1);

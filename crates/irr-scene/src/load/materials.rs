@@ -158,6 +158,14 @@ impl Loader<'_> {
                 clamped_factors += 1;
                 transmission.clamp(0.0, 1.0)
             };
+            // KHR_materials_volume: a thickness above 0 makes the surface a volume's boundary,
+            // which refracts (its absorption is not modelled: warned below).
+            let volume_json = extensions.and_then(|e| e.volume.as_ref());
+            let volume = volume_json
+                .is_some_and(|v| v.thickness_factor.0 > 0.0 || v.thickness_texture.is_some());
+            let absorbs = volume_json.is_some_and(|v| {
+                v.attenuation_distance.0.is_finite() && v.attenuation_color.0 != [1.0; 3]
+            });
             let strength = m.emissive_strength().unwrap_or(1.0);
             let emission = Vec3::from_array(m.emissive_factor()) * strength;
             if !emission.is_finite() || emission.min_element() < 0.0 {
@@ -248,6 +256,7 @@ impl Loader<'_> {
                 specular,
                 ior: if unlit { 1.5 } else { ior },
                 transmission: if unlit { 0.0 } else { transmission },
+                thin_walled: !volume,
                 albedo_texture,
                 emission_texture,
                 metallic_roughness_texture,
@@ -259,13 +268,10 @@ impl Loader<'_> {
                 unlit,
             });
             if let Some(m) = out.last().filter(|m| m.transmission > 0.0 && !m.unlit) {
-                let volume = extensions
-                    .and_then(|e| e.volume.as_ref())
-                    .is_some_and(|v| v.thickness_factor.0 > 0.0 || v.thickness_texture.is_some());
                 glass.count(
                     m,
                     transmission_json.is_some_and(|t| t.transmission_texture.is_some()),
-                    volume,
+                    volume && absorbs,
                 );
             }
         }
@@ -329,18 +335,22 @@ impl GlassWarnings {
     /// α = roughness² at irr-bsdf's floor `SMOOTH_ALPHA` (1e-3).
     const SMOOTH_ROUGHNESS: f32 = 0.0316;
 
-    fn count(&mut self, m: &Material, texture: bool, volume: bool) {
+    /// Counts what of glass material `m` is left out: its transmission `texture`, a volume's
+    /// absorption (`absorbs`), and for a thin sheet its roughness and tint.
+    fn count(&mut self, m: &Material, texture: bool, absorbs: bool) {
         if m.is_emissive() {
             self.emissive += 1;
             return;
         }
         self.texture += usize::from(texture);
-        self.volume += usize::from(volume);
-        self.rough += usize::from(
-            m.roughness > Self::SMOOTH_ROUGHNESS || m.metallic_roughness_texture.is_some(),
-        );
-        let a = m.albedo;
-        self.tinted += usize::from(a.x != a.y || a.y != a.z || m.albedo_texture.is_some());
+        self.volume += usize::from(absorbs);
+        if m.thin_walled {
+            self.rough += usize::from(
+                m.roughness > Self::SMOOTH_ROUGHNESS || m.metallic_roughness_texture.is_some(),
+            );
+            let a = m.albedo;
+            self.tinted += usize::from(a.x != a.y || a.y != a.z || m.albedo_texture.is_some());
+        }
     }
 
     fn warn(&self, loader: &mut Loader<'_>) {
@@ -353,20 +363,20 @@ impl GlassWarnings {
         });
         w.add("transmission-volume", self.volume, |n| {
             format!(
-                "{} KHR_materials_volume: rendered as a thin sheet (no refraction, no absorption)",
+                "{} KHR_materials_volume attenuation: ignored (the volume refracts, it does not absorb)",
                 plural(n, "glass material has", "glass materials have")
             )
         });
         w.add("transmission-rough", self.rough, |n| {
             format!(
                 "{} rougher than 0.03: light passing through is seen sharp, not blurred (the reflection keeps its roughness)",
-                plural(n, "glass material is", "glass materials are")
+                plural(n, "thin glass material is", "thin glass materials are")
             )
         });
         w.add("transmission-tint", self.tinted, |n| {
             format!(
                 "{} a coloured or textured base colour: light passing through is dimmed by its mean, not tinted",
-                plural(n, "glass material has", "glass materials have")
+                plural(n, "thin glass material has", "thin glass materials have")
             )
         });
         w.add("transmission-emissive", self.emissive, |n| {

@@ -16,7 +16,8 @@
 //!   `metallicFactor` 0 makes a Lambertian surface of albedo `baseColorFactor`) and
 //!   `KHR_materials_ior`'s `ior` (the dielectric's F0; 1.5 without it) and
 //!   `KHR_materials_transmission`'s factor (glass, rendered as a thin sheet that light passes
-//!   straight through: its texture, `KHR_materials_volume`, the blur of a rough sheet and the
+//!   straight through, or with `KHR_materials_volume`'s thickness above 0 as a volume's
+//!   refracting boundary: its texture, a volume's attenuation, the blur of a rough sheet and the
 //!   tint of a coloured one are left out, each with a warning); `emissiveFactor` times
 //!   `KHR_materials_emissive_strength.emissiveStrength` (1 without the extension) is the emitted
 //!   radiance in W·sr⁻¹·m⁻²; `doubleSided` says whether a surface emits from both faces or only
@@ -112,11 +113,12 @@ use std::path::{Path, PathBuf};
 pub const MAX_COORDINATE: f32 = 1e18;
 
 /// The extensions irr reads.
-const SUPPORTED_EXTENSIONS: [&str; 8] = [
+const SUPPORTED_EXTENSIONS: [&str; 9] = [
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_specular",
     "KHR_materials_transmission",
+    "KHR_materials_volume",
     "KHR_texture_transform",
     "KHR_lights_punctual",
     "KHR_materials_unlit",
