@@ -168,61 +168,50 @@ fn identical_images(loaded: &LoadedScene, ic: IcSettings) -> Vec<u32> {
 }
 
 /// Two rooms of 2 m × 2 m, 1 m high, open at the top to a black void, side by side along x and
-/// separated by a wall 1 mm thick. Room A (x < 0) holds an emitter facing down at half height;
-/// room B (x > 0.001) none. No path leads from A into B (the wall is as high as the outer walls
-/// and nothing above returns light), so the path tracer gives exactly 0 on B's floor.
+/// separated by a wall 1 mm thick at x = 0. Room A (x < 0) holds an emitter facing down at half
+/// height; room B (x > 0.001) none. No path leads from A into B (the wall is as high as the
+/// outer walls and nothing above returns light), so the path tracer gives exactly 0 on B's floor.
 fn two_rooms() -> Scene {
-    let grey = 0;
-    let light = 1;
+    two_rooms_split(0.0, 0.001, Material::diffuse(Vec3::splat(0.8)))
+}
+
+/// [`two_rooms`] with the wall from x = `at` to `at + thick`, and floors of `floor`: room A
+/// spans x ∈ (−2, `at`), room B (`at + thick`, 2.001).
+fn two_rooms_split(at: f32, thick: f32, floor: Material) -> Scene {
+    let (grey, light, floors) = (0, 1, 2);
+    let b = at + thick;
     let mut meshes = vec![
-        // Floors.
         quad(
             [
                 Vec3::new(-2.0, 0.0, -1.0),
-                Vec3::new(0.0, 0.0, -1.0),
-                Vec3::new(0.0, 0.0, 1.0),
+                Vec3::new(at, 0.0, -1.0),
+                Vec3::new(at, 0.0, 1.0),
                 Vec3::new(-2.0, 0.0, 1.0),
             ],
-            grey,
+            floors,
             Vec3::Y,
         ),
         quad(
             [
-                Vec3::new(0.001, 0.0, -1.0),
+                Vec3::new(b, 0.0, -1.0),
                 Vec3::new(2.001, 0.0, -1.0),
                 Vec3::new(2.001, 0.0, 1.0),
-                Vec3::new(0.001, 0.0, 1.0),
+                Vec3::new(b, 0.0, 1.0),
             ],
-            grey,
+            floors,
             Vec3::Y,
         ),
     ];
     // The thin wall, and the outer walls (thin boxes, closed).
-    meshes.extend(cuboid(
-        Vec3::new(0.0, 0.0, -1.0),
-        Vec3::new(0.001, 1.0, 1.0),
-        grey,
-    ));
-    meshes.extend(cuboid(
-        Vec3::new(-2.05, 0.0, -1.05),
-        Vec3::new(-2.0, 1.0, 1.05),
-        grey,
-    ));
-    meshes.extend(cuboid(
-        Vec3::new(2.001, 0.0, -1.05),
-        Vec3::new(2.051, 1.0, 1.05),
-        grey,
-    ));
-    meshes.extend(cuboid(
-        Vec3::new(-2.05, 0.0, -1.05),
-        Vec3::new(2.051, 1.0, -1.0),
-        grey,
-    ));
-    meshes.extend(cuboid(
-        Vec3::new(-2.05, 0.0, 1.0),
-        Vec3::new(2.051, 1.0, 1.05),
-        grey,
-    ));
+    for (lo, hi) in [
+        (Vec3::new(at, 0.0, -1.0), Vec3::new(b, 1.0, 1.0)),
+        (Vec3::new(-2.05, 0.0, -1.05), Vec3::new(-2.0, 1.0, 1.05)),
+        (Vec3::new(2.001, 0.0, -1.05), Vec3::new(2.051, 1.0, 1.05)),
+        (Vec3::new(-2.05, 0.0, -1.05), Vec3::new(2.051, 1.0, -1.0)),
+        (Vec3::new(-2.05, 0.0, 1.0), Vec3::new(2.051, 1.0, 1.05)),
+    ] {
+        meshes.extend(cuboid(lo, hi, grey));
+    }
     // The emitter: 0.4 m square at y = 0.5, emitting downwards only, near the wall.
     meshes.push(quad(
         [
@@ -238,6 +227,7 @@ fn two_rooms() -> Scene {
     let materials = vec![
         Material::diffuse(Vec3::splat(0.8)),
         Material::emitter(Vec3::splat(20.0)),
+        floor,
     ];
     Scene::new(geometry, materials).unwrap_or_else(|e| panic!("{e}"))
 }
@@ -312,6 +302,67 @@ fn no_light_leaks_through_a_thin_wall() {
         dark_side(&leaky).iter().any(|p| *p != Vec3::ZERO),
         "without the guard nothing leaked: the test would not see a leak"
     );
+}
+
+/// No light through a wall in the light cache: its cells are a fifth of the image (1 m on the
+/// floors), so the cells along a wall 1 cm thick, off every cell border (x = 0.2903 to 0.3003),
+/// hold the lit floor and walls of room A on one side and room B's dark ones on the other, as
+/// coplanar as two floors split by a wall are. Room B's floor is exactly 0 in the path tracer,
+/// and must be in the cache's image, with Lambertian floors (gather rays' reads) and with glossy
+/// ones (the camera hits' lobe samples read cells filtered, reaching a cell further).
+#[test]
+fn no_light_cache_light_through_a_wall() {
+    let (at, thick) = (0.2903, 0.01);
+    let camera = Camera::look_at(Vec3::new(0.0, 6.0, 0.0), Vec3::ZERO, -Vec3::Z, 0.8)
+        .unwrap_or_else(|| panic!("camera"));
+    let settings = RenderSettings {
+        width: 96,
+        height: 48,
+        spp: 2,
+        seed: 3,
+        threads: 0,
+    };
+    // A pixel spans 6·2·tan(0.4)/48 = 0.106 m on the floor, the image's column 48 at x = 0:
+    // B's floor (x > 0.3003) starts in column 50; the dark region keeps 3 pixels from its
+    // edges (columns 53–64, rows 17–31).
+    let region = |image: &Image, columns: std::ops::RangeInclusive<u32>| -> Vec<Vec3> {
+        (17..=31)
+            .flat_map(|y| columns.clone().map(move |x| (x, y)))
+            .map(|(x, y)| image.get(x, y))
+            .collect()
+    };
+    // The image height at the floor is 5.07 m: a fifth of it, 1.01 m, makes 1 m cells.
+    let ic = IcSettings {
+        light_cache_cell: 0.2,
+        ..small()
+    };
+    for (name, floor) in [
+        ("lambertian", Material::diffuse(Vec3::splat(0.8))),
+        (
+            "glossy",
+            Material::metallic_roughness(Vec3::splat(0.8), 0.0, 0.3),
+        ),
+    ] {
+        let scene = two_rooms_split(at, thick, floor);
+        let pt = path_image(&scene, &camera, &settings);
+        assert!(
+            region(&pt, 53..=64).iter().all(|p| *p == Vec3::ZERO),
+            "{name}: the path tracer sees light in room B"
+        );
+        let (image, _) = ic_image(&scene, &camera, ic, &settings);
+        let lit: f32 = region(&image, 31..=45).iter().map(|p| p.x).sum();
+        assert!(lit > 1.0, "{name}: room A is not lit");
+        let leaks: Vec<_> = region(&image, 53..=64)
+            .into_iter()
+            .filter(|p| *p != Vec3::ZERO)
+            .collect();
+        assert!(
+            leaks.is_empty(),
+            "{name}: {} pixels of room B lit through the wall: {:?}",
+            leaks.len(),
+            &leaks[..leaks.len().min(5)]
+        );
+    }
 }
 
 /// No halo at a contact: along the base of the Cornell box's boxes, where the floor meets their

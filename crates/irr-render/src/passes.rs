@@ -179,14 +179,28 @@ fn trace_light_cache(
             || next.clone().map(|(chunk, t)| trace(chunk, t)),
             || {
                 pending.take().map(|p| {
-                    builder.add_light_paths(p);
-                    builder.light_cache_converged()
+                    // Whether each deposit sees its cell's anchor, in parallel.
+                    let occluded = |rays: &[Ray]| -> Vec<bool> {
+                        rays.par_chunks(64)
+                            .flat_map_iter(|chunk| {
+                                let mut hidden = vec![false; chunk.len()];
+                                scene.occluded_stream(chunk, &mut hidden);
+                                hidden
+                            })
+                            .collect()
+                    };
+                    let shadow = builder.add_light_paths(p, &occluded);
+                    (builder.light_cache_converged(), shadow)
                 })
             },
         );
         if let Some((_, r)) = &traced {
             rays += *r;
         }
+        let converged = converged.map(|(converged, shadow)| {
+            rays.shadow += shadow;
+            converged
+        });
         if converged == Some(true) {
             break;
         }
@@ -198,6 +212,7 @@ fn trace_light_cache(
             _ => break,
         }
     }
+    builder.settle_light_cache();
     LightCacheStats {
         counts: builder.light_cache_counts(),
         error: builder.light_cache_error(),
@@ -314,11 +329,12 @@ impl CacheBuildStats {
             )
         }) + &self.light.map_or_else(String::new, |l| {
             format!(
-                "; light cache: {} paths, {} deposits in {} cells ({} used, {:.1} % error{}), {:.2} s",
+                "; light cache: {} paths, {} deposits in {} cells ({} used, {} split by walls, {:.1} % error{}), {:.2} s",
                 l.counts.paths,
                 l.counts.deposits,
                 l.counts.cells,
                 l.counts.used_cells,
+                l.counts.split,
                 100.0 * l.error,
                 if l.counts.dropped > 0 {
                     format!(

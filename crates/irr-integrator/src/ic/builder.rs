@@ -203,10 +203,21 @@ pub trait CacheBuilder: Integrator + Send {
     }
 
     /// Adds traced paths to the light cache, in the order given (the renderer gives path
-    /// order, so the cell sums are the same bits for any thread count).
-    fn add_light_paths(&mut self, paths: Vec<Vec<LightDeposit>>) {
-        let _ = paths;
+    /// order, so the cell sums are the same bits for any thread count). `occluded` traces a
+    /// batch of shadow rays (whether each deposit sees its cell's anchor: `LightCache::add_paths`)
+    /// and may do so in parallel; the return value is the number of rays it was given.
+    fn add_light_paths(
+        &mut self,
+        paths: Vec<Vec<LightDeposit>>,
+        occluded: &dyn Fn(&[Ray]) -> Vec<bool>,
+    ) -> u64 {
+        let _ = (paths, occluded);
+        0
     }
+
+    /// Ends the light cache's construction once every path is added (`LightCache::settle`):
+    /// before the first read.
+    fn settle_light_cache(&mut self) {}
 
     /// What the light cache holds.
     fn light_cache_counts(&self) -> LightCacheCounts {

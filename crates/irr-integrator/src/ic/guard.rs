@@ -91,11 +91,7 @@ impl<V: IcValue> Core<V> {
             front(guard.geometric_normal, record.normal),
             front(q.ng, q.ns),
         );
-        GuardTest::Ray(if qf.dot(record.position - q.p) < 0.0 {
-            Ray::spawn_between_fronts(q.p, qf, record.position, rf)
-        } else {
-            Ray::spawn_between_fronts(record.position, rf, q.p, qf)
-        })
+        GuardTest::Ray(between_fronts((record.position, rf), (q.p, qf)))
     }
 
     /// Whether record `id` of `level` may be used at `q`: the leak guard, its shadow ray (if it
@@ -117,6 +113,19 @@ impl<V: IcValue> Core<V> {
                 !scene.occluded(&ray)
             }
         }
+    }
+}
+
+/// The shadow ray that tells whether the surface point `q`, seen from the side `qf` of its
+/// surface, sees the point `p` seen from the side `pf`: between the two fronts
+/// (`Ray::spawn_between_fronts`), so that a point under a surface, however near, is hidden from
+/// the surface's top. A ray sees a surface it crosses as it leaves, not one it would cross at
+/// its very end: it starts at `q` when `p` lies behind `q`'s surface.
+pub(super) fn between_fronts((p, pf): (Vec3, Vec3), (q, qf): (Vec3, Vec3)) -> Ray {
+    if qf.dot(p - q) < 0.0 {
+        Ray::spawn_between_fronts(q, qf, p, pf)
+    } else {
+        Ray::spawn_between_fronts(p, pf, q, qf)
     }
 }
 

@@ -26,8 +26,21 @@
 //! looks, wherever it looks, and geometry the view does not approach (a far ground plane) gets
 //! coarse cells instead of coarsening every cell, as a width taken from the scene's bounds would.
 //!
+//! # Walls
+//! No key of position and orientation tells apart the floors of two rooms split by a wall
+//! thinner than a cell: they are coplanar and face the same way. So each cell keeps an anchor,
+//! the point of its first deposit (in merge order, so the same in every run), and a later
+//! deposit that does not see it (a shadow ray between the two surfaces' fronts, as the records'
+//! leak guard traces it) goes to the cell's hidden side, a second cell of the same place; the
+//! cell is then split. A read of a split cell takes the side whose anchor the reader sees (one
+//! shadow ray), and a filtered read takes a neighbouring cell only where the reader sees that
+//! cell's anchor (one or two), so neither reaches through a wall. A cell whose deposits all saw
+//! its anchor is read without a ray: a reader behind a wall from all of them stands where no
+//! path went. The points hidden from the anchor share the hidden side whatever hides them (two
+//! walls within one cell). The cost: a shadow ray per deposit, and the reads' above.
+//!
 //! # Its memory
-//! At most [`MAX_CELLS`] cells, in a table of at most 2²² slots: [`TABLE_BYTES`] (420 MiB)
+//! At most [`MAX_CELLS`] cells, in a table of at most 2²² slots: [`TABLE_BYTES`] (516 MiB)
 //! whatever the scene and the number of paths. Once the table holds [`MAX_CELLS`] cells, a
 //! deposit in a cell it does not hold is dropped and counted ([`LightCacheCounts::dropped`]);
 //! the cells it holds keep every deposit. So no cell's mean changes, and a lookup in a cell that
@@ -55,6 +68,7 @@
 //! "Continuations", has the measured bias against the path tracer.
 
 use crate::bsdf::Bsdf;
+use crate::ic::guard::between_fronts;
 use crate::integrator::RayCounter;
 use crate::path::{ShadingPoint, emission_weight, power_heuristic, sample_light};
 use crate::scene::Scene;
@@ -63,11 +77,18 @@ use irr_geometry::Ray;
 use irr_sampling::rng::Dimensions;
 use irr_sampling::{Frame, SampleKey};
 use rustc_hash::FxHashMap;
+use std::collections::hash_map::Entry;
 
 /// The fewest deposits a cell must hold to be used. Below it the cell's mean rests on a few
 /// paths, shared by every gather ray that hits the cell, and a path-traced continuation (one
 /// path, but independent per ray) is the better estimate.
 pub const MIN_DEPOSITS: u32 = 8;
+
+/// How many standard errors of their difference the means of a split cell's two sides must
+/// differ by for [`LightCache::settle`] to keep them apart: 3, so that two sides of the same
+/// light stay joined in all but 0.3 % of cells (a normal difference's two-sided tail), and a
+/// wall that matters, whose sides differ by many standard errors, keeps them apart.
+pub const SIDES_APART: f64 = 3.0;
 
 /// The width, in cells, of the box by which [`LightCache::irradiance_filtered`] filters the
 /// cells: on the glossy room with order-10 records and 16 lobe samples (docs/performance.md,
@@ -86,8 +107,9 @@ pub const MIN_CONTINUATION: f32 = 0.5;
 pub const CONVERGED_SHARE: f64 = 0.95;
 
 /// A cell of the grid: its level (the base-2 logarithm of its width, 0 in a uniform grid), its
-/// integer coordinates at that width, and the shading normal's bucket (0–5: the dominant axis,
-/// times 2, plus 1 if it points the negative way).
+/// integer coordinates at that width, the shading normal's bucket (0–5: the dominant axis,
+/// times 2, plus 1 if it points the negative way), and its side: 0 for the points that see the
+/// cell's anchor, 1 for those hidden from it (module docs, "Walls").
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct CellKey {
     level: i8,
@@ -95,6 +117,7 @@ pub struct CellKey {
     y: i32,
     z: i32,
     bucket: u8,
+    side: u8,
 }
 
 impl CellKey {
@@ -119,7 +142,37 @@ impl CellKey {
             y: c.y as i32,
             z: c.z as i32,
             bucket,
+            side: 0,
         }
+    }
+
+    /// The cell of the same place for the points hidden from its anchor.
+    #[inline]
+    fn hidden(self) -> Self {
+        Self { side: 1, ..self }
+    }
+}
+
+/// A surface point and the side of its surface it is seen from (its geometric normal turned
+/// to the viewer): a cell's anchor, or a deposit's point.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Seen {
+    position: Vec3,
+    front: Vec3,
+}
+
+impl Seen {
+    fn of(x: &ShadingPoint) -> Self {
+        Self {
+            position: x.position,
+            front: x.ng,
+        }
+    }
+
+    /// The shadow ray that tells whether `other` sees this point: between the two fronts, as
+    /// the records' leak guard traces it.
+    fn ray_to(&self, other: &Seen) -> Ray {
+        between_fronts((self.position, self.front), (other.position, other.front))
     }
 }
 
@@ -221,6 +274,7 @@ pub const DEEPER_READS: usize = 2;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightDeposit {
     key: CellKey,
+    at: Seen,
     irradiance: Vec3,
     tails: [Vec3; DEEPER_READS],
 }
@@ -235,7 +289,7 @@ pub const CELL_BYTES: usize = size_of::<CellKey>() + size_of::<CellSums>();
 pub const MAX_CELLS: usize = 7 << 19;
 
 /// The most bytes the light cache's table takes: 2²² slots of a cell and a control byte each
-/// (hashbrown's layout; its 16 trailing control bytes aside), 420 MiB.
+/// (hashbrown's layout; its 16 trailing control bytes aside), 516 MiB.
 pub const TABLE_BYTES: usize = (1 << 22) * (CELL_BYTES + 1);
 
 /// A cell's running sums (in f64: a cell may take millions of deposits), and the sum of its
@@ -246,9 +300,41 @@ struct CellSums {
     tails: [DVec3; DEEPER_READS],
     squares: f64,
     count: u32,
+    /// The point of the cell's first deposit, against which later deposits and reads are
+    /// tested (module docs, "Walls").
+    anchor: Seen,
+    /// Whether a deposit hidden from the anchor went to the cell's other side.
+    split: bool,
+}
+
+/// Whether `at` sees the anchor of cell `c` (a shadow ray, counted in `rays`).
+fn sees(scene: &Scene, at: &Seen, c: &CellSums, rays: &mut RayCounter) -> bool {
+    rays.shadow += 1;
+    !scene.occluded(&c.anchor.ray_to(at))
 }
 
 impl CellSums {
+    /// Whether this cell's mean luminance and `other`'s differ by more than [`SIDES_APART`]
+    /// standard errors of their difference (each side's from its own deposits).
+    fn apart_from(&self, other: &CellSums) -> bool {
+        let stats = |c: &CellSums| {
+            let n = f64::from(c.count);
+            let mean = luminance(c.sum) / n;
+            let var = ((c.squares - n * mean * mean) / (n - 1.0)).max(0.0);
+            (mean, var / n)
+        };
+        let ((m0, v0), (m1, v1)) = (stats(self), stats(other));
+        (m0 - m1).abs() > SIDES_APART * (v0 + v1).sqrt()
+    }
+
+    /// The cell's mean without the last `deeper` vertices' parts of its deposits, if it holds
+    /// at least [`MIN_DEPOSITS`] and `deeper` ≤ [`DEEPER_READS`].
+    fn mean(&self, deeper: usize) -> Option<Vec3> {
+        let tails = self.tails.get(..deeper)?;
+        let sum = tails.iter().fold(self.sum, |sum, t| sum - *t);
+        (self.count >= MIN_DEPOSITS).then(|| (sum / f64::from(self.count)).as_vec3())
+    }
+
     /// The squared relative standard error of the cell's mean luminance (0 for a black cell).
     fn relative_variance(&self) -> f64 {
         let n = f64::from(self.count);
@@ -337,19 +423,62 @@ impl LightCache {
         }
     }
 
-    /// Adds one path's deposits. The sums depend on the order of the calls, so the renderer
-    /// adds paths in their index order whatever thread traced them.
-    pub fn add_path(&mut self, deposits: &[LightDeposit]) {
-        self.paths += 1;
+    /// Adds paths' deposits, in the order given. The sums depend on that order, so the
+    /// renderer adds paths in their index order whatever thread traced them. A deposit in a
+    /// cell not held yet makes it, its point the cell's anchor; a later deposit there that does
+    /// not see the anchor goes to the cell's hidden side (module docs, "Walls").
+    /// `occluded(rays)` tells which of a batch of shadow rays are occluded (the renderer traces
+    /// them in parallel); the return value is how many it was given.
+    pub fn add_paths(
+        &mut self,
+        paths: &[Vec<LightDeposit>],
+        occluded: &dyn Fn(&[Ray]) -> Vec<bool>,
+    ) -> u64 {
+        let deposits: Vec<&LightDeposit> = paths.iter().flatten().collect();
+        self.paths += paths.len() as u64;
         self.deposits += deposits.len() as u64;
-        for d in deposits {
-            let c = if self.cells.len() < self.capacity {
-                self.cells.entry(d.key).or_default()
-            } else if let Some(c) = self.cells.get_mut(&d.key) {
-                c
+        // The anchors first, in order, and the test each other deposit takes.
+        let mut tests = Vec::new();
+        let test: Vec<Option<usize>> = deposits
+            .iter()
+            .map(|d| match self.cells.get(&d.key) {
+                Some(c) => {
+                    tests.push(c.anchor.ray_to(&d.at));
+                    Some(tests.len() - 1)
+                }
+                None => {
+                    if self.cells.len() < self.capacity {
+                        let anchored = CellSums {
+                            anchor: d.at,
+                            ..CellSums::default()
+                        };
+                        self.cells.insert(d.key, anchored);
+                    }
+                    None
+                }
+            })
+            .collect();
+        let hidden = occluded(&tests);
+        for (d, t) in deposits.into_iter().zip(test) {
+            let key = if t.and_then(|i| hidden.get(i).copied()) == Some(true) {
+                if let Some(c) = self.cells.get_mut(&d.key) {
+                    c.split = true;
+                }
+                d.key.hidden()
             } else {
-                self.dropped += 1;
-                continue;
+                d.key
+            };
+            let full = self.cells.len() >= self.capacity;
+            let c = match self.cells.entry(key) {
+                Entry::Occupied(e) => e.into_mut(),
+                Entry::Vacant(e) if !full => e.insert(CellSums {
+                    anchor: d.at,
+                    ..CellSums::default()
+                }),
+                Entry::Vacant(_) => {
+                    self.dropped += 1;
+                    continue;
+                }
             };
             let e = d.irradiance.as_dvec3();
             c.sum += e;
@@ -359,11 +488,68 @@ impl LightCache {
             c.squares += luminance(e).powi(2);
             c.count += 1;
         }
+        tests.len() as u64
     }
 
-    /// The mean irradiance deposited in `x`'s cell, if it holds at least [`MIN_DEPOSITS`].
-    pub fn irradiance(&self, x: &ShadingPoint) -> Option<Vec3> {
-        self.mean(&self.key(x), 0)
+    /// Joins the two sides of every split cell whose means differ by no more than
+    /// [`SIDES_APART`] standard errors of their difference (in luminance), once every path is
+    /// added: there the wall (or the column, or the chair leg) that split it changes nothing
+    /// the cell's noise shows, and the joined cell is read without a shadow ray. A side too
+    /// sparse to be used keeps the cell split (its readers path-trace rather than read the
+    /// other side's light).
+    pub fn settle(&mut self) {
+        let hidden: Vec<(CellKey, CellSums)> = self
+            .cells
+            .iter()
+            .filter(|(k, _)| k.side == 1)
+            .map(|(k, c)| (*k, *c))
+            .collect();
+        for (key, h) in hidden {
+            let seen = CellKey { side: 0, ..key };
+            let Some(c) = self.cells.get_mut(&seen) else {
+                continue;
+            };
+            if c.count < MIN_DEPOSITS || h.count < MIN_DEPOSITS || c.apart_from(&h) {
+                continue;
+            }
+            c.sum += h.sum;
+            for (sum, tail) in c.tails.iter_mut().zip(h.tails) {
+                *sum += tail;
+            }
+            c.squares += h.squares;
+            c.count += h.count;
+            c.split = false;
+            self.cells.remove(&key);
+        }
+    }
+
+    /// The mean irradiance deposited in `x`'s cell, if it holds at least [`MIN_DEPOSITS`]: on
+    /// the side of a split cell that `x` belongs to (one shadow ray, counted in `rays`).
+    pub fn irradiance(
+        &self,
+        scene: &Scene,
+        x: &ShadingPoint,
+        rays: &mut RayCounter,
+    ) -> Option<Vec3> {
+        self.side_of(scene, &Seen::of(x), self.key(x), rays)?
+            .mean(0)
+    }
+
+    /// The side of cell `key` that `at` belongs to: the anchor's, unless the cell is split and
+    /// `at` does not see the anchor (one shadow ray, counted in `rays`).
+    fn side_of(
+        &self,
+        scene: &Scene,
+        at: &Seen,
+        key: CellKey,
+        rays: &mut RayCounter,
+    ) -> Option<&CellSums> {
+        let c = self.cells.get(&key)?;
+        if !c.split || sees(scene, at, c, rays) {
+            Some(c)
+        } else {
+            self.cells.get(&key.hidden())
+        }
     }
 
     /// The cell mean read at x moved by (`u` − ½)·[`FILTER_CELLS`] cells along x's tangents,
@@ -373,29 +559,46 @@ impl LightCache {
     /// than one, so a cell's frozen noise, which all of them would share, averages down with
     /// the samples (to 5/12 of its variance per axis for a box two cells wide), and the mean
     /// read is the cell means' smooth interpolation rather than a staircase. The box shrinks
-    /// with the cells, so what it blurs vanishes as they do.
+    /// with the cells, so what it blurs vanishes as they do. A neighbouring cell counts only
+    /// where `x` sees its anchor (or its hidden side's): the filter does not reach through a
+    /// wall (a shadow ray or two, counted in `rays`).
     ///
     /// For a point `deeper` reflections further from the camera than a gather ray's hit, the
     /// means leave out the light of as many reflections at the end of each deposit's window, so
     /// that what the point reflects obeys the depth limit ([`DEEPER_READS`] at most: `None`
     /// beyond).
-    pub fn irradiance_filtered(&self, x: &ShadingPoint, u: Vec2, deeper: usize) -> Option<Vec3> {
+    pub fn irradiance_filtered(
+        &self,
+        scene: &Scene,
+        x: &ShadingPoint,
+        u: Vec2,
+        deeper: usize,
+        rays: &mut RayCounter,
+    ) -> Option<Vec3> {
         let frame = Frame::from_normal(x.ns);
         let d = (u - Vec2::splat(0.5)) * (FILTER_CELLS * self.grid.width(x.position));
         let moved = self
             .grid
             .key(x.position + frame.s * d.x + frame.t * d.y, x.ns);
-        self.mean(&moved, deeper)
-            .or_else(|| self.mean(&self.key(x), deeper))
-    }
-
-    /// The mean of cell `key` without the last `deeper` vertices' parts of its deposits, if it
-    /// holds at least [`MIN_DEPOSITS`] and `deeper` ≤ [`DEEPER_READS`].
-    fn mean(&self, key: &CellKey, deeper: usize) -> Option<Vec3> {
-        let c = self.cells.get(key)?;
-        let tails = c.tails.get(..deeper)?;
-        let sum = tails.iter().fold(c.sum, |sum, t| sum - *t);
-        (c.count >= MIN_DEPOSITS).then(|| (sum / f64::from(c.count)).as_vec3())
+        let own = self.key(x);
+        let at = Seen::of(x);
+        if moved != own
+            && let Some(c) = self.cells.get(&moved)
+        {
+            let seen = if sees(scene, &at, c, rays) {
+                Some(c)
+            } else if c.split {
+                self.cells
+                    .get(&moved.hidden())
+                    .filter(|h| sees(scene, &at, h, rays))
+            } else {
+                None
+            };
+            if let Some(mean) = seen.and_then(|c| c.mean(deeper)) {
+                return Some(mean);
+            }
+        }
+        self.side_of(scene, &at, own, rays)?.mean(deeper)
     }
 
     /// The relative standard error of the used cells' means (luminance), their root mean
@@ -439,6 +642,7 @@ impl LightCache {
                 .values()
                 .filter(|c| c.count >= MIN_DEPOSITS)
                 .count() as u64,
+            split: self.cells.keys().filter(|k| k.side == 1).count() as u64,
         }
     }
 }
@@ -456,6 +660,8 @@ pub struct LightCacheCounts {
     pub cells: u64,
     /// Cells with enough deposits to be used ([`MIN_DEPOSITS`]).
     pub used_cells: u64,
+    /// Of the cells, those that are the hidden side of a split cell (module docs, "Walls").
+    pub split: u64,
 }
 
 /// The most vertices of one path that deposit (its first ones): a path's deposits, and the work
@@ -466,6 +672,7 @@ pub const DEPOSITS_PER_PATH: usize = 16;
 /// One depositing vertex's estimate while the path goes on.
 struct Slot {
     key: CellKey,
+    at: Seen,
     /// The parts of `irradiance` from the last vertices of the window ([`LightDeposit`]).
     tails: [Vec3; DEEPER_READS],
     /// What turns radiance arriving at the current vertex along its drawn direction into the
@@ -600,6 +807,7 @@ fn trace_light_path(
         if j < DEPOSITS_PER_PATH {
             slots.push(Slot {
                 key: grid.key(x.position, x.ns),
+                at: Seen::of(&x),
                 tails: [Vec3::ZERO; DEEPER_READS],
                 factor: Vec3::ZERO,
                 irradiance: Vec3::ZERO,
@@ -678,6 +886,7 @@ fn trace_light_path(
         .filter(|s| s.deposit && s.irradiance.is_finite())
         .map(|s| LightDeposit {
             key: s.key,
+            at: s.at,
             irradiance: s.irradiance,
             tails: s.tails,
         })
@@ -691,6 +900,32 @@ mod tests {
     use crate::tests::{assert_close, first_surface, furnace, scene};
     use irr_sampling::sample_uniform_sphere;
     use std::f32::consts::PI;
+
+    /// A deposit of irradiance `e` (grey) in cell `key`, from the point `p` of a floor seen
+    /// from above.
+    fn on_floor(key: CellKey, p: Vec3, e: f32) -> LightDeposit {
+        LightDeposit {
+            key,
+            at: Seen {
+                position: p,
+                front: Vec3::Y,
+            },
+            irradiance: Vec3::splat(e),
+            tails: [Vec3::ZERO; DEEPER_READS],
+        }
+    }
+
+    /// Adds one path's deposits, every one of them seeing its cell's anchor.
+    fn add(cache: &mut LightCache, deposits: &[LightDeposit]) {
+        let none = |rays: &[Ray]| vec![false; rays.len()];
+        cache.add_paths(&[deposits.to_vec()], &none);
+    }
+
+    /// A scene with nothing within 100 of the origin: every point there sees every other.
+    fn open() -> Scene {
+        let far = crate::tests::polygon(Vec3::new(0.0, -100.0, 0.0), 0.1, 3, 1.0, 0);
+        scene(&[far], vec![Material::diffuse(Vec3::splat(0.5))])
+    }
 
     /// A point of a floor (normal +Y) seen from above.
     fn floor_point(position: Vec3) -> ShadingPoint {
@@ -766,23 +1001,20 @@ mod tests {
                     let p = Vec3::new(centre.x + a as f32 / inv, y, centre.z + b as f32 / inv);
                     let key = CellKey::of(p, Vec3::Y, (0, inv));
                     for _ in 0..MIN_DEPOSITS {
-                        cache.add_path(&[LightDeposit {
-                            key,
-                            irradiance: Vec3::splat(v),
-                            tails: [Vec3::ZERO; DEEPER_READS],
-                        }]);
+                        add(&mut cache, &[on_floor(key, p, v)]);
                     }
                 }
             }
         }
         let x = floor_point(centre);
+        let open = open();
         let n = 64;
         let mut sum = 0.0f64;
         for i in 0..n {
             for j in 0..n {
                 let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
                 let e = cache
-                    .irradiance_filtered(&x, u, 0)
+                    .irradiance_filtered(&open, &x, u, 0, &mut RayCounter::default())
                     .unwrap_or_else(|| panic!("cells around the point"));
                 assert!(e.x < 500.0, "u {u}: a cell of another layer");
                 sum += f64::from(e.x);
@@ -794,18 +1026,26 @@ mod tests {
         let lone = floor_point(Vec3::new(10.1, 0.01, 10.1));
         let key = cache.key(&lone);
         for _ in 0..MIN_DEPOSITS {
-            cache.add_path(&[LightDeposit {
-                key,
-                irradiance: Vec3::splat(7.0),
-                tails: [Vec3::ZERO; DEEPER_READS],
-            }]);
+            add(&mut cache, &[on_floor(key, lone.position, 7.0)]);
         }
         assert_eq!(
-            cache.irradiance_filtered(&lone, Vec2::new(0.01, 0.99), 0),
+            cache.irradiance_filtered(
+                &open,
+                &lone,
+                Vec2::new(0.01, 0.99),
+                0,
+                &mut RayCounter::default()
+            ),
             Some(Vec3::splat(7.0))
         );
         assert_eq!(
-            cache.irradiance_filtered(&lone, Vec2::ZERO, DEEPER_READS + 1),
+            cache.irradiance_filtered(
+                &open,
+                &lone,
+                Vec2::ZERO,
+                DEEPER_READS + 1,
+                &mut RayCounter::default()
+            ),
             None
         );
     }
@@ -1033,15 +1273,19 @@ mod tests {
         let mut cache = LightCache::new(0.25);
         let x = floor_point(Vec3::new(0.1, 0.0, 0.1));
         for i in 0..MIN_DEPOSITS {
-            assert_eq!(cache.irradiance(&x), None, "{i} deposits");
-            cache.add_path(&[LightDeposit {
-                key: cache.key(&x),
-                irradiance: Vec3::splat(i as f32),
-                tails: [Vec3::ZERO; DEEPER_READS],
-            }]);
+            assert_eq!(
+                cache.irradiance(&open(), &x, &mut RayCounter::default()),
+                None,
+                "{i} deposits"
+            );
+            let key = cache.key(&x);
+            add(&mut cache, &[on_floor(key, x.position, i as f32)]);
         }
         let mean = (MIN_DEPOSITS - 1) as f32 / 2.0;
-        assert_eq!(cache.irradiance(&x), Some(Vec3::splat(mean)));
+        assert_eq!(
+            cache.irradiance(&open(), &x, &mut RayCounter::default()),
+            Some(Vec3::splat(mean))
+        );
         let counts = cache.counts();
         assert_eq!(
             counts,
@@ -1050,7 +1294,8 @@ mod tests {
                 deposits: u64::from(MIN_DEPOSITS),
                 dropped: 0,
                 cells: 1,
-                used_cells: 1
+                used_cells: 1,
+                split: 0,
             }
         );
     }
@@ -1120,15 +1365,16 @@ mod tests {
     }
 
     /// The bytes a cell takes, as the module's memory bound states them: a key of 16 bytes
-    /// (level, three i32 coordinates, bucket, padded to 4) and sums of 88 (three DVec3s of 24,
-    /// the sum and its two tails, an f64 and a u32, padded to 8); the table's bound, 2²² slots
-    /// of 105 bytes, is 420 MiB; and `MAX_CELLS` is what hashbrown holds in 2²² slots (7/8 of
-    /// them) before it doubles: a table of `MAX_CELLS` cells has 2²² slots.
+    /// (level, three i32 coordinates, bucket and side, padded to 4) and sums of 112 (three
+    /// DVec3s of 24, the sum and its two tails, an f64, a u32, the anchor's two Vec3s of 12 and
+    /// the split flag, padded to 8); the table's bound, 2²² slots of 129 bytes, is 516 MiB; and
+    /// `MAX_CELLS` is what hashbrown holds in 2²² slots (7/8 of them) before it doubles: a table
+    /// of `MAX_CELLS` cells has 2²² slots.
     #[test]
-    fn a_cell_takes_104_bytes_and_the_table_420_mib() {
+    fn a_cell_takes_128_bytes_and_the_table_516_mib() {
         assert_eq!(size_of::<CellKey>(), 16);
-        assert_eq!(CELL_BYTES, 104);
-        assert_eq!(TABLE_BYTES, 420 << 20);
+        assert_eq!(CELL_BYTES, 128);
+        assert_eq!(TABLE_BYTES, 516 << 20);
         let mut table: FxHashMap<u32, ()> = FxHashMap::default();
         table.extend((0..MAX_CELLS as u32).map(|k| (k, ())));
         assert!(table.capacity() >= MAX_CELLS && table.capacity() < 1 << 22);
@@ -1148,11 +1394,7 @@ mod tests {
         let point = |x: f32| floor_point(Vec3::new(x, 0.01, 0.5));
         let deposit = |cache: &mut LightCache, x: f32, e: f32| {
             let key = cache.key(&point(x));
-            cache.add_path(&[LightDeposit {
-                key,
-                irradiance: Vec3::splat(e),
-                tails: [Vec3::ZERO; DEEPER_READS],
-            }]);
+            add(cache, &[on_floor(key, point(x).position, e)]);
         };
         for k in 0..MIN_DEPOSITS {
             deposit(&mut cache, 0.5, 1.0);
@@ -1169,9 +1411,18 @@ mod tests {
             (2, 2 * u64::from(MIN_DEPOSITS))
         );
         assert_eq!(counts.deposits, 4 * u64::from(MIN_DEPOSITS) + 1);
-        assert_eq!(cache.irradiance(&point(0.5)), Some(Vec3::splat(2.0)));
-        assert_eq!(cache.irradiance(&point(1.5)), Some(Vec3::splat(2.0)));
-        assert_eq!(cache.irradiance(&point(2.5)), None);
+        assert_eq!(
+            cache.irradiance(&open(), &point(0.5), &mut RayCounter::default()),
+            Some(Vec3::splat(2.0))
+        );
+        assert_eq!(
+            cache.irradiance(&open(), &point(1.5), &mut RayCounter::default()),
+            Some(Vec3::splat(2.0))
+        );
+        assert_eq!(
+            cache.irradiance(&open(), &point(2.5), &mut RayCounter::default()),
+            None
+        );
     }
 
     /// The light cache is consistent: at every cell width its cell means are the average of
@@ -1244,7 +1495,7 @@ mod tests {
                     SampleKey::new(22, u64::from(cells), i),
                     &mut rays,
                 );
-                cache.add_path(&deposits);
+                add(&mut cache, &deposits);
             }
             let (mut diffs, mut quadrature, mut blurs) = (Vec::new(), 0.0f64, Vec::new());
             for a in 0..cells {
@@ -1254,7 +1505,7 @@ mod tests {
                     let (fine, coarse) = (average(x0, z0, h, 16), average(x0, z0, h, 8));
                     quadrature = quadrature.max((fine - coarse).abs() / fine);
                     let read = cache
-                        .irradiance(&floor_point(centre))
+                        .irradiance(&scene, &floor_point(centre), &mut RayCounter::default())
                         .unwrap_or_else(|| panic!("cell ({a}, {b}) of {cells}² has no mean"));
                     diffs.push((f64::from(read.x) - fine) / fine);
                     let at_centre = exact(centre.x, centre.z);

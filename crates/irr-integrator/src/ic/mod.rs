@@ -407,8 +407,8 @@ impl IrradianceCacheIntegrator {
             }
             let read = match lobe {
                 // `level` reflections deeper than a gather ray's hit (`residual`).
-                Some(u) => self.light.irradiance_filtered(&x, u, level),
-                None => self.light.irradiance(&x),
+                Some(u) => self.light.irradiance_filtered(scene, &x, u, level, rays),
+                None => self.light.irradiance(scene, &x, rays),
             };
             if let Some(e) = read {
                 if lambertian {
@@ -768,10 +768,12 @@ impl CacheBuilder for IrradianceCacheIntegrator {
         (self.light_paths() > 0).then(|| self.light.tracer((path.max_depth, path.rr_start)))
     }
 
-    fn add_light_paths(&mut self, paths: Vec<Vec<LightDeposit>>) {
-        for p in &paths {
-            self.light.add_path(p);
-        }
+    fn add_light_paths(
+        &mut self,
+        paths: Vec<Vec<LightDeposit>>,
+        occluded: &dyn Fn(&[Ray]) -> Vec<bool>,
+    ) -> u64 {
+        self.light.add_paths(&paths, occluded)
     }
 
     fn radiance_records(&self) -> Option<(usize, usize, usize)> {
@@ -786,6 +788,10 @@ impl CacheBuilder for IrradianceCacheIntegrator {
 
     fn light_cache_counts(&self) -> LightCacheCounts {
         self.light.counts()
+    }
+
+    fn settle_light_cache(&mut self) {
+        self.light.settle();
     }
 
     fn light_cache_error(&self) -> f64 {
@@ -917,11 +923,12 @@ mod tests {
                     )
             })
             .collect();
-        ic.add_light_paths(paths);
+        let occluded = |rays: &[Ray]| rays.iter().map(|r| scene.occluded(r)).collect();
+        ic.add_light_paths(paths, &occluded);
         let x = ShadingPoint::new(&hit, -ray.direction);
         let e = ic
             .light
-            .irradiance(&x)
+            .irradiance(&scene, &x, &mut RayCounter::default())
             .unwrap_or_else(|| panic!("the hit's cell holds {MIN_DEPOSITS} deposits"));
         let mut read = RayCounter::default();
         let value = gather(&ic, &scene, (&hit, ray.direction), key, &mut read);

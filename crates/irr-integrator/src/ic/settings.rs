@@ -235,7 +235,7 @@ pub struct IcSettings {
     /// cache. Default: 5·2¹⁷ = 655360, the indirect-lit room's most efficient (docs/
     /// performance.md, "The light cache's paths, again"); scenes whose cells reach
     /// `light_cache_error` first stop before it. Range: 1 to 2²². The cache's memory is bounded
-    /// whatever the paths: at most `light_cache::MAX_CELLS` cells in 420 MiB
+    /// whatever the paths: at most `light_cache::MAX_CELLS` cells in 516 MiB
     /// (`light_cache::TABLE_BYTES`); deposits in new cells past that are dropped and counted,
     /// and reads there path-trace.
     pub light_cache_paths: u32,
