@@ -568,7 +568,14 @@ impl PathTracer {
         occluded: bool,
         hit: Option<Hit>,
     ) -> bool {
-        let weight = b.weight;
+        // Inside an absorbing volume, the segment to the hit keeps e^(−σd) of the light.
+        let tr = if b.ray.is_some() {
+            scene.segment_transmittance(&path.x, b.wi, hit.map(|h| h.t))
+        } else {
+            Vec3::ONE
+        };
+        let weight = b.weight * tr;
+        let residual = b.residual * tr;
         let mut contribution = Vec3::ZERO;
         // The light sample, weighted against BSDF sampling by the power heuristic; a punctual
         // light has no BSDF-sampling strategy, so its weight is 1.
@@ -610,7 +617,7 @@ impl PathTracer {
             path.out.direct += beta * contribution;
             // x₀'s escaping sample through the residual's share of its weight.
             if b.ray.is_some() && hit.is_none() {
-                path.out.glossy += b.residual * scene.background();
+                path.out.glossy += residual * scene.background();
             }
         } else {
             path.out.indirect += beta * contribution;
@@ -621,7 +628,7 @@ impl PathTracer {
         let Some(surface) = next else { return false };
         path.beta *= weight;
         path.glossy_beta = if path.depth == 0 {
-            b.residual
+            residual
         } else {
             path.glossy_beta * weight
         };

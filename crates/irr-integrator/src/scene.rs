@@ -186,6 +186,13 @@ impl Scene {
                     });
                 }
             }
+            if !(m.attenuation.is_finite() && m.attenuation.min_element() >= 0.0) {
+                return Err(SceneError::InvalidMaterial {
+                    index,
+                    what: "attenuation",
+                    value: m.attenuation,
+                });
+            }
             // An unlit surface is its colour to the camera and nothing to any other ray: it
             // cannot emit light for them either.
             if m.unlit && m.is_emissive() {
@@ -451,6 +458,30 @@ impl Scene {
             && !(m.passes_straight()
                 && pass_sample(ray, hit.triangle)
                     < self.pass_probability(hit.triangle, hit.b1, hit.b2, ray.direction))
+    }
+
+    /// What light keeps over the segment that leaves the surface point `x` along `wi` and meets
+    /// the next surface at `distance` (`None`: it leaves the scene): Beer–Lambert's e^(−σ·d)
+    /// where the segment runs inside the volume that `x`'s refracting material bounds (`wi`
+    /// against its outward, winding normal) and absorbs ([`Material::attenuation`]); 1
+    /// elsewhere. Volumes are taken as closed and not nested: the medium is the one whose
+    /// boundary the segment leaves.
+    #[inline]
+    pub fn segment_transmittance(&self, x: &ShadingPoint, wi: Vec3, distance: Option<f32>) -> Vec3 {
+        let m = self.material_of(x.triangle);
+        if m.attenuation == Vec3::ZERO || !m.transmits() || m.thin_walled {
+            return Vec3::ONE;
+        }
+        if wi.dot(self.geometry.geometric_normal(x.triangle)) >= 0.0 {
+            return Vec3::ONE;
+        }
+        let d = distance.unwrap_or(f32::INFINITY);
+        // σ·d = 0·∞ (a clear channel of an open mesh) keeps everything.
+        Vec3::from_array(
+            m.attenuation
+                .to_array()
+                .map(|s| if s == 0.0 { 1.0 } else { (-s * d).exp() }),
+        )
     }
 
     /// The probability with which a ray along `direction` passes straight through the glass

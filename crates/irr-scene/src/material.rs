@@ -37,6 +37,11 @@ pub struct Material {
     /// Whether a transmitting material is a thin sheet (glTF's default) rather than the
     /// boundary of a volume (`KHR_materials_volume` with a thickness above 0), which refracts.
     pub thin_walled: bool,
+    /// The absorption coefficient σ per unit length of the volume a refracting material bounds
+    /// (`KHR_materials_volume`: −ln(`attenuationColor`)/`attenuationDistance` per channel, at
+    /// most `f32::MAX` for a black colour): light crossing a length d of it keeps e^(−σd)
+    /// (Beer–Lambert). Zero: clear. Finite and non-negative; unused by a thin sheet.
+    pub attenuation: Vec3,
     /// Emitted radiance Le in W·sr⁻¹·m⁻² per channel, the same in every direction of an emitting
     /// side (glTF `emissiveFactor` × `KHR_materials_emissive_strength.emissiveStrength`).
     pub emission: Vec3,
@@ -105,6 +110,7 @@ impl Material {
             ior: 1.5,
             transmission: 0.0,
             thin_walled: true,
+            attenuation: Vec3::ZERO,
             emission: Vec3::ZERO,
             two_sided: true,
             albedo_texture: None,

@@ -535,11 +535,14 @@ impl IrradianceCacheIntegrator {
         if !draw.leaves(x.ng) {
             return (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
         }
-        let share = bsdf.residual(draw.wi) * (draw.cos / draw.pdf);
-        let residual = if whole { draw.weight } else { share };
         let ray = Ray::spawn(x.position, x.ng, draw.wi);
         rays.closest += 1;
-        let Some(hit) = scene.intersect(&ray) else {
+        let hit = scene.intersect(&ray);
+        // Inside an absorbing volume, the segment to the hit keeps e^(−σd) of the light.
+        let tr = scene.segment_transmittance(x, draw.wi, hit.map(|h| h.t));
+        let share = bsdf.residual(draw.wi) * (tr * draw.cos / draw.pdf);
+        let residual = if whole { draw.weight * tr } else { share };
+        let Some(hit) = hit else {
             // The background's light belongs to `indirect`.
             let b = scene.background();
             return (Vec3::ZERO, residual * b, share * b);
@@ -558,7 +561,7 @@ impl IrradianceCacheIntegrator {
                 pdf,
                 draw.light_samples(light_samples as f32),
             );
-            direct = draw.weight * le * w;
+            direct = draw.weight * tr * le * w;
         }
         // What the hit reflects, as a level-0 gather ray would bring it back (from the light
         // cache by default: filtered cell means rather than one path), with randomness of its
@@ -607,10 +610,12 @@ impl IrradianceCacheIntegrator {
         if !draw.leaves(x.ng) {
             return value;
         }
-        let weight = bsdf.residual(draw.wi) * (draw.cos / draw.pdf);
         let ray = Ray::spawn(x.position, x.ng, draw.wi);
         rays.closest += 1;
-        let Some(hit) = scene.intersect(&ray) else {
+        let hit = scene.intersect(&ray);
+        let tr = scene.segment_transmittance(x, draw.wi, hit.map(|h| h.t));
+        let weight = bsdf.residual(draw.wi) * (tr * draw.cos / draw.pdf);
+        let Some(hit) = hit else {
             return value + weight * scene.background();
         };
         let surface = scene.geometry().surface(&ray, &hit);

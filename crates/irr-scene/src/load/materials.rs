@@ -159,13 +159,31 @@ impl Loader<'_> {
                 transmission.clamp(0.0, 1.0)
             };
             // KHR_materials_volume: a thickness above 0 makes the surface a volume's boundary,
-            // which refracts (its absorption is not modelled: warned below).
+            // which refracts, and absorbs by its attenuation colour over its distance.
             let volume_json = extensions.and_then(|e| e.volume.as_ref());
             let volume = volume_json
                 .is_some_and(|v| v.thickness_factor.0 > 0.0 || v.thickness_texture.is_some());
-            let absorbs = volume_json.is_some_and(|v| {
-                v.attenuation_distance.0.is_finite() && v.attenuation_color.0 != [1.0; 3]
-            });
+            let attenuation = match volume_json.filter(|_| volume) {
+                None => Vec3::ZERO,
+                Some(v) => {
+                    let distance = v.attenuation_distance.0;
+                    let colour = Vec3::from_array(v.attenuation_color.0);
+                    if distance.is_nan() || distance <= 0.0 || !colour.is_finite() {
+                        return Err(self.err(format!(
+                            "material {name}: KHR_materials_volume attenuationDistance {distance} must be above 0 and attenuationColor {colour} finite"
+                        )));
+                    }
+                    let clamped = colour.clamp(Vec3::ZERO, Vec3::ONE);
+                    clamped_factors += usize::from(clamped != colour);
+                    // σ = −ln(c)/d: 0 for a white colour or an infinite distance (glTF's
+                    // defaults), f32::MAX where c = 0 (ln 0 = −∞).
+                    Vec3::from_array(
+                        clamped
+                            .to_array()
+                            .map(|c| (-c.ln() / distance).min(f32::MAX)),
+                    )
+                }
+            };
             let strength = m.emissive_strength().unwrap_or(1.0);
             let emission = Vec3::from_array(m.emissive_factor()) * strength;
             if !emission.is_finite() || emission.min_element() < 0.0 {
@@ -257,6 +275,7 @@ impl Loader<'_> {
                 ior: if unlit { 1.5 } else { ior },
                 transmission: if unlit { 0.0 } else { transmission },
                 thin_walled: !volume,
+                attenuation: if unlit { Vec3::ZERO } else { attenuation },
                 albedo_texture,
                 emission_texture,
                 metallic_roughness_texture,
@@ -271,7 +290,6 @@ impl Loader<'_> {
                 glass.count(
                     m,
                     transmission_json.is_some_and(|t| t.transmission_texture.is_some()),
-                    volume && absorbs,
                 );
             }
         }
@@ -324,7 +342,6 @@ impl Loader<'_> {
 #[derive(Default)]
 struct GlassWarnings {
     texture: usize,
-    volume: usize,
     rough: usize,
     tinted: usize,
     emissive: usize,
@@ -335,15 +352,14 @@ impl GlassWarnings {
     /// α = roughness² at irr-bsdf's floor `SMOOTH_ALPHA` (1e-3).
     const SMOOTH_ROUGHNESS: f32 = 0.0316;
 
-    /// Counts what of glass material `m` is left out: its transmission `texture`, a volume's
-    /// absorption (`absorbs`), and for a thin sheet its roughness and tint.
-    fn count(&mut self, m: &Material, texture: bool, absorbs: bool) {
+    /// Counts what of glass material `m` is left out: its transmission `texture`, and for a
+    /// thin sheet its roughness and tint.
+    fn count(&mut self, m: &Material, texture: bool) {
         if m.is_emissive() {
             self.emissive += 1;
             return;
         }
         self.texture += usize::from(texture);
-        self.volume += usize::from(absorbs);
         if m.thin_walled {
             self.rough += usize::from(
                 m.roughness > Self::SMOOTH_ROUGHNESS || m.metallic_roughness_texture.is_some(),
@@ -359,12 +375,6 @@ impl GlassWarnings {
             format!(
                 "{} KHR_materials_transmission transmissionTexture: ignored (the factor is used)",
                 plural(n, "material has a", "materials have a")
-            )
-        });
-        w.add("transmission-volume", self.volume, |n| {
-            format!(
-                "{} KHR_materials_volume attenuation: ignored (the volume refracts, it does not absorb)",
-                plural(n, "glass material has", "glass materials have")
             )
         });
         w.add("transmission-rough", self.rough, |n| {

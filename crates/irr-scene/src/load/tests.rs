@@ -555,8 +555,8 @@ fn khr_materials_transmission_is_read_with_what_it_leaves_out() {
         glass("", r#""roughnessFactor":0,"baseColorFactor":[1,0.5,0.5,1]"#),
         r#"{"pbrMetallicRoughness":{"roughnessFactor":0},"emissiveFactor":[1,1,1],"extensions":{"KHR_materials_transmission":{"transmissionFactor":0.5}}}"#.to_string(),
         r#"{"pbrMetallicRoughness":{"roughnessFactor":0},"extensions":{"KHR_materials_transmission":{"transmissionFactor":1.5},"KHR_materials_volume":{"thicknessFactor":0.1}}}"#.to_string(),
-        // A rough, tinted volume that absorbs: it refracts (roughness and tint modelled), its
-        // attenuation is what is left out.
+        // A rough, tinted volume that absorbs: it refracts and absorbs, roughness and tint
+        // modelled.
         r#"{"pbrMetallicRoughness":{"roughnessFactor":0.5,"baseColorFactor":[1,0.5,0.5,1]},"extensions":{"KHR_materials_transmission":{"transmissionFactor":1},"KHR_materials_volume":{"thicknessFactor":0.1,"attenuationDistance":0.2,"attenuationColor":[1,0.5,0.5]}}}"#.to_string(),
     ];
     let n = materials.len();
@@ -584,6 +584,17 @@ fn khr_materials_transmission_is_read_with_what_it_leaves_out() {
     assert_eq!(transmits, [true, true, true, true, false, true, true]);
     let straight: Vec<bool> = s.materials.iter().map(|m| m.passes_straight()).collect();
     assert_eq!(straight, [true, true, true, true, false, false, false]);
+    // σ = −ln(c)/d: 0 where the colour is white or the distance infinite (the defaults), and
+    // ln 2/0.2 = 3.4657 for c = 0.5 over 0.2 (f32 rounding of ln and one division: 1e-6).
+    assert_eq!(s.materials[5].attenuation, Vec3::ZERO);
+    let sigma = s.materials[6].attenuation;
+    assert_eq!(sigma.x, 0.0);
+    for c in [sigma.y, sigma.z] {
+        assert!(
+            (c - std::f32::consts::LN_2 / 0.2).abs() < 1e-6 * c,
+            "{sigma}"
+        );
+    }
     let got: Vec<(&str, usize)> = s
         .warnings
         .iter()
@@ -594,7 +605,6 @@ fn khr_materials_transmission_is_read_with_what_it_leaves_out() {
         ("transmission-rough", 1),
         ("transmission-tint", 1),
         ("transmission-emissive", 1),
-        ("transmission-volume", 1),
         ("factor-clamped", 1),
     ] {
         assert!(got.contains(&expected), "missing {expected:?} in {got:?}");
@@ -602,6 +612,27 @@ fn khr_materials_transmission_is_read_with_what_it_leaves_out() {
     assert!(
         got.iter().all(|(f, _)| !f.starts_with("extension:")),
         "{got:?}"
+    );
+}
+
+/// A volume's attenuation distance must be above 0 (`KHR_materials_volume`): a file with a
+/// negative one is refused, naming the material and the value.
+#[test]
+fn a_volume_with_a_negative_attenuation_distance_is_refused() {
+    let d = dir();
+    let mut g = Gltf::default();
+    let p = g.vec3(&TRIANGLE);
+    let json = g.json(&format!(
+        r#""extensionsUsed":["KHR_materials_transmission","KHR_materials_volume"],
+        "scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p}}},"material":0}}]}}],
+        "materials":[{{"name":"murky","extensions":{{"KHR_materials_transmission":{{"transmissionFactor":1}},
+        "KHR_materials_volume":{{"thicknessFactor":1,"attenuationDistance":-2}}}}}}]"#
+    ));
+    let e = load_err(&write(d.path(), "murky.gltf", json));
+    assert!(
+        e.contains("murky") && e.contains("attenuationDistance -2"),
+        "{e}"
     );
 }
 
