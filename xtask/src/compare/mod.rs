@@ -135,8 +135,9 @@ pub struct CompareArgs {
     /// default: the default render's), comma-separated
     #[arg(long, value_delimiter = ',')]
     pub extra: Vec<String>,
-    /// Also copy each report, plot, heat maps and crops to docs/compare/SCENE/ and its tables
-    /// into README.md (what the README shows)
+    /// Also copy each report, plot, heat maps and crops to docs/compare/SCENE/ and write the
+    /// scene's summary line (the cache's default run against the path tracer, linking the
+    /// report) into README.md
     #[arg(long)]
     pub publish: bool,
     /// Score every run and the reference on this layer of the image: the image itself, its
@@ -787,8 +788,9 @@ fn scenes(args: &CompareArgs, root: &Path) -> Vec<PathBuf> {
     }
 }
 
-/// Copies a report's files to docs/compare/SCENE/ and its tables into README.md's section for
-/// the scene.
+/// Copies a report's files to docs/compare/SCENE/ and writes the scene's summary line
+/// ([`summary_line`]) into README.md's section for the scene. The tables stay in the published
+/// report.md: the README links to it.
 fn publish(report: &Report, root: &Path) -> Result<(), String> {
     let stem = report
         .folder
@@ -810,18 +812,26 @@ fn publish(report: &Report, root: &Path) -> Result<(), String> {
         }
     }
     println!("published to {}", dest.display());
+    let default_kappa = IcSettings::default().error;
+    let Some(default_run) = report.runs.iter().find(|r| {
+        r.method == Method::Cache && r.group == Group::Ladder && r.kappa == default_kappa
+    }) else {
+        println!("no cache run at the default κ: the README's {stem} line is left as it was");
+        return Ok(());
+    };
     let readme = root.join("README.md");
     if let Ok(text) = std::fs::read_to_string(&readme) {
         let report_md = std::fs::read_to_string(report.folder.join("report.md"))
             .map_err(|e| format!("{}: {e}", report.folder.join("report.md").display()))?;
-        match readme_section(&text, &stem, &report_md) {
+        let line = summary_line(&stem, &report_md, &default_run.label);
+        match readme_section(&text, &stem, &line) {
             Some(updated) => {
                 std::fs::write(&readme, updated)
                     .map_err(|e| format!("{}: {e}", readme.display()))?;
-                println!("updated the {stem} section of {}", readme.display());
+                println!("updated the {stem} line of {}", readme.display());
             }
             None => println!(
-                "{} has no <!-- compare:{stem} --> section: its table is only in docs/compare/{stem}/",
+                "{} has no <!-- compare:{stem} --> section: the scene's figures are only in docs/compare/{stem}/",
                 readme.display()
             ),
         }
@@ -829,30 +839,39 @@ fn publish(report: &Report, root: &Path) -> Result<(), String> {
     Ok(())
 }
 
+/// A published scene's line in the README: a link to its report, then the report's line for
+/// the cache's run `label` (its error, its time, and the path tracer's times, raw and
+/// denoised, for that error). Where the report has no such line (the run is off the cache's
+/// front), the run's relMSE ± s.e. and seconds from the report's table.
+pub fn summary_line(stem: &str, report_md: &str, label: &str) -> String {
+    let link = format!("- [{stem}](docs/compare/{stem}/report.md)");
+    let derived = format!("- ic {label}: ");
+    if let Some(rest) = report_md
+        .lines()
+        .find_map(|l| l.strip_prefix(derived.as_str()))
+    {
+        return format!("{link}: ic {label}: {rest}");
+    }
+    let row = format!("| ic | {label} |");
+    let cols = report_md
+        .lines()
+        .find(|l| l.starts_with(&row))
+        .map(|l| l.split('|').map(str::trim).collect::<Vec<_>>());
+    match cols {
+        // | ic | label | seconds | M rays | records | relMSE ± s.e. | …
+        Some(c) if c.len() > 6 => format!("{link}: ic {label}: relMSE {} in {} s.", c[6], c[3]),
+        _ => format!("{link}: no ic {label} run."),
+    }
+}
+
 /// `readme` with the part between `<!-- compare:STEM -->` and `<!-- /compare:STEM -->` replaced
-/// by the report's tables, lists and pictures (their links pointed at docs/compare/STEM/), one
-/// blank line between blocks; `None` when the README has no such markers.
-pub fn readme_section(readme: &str, stem: &str, report_md: &str) -> Option<String> {
+/// by `line`; `None` when the README has no such markers.
+pub fn readme_section(readme: &str, stem: &str, line: &str) -> Option<String> {
     let open = format!("<!-- compare:{stem} -->");
     let close = format!("<!-- /compare:{stem} -->");
     let start = readme.find(&open)? + open.len();
     let end = start + readme[start..].find(&close)?;
-    let mut body = String::from("\n");
-    let mut gap = false;
-    for line in report_md.lines() {
-        let keep = line.starts_with('|') || line.starts_with("- ") || line.starts_with("![");
-        if keep {
-            if gap && body.len() > 1 {
-                body.push('\n');
-            }
-            gap = false;
-            body.push_str(&line.replace("](", &format!("](docs/compare/{stem}/")));
-            body.push('\n');
-        } else {
-            gap = true;
-        }
-    }
-    Some(format!("{}{body}{}", &readme[..start], &readme[end..]))
+    Some(format!("{}\n{line}\n{}", &readme[..start], &readme[end..]))
 }
 
 /// Seconds as the tables print them: `~` marks a time extrapolated beyond the runs.
@@ -1553,14 +1572,40 @@ mod tests {
 
     #[test]
     fn the_readme_section_is_replaced_between_its_markers() {
-        let readme = "# irr\n<!-- compare:box -->\nold\n<!-- /compare:box -->\nend\n";
-        let report = "# box\n\ntext\n| a | b |\n|---|---|\n- figure\n\nmore text\n| c |\n|---|\n\n![plot](plot.svg)\n";
-        let out = readme_section(readme, "box", report).unwrap_or_default();
+        let readme = "# irr\n<!-- compare:box -->\n| old | table |\n<!-- /compare:box -->\nend\n";
+        let out = readme_section(readme, "box", "- [box](docs/compare/box/report.md): ic k=1")
+            .unwrap_or_default();
         assert_eq!(
             out,
-            "# irr\n<!-- compare:box -->\n| a | b |\n|---|---|\n- figure\n\n| c |\n|---|\n\n![plot](docs/compare/box/plot.svg)\n<!-- /compare:box -->\nend\n"
+            "# irr\n<!-- compare:box -->\n- [box](docs/compare/box/report.md): ic k=1\n<!-- /compare:box -->\nend\n"
         );
-        assert!(readme_section("no markers", "box", report).is_none());
+        assert!(readme_section("no markers", "box", "- line").is_none());
+    }
+
+    /// The summary line links the report and carries the report's figures for the default
+    /// run: its derived line where it has one, else its table row, never the tables.
+    #[test]
+    fn the_summary_line_links_the_report_and_quotes_its_default_run() {
+        let table = "| method | settings | seconds | M rays | records | relMSE ± s.e. | ref. % |\n\
+                     |---|---|---|---|---|---|---|\n\
+                     | ic | kappa=0.5 strata=12x48 | 1.09 | 7.2 | 586 | 1.78e-4 ± 1.6e-5 | 4.9 |\n\
+                     | ic | kappa=1 strata=16x64 | 1.39 | 9.5 | 2638 | 8.44e-5 ± 6.6e-6 | 10.4 |\n";
+        let derived = "- ic kappa=1 strata=16x64: relMSE 8.44e-5 in 1.39 s (FLIP 0.0150); for it path 36.57 s (26.30× this run's time, FLIP 0.0118).\n";
+        let report = format!("# box\n\n{table}\n{derived}\n![plot](plot.svg)\n");
+        assert_eq!(
+            summary_line("box", &report, "kappa=1 strata=16x64"),
+            "- [box](docs/compare/box/report.md): ic kappa=1 strata=16x64: relMSE 8.44e-5 in 1.39 s (FLIP 0.0150); for it path 36.57 s (26.30× this run's time, FLIP 0.0118)."
+        );
+        assert_eq!(
+            summary_line("box", table, "kappa=1 strata=16x64"),
+            "- [box](docs/compare/box/report.md): ic kappa=1 strata=16x64: relMSE 8.44e-5 ± 6.6e-6 in 1.39 s."
+        );
+        assert_eq!(
+            summary_line("box", table, "kappa=2 strata=24x96"),
+            "- [box](docs/compare/box/report.md): no ic kappa=2 strata=24x96 run."
+        );
+        // The line is one line: no table, list or picture of the report comes with it.
+        assert!(!summary_line("box", &report, "kappa=1 strata=16x64").contains('\n'));
     }
 
     /// The four scenes the defaults were tuned on are tuned however their path is written; a
