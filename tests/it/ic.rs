@@ -232,15 +232,11 @@ fn two_rooms_split(at: f32, thick: f32, floor: Material) -> Scene {
     Scene::new(geometry, materials).unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// The classic leak: floor records on the lit side of a 1 mm wall validly cover (by the metric
-/// alone) floor points on the dark side, whose true value is exactly 0. With the leak guard the
-/// dark floor is exactly 0 in every pixel, as in the path tracer; without it, it is not (so the
-/// test can see a leak, and the guard is what stops it).
-#[test]
-fn no_light_leaks_through_a_thin_wall() {
-    let scene = two_rooms();
-    // From above, looking straight down at both floors: up = −z makes the image's x run along
-    // world +x, so room A (x < 0) is on the left and room B on the right.
+/// The camera above [`two_rooms`], looking straight down at both floors (up = −z makes the
+/// image's x run along world +x: room A on the left, B on the right), and a 96 × 48 image of 2
+/// samples. A pixel spans 6·2·tan(0.4)/48 = 0.106 m on the floor; column 48 is x = 0, and rows
+/// 17–31 keep 2 pixels inside the floors' z ∈ (−1, 1) (rows 15–33).
+fn above_two_rooms() -> (Camera, RenderSettings) {
     let camera = Camera::look_at(Vec3::new(0.0, 6.0, 0.0), Vec3::ZERO, -Vec3::Z, 0.8)
         .unwrap_or_else(|| panic!("camera"));
     let settings = RenderSettings {
@@ -250,22 +246,30 @@ fn no_light_leaks_through_a_thin_wall() {
         seed: 3,
         threads: 0,
     };
-    // A pixel spans 6·2·tan(0.4)/48 = 0.106 m at the floor; the image centre (48, 24) is the
-    // wall's middle. B's floor (x ∈ (0.001, 2.001), z ∈ (−1, 1)) covers columns 48–66 and rows
-    // 15–33: the dark region keeps 2 pixels from its edges (columns 50–64, rows 17–31).
-    let dark_side = |image: &Image| -> Vec<Vec3> {
-        (17..=31)
-            .flat_map(|y| (50..=64).map(move |x| (x, y)))
-            .map(|(x, y)| image.get(x, y))
-            .collect()
-    };
+    (camera, settings)
+}
+
+/// The pixels of rows 17–31 in `columns` of an image [`above_two_rooms`] rendered.
+fn floor_region(image: &Image, columns: std::ops::RangeInclusive<u32>) -> Vec<Vec3> {
+    (17..=31)
+        .flat_map(|y| columns.clone().map(move |x| (x, y)))
+        .map(|(x, y)| image.get(x, y))
+        .collect()
+}
+
+/// The classic leak: floor records on the lit side of a 1 mm wall validly cover (by the metric
+/// alone) floor points on the dark side, whose true value is exactly 0. With the leak guard the
+/// dark floor is exactly 0 in every pixel, as in the path tracer; without it, it is not (so the
+/// test can see a leak, and the guard is what stops it).
+#[test]
+fn no_light_leaks_through_a_thin_wall() {
+    let scene = two_rooms();
+    let (camera, settings) = above_two_rooms();
+    // B's floor (x ∈ (0.001, 2.001)) covers columns 48–66: the dark region keeps 2 pixels from
+    // its edges.
+    let dark_side = |image: &Image| floor_region(image, 50..=64);
     // The same region mirrored into room A, to know the scene is lit at all.
-    let lit = |image: &Image| -> f32 {
-        (17..=31)
-            .flat_map(|y| (31..=45).map(move |x| (x, y)))
-            .map(|(x, y)| image.get(x, y).x)
-            .sum()
-    };
+    let lit = |image: &Image| -> f32 { floor_region(image, 31..=45).iter().map(|p| p.x).sum() };
     // Large records: a loose κ, pixel limits of 10 to 20 pixels (1.06 to 2.1 m on the floor)
     // and a world limit that does not cut them (a whole image height), so lit records reach
     // across.
@@ -313,24 +317,10 @@ fn no_light_leaks_through_a_thin_wall() {
 #[test]
 fn no_light_cache_light_through_a_wall() {
     let (at, thick) = (0.2903, 0.01);
-    let camera = Camera::look_at(Vec3::new(0.0, 6.0, 0.0), Vec3::ZERO, -Vec3::Z, 0.8)
-        .unwrap_or_else(|| panic!("camera"));
-    let settings = RenderSettings {
-        width: 96,
-        height: 48,
-        spp: 2,
-        seed: 3,
-        threads: 0,
-    };
-    // A pixel spans 6·2·tan(0.4)/48 = 0.106 m on the floor, the image's column 48 at x = 0:
-    // B's floor (x > 0.3003) starts in column 50; the dark region keeps 3 pixels from its
-    // edges (columns 53–64, rows 17–31).
-    let region = |image: &Image, columns: std::ops::RangeInclusive<u32>| -> Vec<Vec3> {
-        (17..=31)
-            .flat_map(|y| columns.clone().map(move |x| (x, y)))
-            .map(|(x, y)| image.get(x, y))
-            .collect()
-    };
+    let (camera, settings) = above_two_rooms();
+    // B's floor (x > 0.3003) starts in column 50: the dark region keeps 3 pixels from its
+    // edges (columns 53–64).
+    let region = floor_region;
     // The image height at the floor is 5.07 m: a fifth of it, 1.01 m, makes 1 m cells.
     let ic = IcSettings {
         light_cache_cell: 0.2,

@@ -85,7 +85,8 @@ pub use builder::{CacheBuilder, Candidate, CommitStats, DisplayRecord, FinalPass
 pub use guard::GuardRecord;
 pub use light_cache::{
     CELL_BYTES, CONVERGED_SHARE, CacheView, DEEPER_READS, FILTER_CELLS, LightCache,
-    LightCacheCounts, LightDeposit, LightPathTracer, MAX_CELLS, MIN_DEPOSITS, TABLE_BYTES,
+    LightCacheCounts, LightDeposit, LightPathTracer, MAX_CELLS, MIN_DEPOSITS, SIDES_APART,
+    TABLE_BYTES,
 };
 pub use radius::surface_spacing;
 pub use settings::{
