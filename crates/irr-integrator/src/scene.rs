@@ -652,9 +652,20 @@ impl Scene {
         }
     }
 
+    /// The transmission factor at barycentrics (b1, b2) of triangle `triangle`: the material's
+    /// factor × the red channel of its transmission texture there.
+    #[inline]
+    pub fn transmission(&self, triangle: u32, b1: f32, b2: f32) -> f32 {
+        let m = self.material_of(triangle);
+        match &m.transmission_texture {
+            None => m.transmission,
+            Some(t) => m.transmission * self.lookup(triangle, t, b1, b2).x,
+        }
+    }
+
     /// The reflection at barycentrics (b1, b2) of triangle `triangle`: its material's
     /// metallic-roughness parameters (textured: [`Scene::metallic_roughness`]) with the
-    /// (textured) [`Scene::albedo`] as base colour.
+    /// (textured) [`Scene::albedo`] as base colour, and its (textured) transmission.
     #[inline]
     pub fn reflection(&self, triangle: u32, b1: f32, b2: f32) -> MetallicRoughness {
         let (metallic, roughness) = self.metallic_roughness(triangle, b1, b2);
@@ -668,10 +679,10 @@ impl Scene {
         .with_ior(material.ior);
         if material.passes_straight() {
             reflection
-                .with_transmission(material.transmission, true)
+                .with_transmission(self.transmission(triangle, b1, b2), true)
                 .with_straight_transmission()
         } else if material.transmits() {
-            reflection.with_transmission(material.transmission, false)
+            reflection.with_transmission(self.transmission(triangle, b1, b2), false)
         } else {
             reflection
         }
@@ -890,6 +901,7 @@ fn check_textures(
             ("metallic-roughness texture", m.metallic_roughness_texture),
             ("normal texture", m.normal_texture),
             ("alpha texture", m.alpha_texture),
+            ("transmission texture", m.transmission_texture),
         ] {
             let Some(r) = r else { continue };
             textured = true;

@@ -384,3 +384,47 @@ fn scene_refuses_inconsistent_textures() {
     assert!(plain.tex_coords().is_empty());
     assert_eq!(plain.albedo(1, 0.3, 0.3), Vec3::ONE);
 }
+
+/// A transmission texture's red channel multiplies the transmission factor: a clear pane of
+/// factor 1 under a texel of (0.5, 0, 0) passes rays, and reflects, exactly as the same pane of
+/// factor 0.5 untextured (0.5 × 1 is exact), and the texture's other channels are not read.
+#[test]
+fn a_transmission_texture_scales_the_factor_by_its_red_channel() {
+    let texel = Texture::new(1, 1, vec![Vec3::new(0.5, 0.0, 0.0)], Sampler::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let glass = |transmission, transmission_texture| Material {
+        transmission,
+        transmission_texture,
+        ..Material::metallic_roughness(Vec3::ONE, 0.0, 0.0)
+    };
+    let mut tex_coords = TexCoords::default();
+    for _ in 0..2 {
+        tex_coords
+            .push(&[[Vec2::ZERO; 3]])
+            .unwrap_or_else(|e| panic!("{e}"));
+    }
+    let textured = scene(
+        &[square(0)],
+        vec![glass(1.0, Some(TextureRef::new(0, 0)))],
+        vec![texel],
+        tex_coords,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let plain = scene(
+        &[square(0)],
+        vec![glass(0.5, None)],
+        vec![],
+        TexCoords::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(textured.transmission(0, 0.3, 0.3), 0.5);
+    for direction in [Vec3::Z, Vec3::new(0.6, 0.0, 0.8)] {
+        let p = textured.pass_probability(0, 0.3, 0.3, direction);
+        assert_eq!(p, plain.pass_probability(0, 0.3, 0.3, direction));
+        assert!(p > 0.0 && p < 0.5, "{p}");
+    }
+    assert_eq!(
+        textured.reflection(0, 0.3, 0.3),
+        plain.reflection(0, 0.3, 0.3)
+    );
+}

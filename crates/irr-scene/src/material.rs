@@ -59,6 +59,9 @@ pub struct Material {
     /// `roughness` × its green channel and the metallic factor `metallic` × its blue channel;
     /// `None`: the factors everywhere.
     pub metallic_roughness_texture: Option<TextureRef>,
+    /// `KHR_materials_transmission`'s `transmissionTexture`: its red channel (linear data)
+    /// multiplies [`Material::transmission`].
+    pub transmission_texture: Option<TextureRef>,
     /// glTF `normalTexture` (linear, not sRGB): a tangent-space normal per texel, each channel
     /// c mapped to 2c − 1, whose x and y are scaled by `normal_scale`, turning the shading
     /// normal within the frame of the triangle's [`VertexTangents`](crate::VertexTangents); `None`: the interpolated
@@ -116,6 +119,7 @@ impl Material {
             albedo_texture: None,
             emission_texture: None,
             metallic_roughness_texture: None,
+            transmission_texture: None,
             normal_texture: None,
             normal_scale: 1.0,
             alpha_mode: AlphaMode::Opaque,
@@ -192,15 +196,17 @@ impl Material {
         sets.into_iter().take(n)
     }
 
-    /// The albedo, emission, metallic-roughness, normal and alpha textures, in that order.
+    /// The albedo, emission, metallic-roughness, normal, alpha and transmission textures, in
+    /// that order.
     #[inline]
-    fn textures(&self) -> [Option<TextureRef>; 5] {
+    fn textures(&self) -> [Option<TextureRef>; 6] {
         [
             self.albedo_texture,
             self.emission_texture,
             self.metallic_roughness_texture,
             self.normal_texture,
             self.alpha_texture,
+            self.transmission_texture,
         ]
     }
 

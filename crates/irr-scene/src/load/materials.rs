@@ -213,6 +213,13 @@ impl Loader<'_> {
                 "metallicRoughnessTexture",
                 Decode::Data,
             )?;
+            let transmission_texture = optional(
+                transmission_json
+                    .and_then(|t| t.transmission_texture.as_ref())
+                    .filter(|_| !unlit && transmission > 0.0),
+                "transmissionTexture",
+                Decode::Data,
+            )?;
             let alpha = base[3];
             if !alpha.is_finite() {
                 return Err(self.err(format!(
@@ -279,6 +286,7 @@ impl Loader<'_> {
                 albedo_texture,
                 emission_texture,
                 metallic_roughness_texture,
+                transmission_texture,
                 normal_texture,
                 normal_scale,
                 alpha_mode,
@@ -287,10 +295,7 @@ impl Loader<'_> {
                 unlit,
             });
             if let Some(m) = out.last().filter(|m| m.transmission > 0.0 && !m.unlit) {
-                glass.count(
-                    m,
-                    transmission_json.is_some_and(|t| t.transmission_texture.is_some()),
-                );
+                glass.count(m);
             }
         }
         glass.warn(self);
@@ -341,7 +346,6 @@ impl Loader<'_> {
 /// What of glTF's glass the renderer leaves out, counted per material (`Material::transmits`).
 #[derive(Default)]
 struct GlassWarnings {
-    texture: usize,
     rough: usize,
     tinted: usize,
     emissive: usize,
@@ -352,14 +356,13 @@ impl GlassWarnings {
     /// α = roughness² at irr-bsdf's floor `SMOOTH_ALPHA` (1e-3).
     const SMOOTH_ROUGHNESS: f32 = 0.0316;
 
-    /// Counts what of glass material `m` is left out: its transmission `texture`, and for a
-    /// thin sheet its roughness and tint.
-    fn count(&mut self, m: &Material, texture: bool) {
+    /// Counts what of glass material `m` is left out: for a thin sheet, its roughness and
+    /// tint.
+    fn count(&mut self, m: &Material) {
         if m.is_emissive() {
             self.emissive += 1;
             return;
         }
-        self.texture += usize::from(texture);
         if m.thin_walled {
             self.rough += usize::from(
                 m.roughness > Self::SMOOTH_ROUGHNESS || m.metallic_roughness_texture.is_some(),
@@ -371,12 +374,6 @@ impl GlassWarnings {
 
     fn warn(&self, loader: &mut Loader<'_>) {
         let w = &mut loader.warnings;
-        w.add("transmission-texture", self.texture, |n| {
-            format!(
-                "{} KHR_materials_transmission transmissionTexture: ignored (the factor is used)",
-                plural(n, "material has a", "materials have a")
-            )
-        });
         w.add("transmission-rough", self.rough, |n| {
             format!(
                 "{} rougher than 0.03: light passing through is seen sharp, not blurred (the reflection keeps its roughness)",

@@ -17,8 +17,9 @@
 //!   `KHR_materials_ior`'s `ior` (the dielectric's F0; 1.5 without it) and
 //!   `KHR_materials_transmission`'s factor (glass, rendered as a thin sheet that light passes
 //!   straight through, or with `KHR_materials_volume`'s thickness above 0 as a volume's
-//!   refracting boundary, absorbing by its attenuation colour and distance: its texture, the
-//!   blur of a rough sheet and the tint of a coloured one are left out, each with a warning);
+//!   refracting boundary, absorbing by its attenuation colour and distance; its texture's red
+//!   channel multiplies the factor: the blur of a rough sheet and the tint of a coloured one
+//!   are left out, each with a warning);
 //!   `emissiveFactor` times
 //!   `KHR_materials_emissive_strength.emissiveStrength` (1 without the extension) is the emitted
 //!   radiance in W·sr⁻¹·m⁻²; `doubleSided` says whether a surface emits from both faces or only
