@@ -127,6 +127,9 @@ pub struct Scene {
     /// Whether some material is unlit ([`Material::unlit`]): camera rays are then traced with
     /// [`CameraRays`] as the hit filter.
     unlit: bool,
+    /// Whether some material bounds an absorbing volume ([`Material::attenuation`]): only then
+    /// does [`Scene::segment_transmittance`] look at a segment's material.
+    absorbs: bool,
     lights: LightSampler,
     background: Vec3,
 }
@@ -242,6 +245,9 @@ impl Scene {
         let lights = LightSampler::new(&geometry, &light_weights(&materials, &textures));
         let unlit = materials.iter().any(|m| m.unlit);
         let cutouts = unlit || materials.iter().any(Material::can_cut_out);
+        let absorbs = materials
+            .iter()
+            .any(|m| m.transmits() && !m.thin_walled && m.attenuation != Vec3::ZERO);
         Ok(Self {
             geometry,
             materials,
@@ -252,6 +258,7 @@ impl Scene {
             alphas: VertexAttribute::default(),
             cutouts,
             unlit,
+            absorbs,
             lights,
             background: Vec3::ZERO,
         })
@@ -468,6 +475,9 @@ impl Scene {
     /// boundary the segment leaves.
     #[inline]
     pub fn segment_transmittance(&self, x: &ShadingPoint, wi: Vec3, distance: Option<f32>) -> Vec3 {
+        if !self.absorbs {
+            return Vec3::ONE;
+        }
         let m = self.material_of(x.triangle);
         if m.attenuation == Vec3::ZERO || !m.transmits() || m.thin_walled {
             return Vec3::ONE;
