@@ -408,7 +408,6 @@ impl Budget {
     }
 
     /// The bytes charged and not refunded.
-    #[cfg(test)]
     pub(crate) fn spent(&self) -> u64 {
         self.spent
     }

@@ -4,7 +4,9 @@
 //! # What irr reads
 //! - The default scene (`scene`, else the first), its node hierarchy and transforms (matrix or
 //!   TRS; normals by the inverse transpose; a negative determinant flips the winding so the
-//!   front face stays where the file meant it).
+//!   front face stays where the file meant it); `EXT_mesh_gpu_instancing`'s instances, each a
+//!   copy of the node's mesh (refused before any copy when their positions alone would pass the
+//!   memory limit).
 //! - Triangle primitives (`TRIANGLES`, `TRIANGLE_STRIP`, `TRIANGLE_FAN`), indexed (u8, u16, u32
 //!   indices) or not; `POSITION`, `NORMAL` if present, and the `TEXCOORD_n` a textured material
 //!   reads (float, or normalized unsigned byte or short; with `KHR_mesh_quantization` the 8- and
@@ -115,7 +117,8 @@ use std::path::{Path, PathBuf};
 pub const MAX_COORDINATE: f32 = 1e18;
 
 /// The extensions irr reads.
-const SUPPORTED_EXTENSIONS: [&str; 9] = [
+const SUPPORTED_EXTENSIONS: [&str; 10] = [
+    "EXT_mesh_gpu_instancing",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_specular",
@@ -469,30 +472,33 @@ impl<'a> Loader<'a> {
                 }
             }
             if let Some(mesh) = node.mesh() {
-                for primitive in mesh.primitives() {
-                    let file_material = primitive.material().index();
-                    let material_id = file_material.map_or(default_material, |i| i as u32);
-                    let material = materials.get(material_id as usize);
-                    let sets: Vec<u32> = material
-                        .map(|m| m.tex_coord_sets().collect())
-                        .unwrap_or_default();
-                    let normal_set = material
-                        .and_then(|m| m.normal_texture)
-                        .and_then(|t| sets.iter().position(|&s| s == t.tex_coord));
-                    if let Some(p) = self.primitive(
-                        &node,
-                        &mesh,
-                        &primitive,
-                        world,
-                        (material_id, &sets, normal_set),
-                        &buffers,
-                    )? {
-                        used_default_material += usize::from(file_material.is_none());
-                        meshes.push(p.mesh);
-                        tex_coords.push(p.tex_coords);
-                        colours.push(p.colours);
-                        alphas.push(p.alphas);
-                        tangents.push(p.tangents);
+                let instances = self.instances(&node, world, &buffers)?;
+                for world in instances {
+                    for primitive in mesh.primitives() {
+                        let file_material = primitive.material().index();
+                        let material_id = file_material.map_or(default_material, |i| i as u32);
+                        let material = materials.get(material_id as usize);
+                        let sets: Vec<u32> = material
+                            .map(|m| m.tex_coord_sets().collect())
+                            .unwrap_or_default();
+                        let normal_set = material
+                            .and_then(|m| m.normal_texture)
+                            .and_then(|t| sets.iter().position(|&s| s == t.tex_coord));
+                        if let Some(p) = self.primitive(
+                            &node,
+                            &mesh,
+                            &primitive,
+                            world,
+                            (material_id, &sets, normal_set),
+                            &buffers,
+                        )? {
+                            used_default_material += usize::from(file_material.is_none());
+                            meshes.push(p.mesh);
+                            tex_coords.push(p.tex_coords);
+                            colours.push(p.colours);
+                            alphas.push(p.alphas);
+                            tangents.push(p.tangents);
+                        }
                     }
                 }
             }

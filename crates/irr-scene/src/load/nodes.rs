@@ -1,6 +1,7 @@
 //! The node hierarchy, its transforms, and cameras.
 
 use super::{Loader, describe};
+use crate::accessor::{Buffers, read_vec3, read_vec4};
 use crate::camera::Camera;
 use crate::error::LoadError;
 use glam::{Mat4, Quat, Vec3};
@@ -56,6 +57,108 @@ impl<'a> Loader<'a> {
             if holds(&node) {
                 out.push((node, world));
             }
+        }
+        Ok(out)
+    }
+
+    /// The world transforms `node`'s mesh is drawn with: `world` alone, or with
+    /// `EXT_mesh_gpu_instancing` one per instance, `world` × the instance's T·R·S (the
+    /// extension applies the instance's transform first, then the node's). The instances are
+    /// drawn as copies: each one's triangles count against the memory limit.
+    pub(super) fn instances(
+        &mut self,
+        node: &gltf::Node<'_>,
+        world: Mat4,
+        buffers: &Buffers,
+    ) -> Result<Vec<Mat4>, LoadError> {
+        let Some(ext) = node.extension_value("EXT_mesh_gpu_instancing") else {
+            return Ok(vec![world]);
+        };
+        let what = format!(
+            "node {}: EXT_mesh_gpu_instancing",
+            describe(node.index(), node.name())
+        );
+        let accessor = |name: &str| -> Result<Option<gltf::Accessor<'a>>, LoadError> {
+            let Some(index) = ext.get("attributes").and_then(|a| a.get(name)) else {
+                return Ok(None);
+            };
+            index
+                .as_u64()
+                .and_then(|i| self.document.accessors().nth(usize::try_from(i).ok()?))
+                .map(Some)
+                .ok_or_else(|| self.err(format!("{what}: {name} {index} is no accessor")))
+        };
+        let (t, r, s) = (
+            accessor("TRANSLATION")?,
+            accessor("ROTATION")?,
+            accessor("SCALE")?,
+        );
+        let count = [&t, &r, &s]
+            .iter()
+            .flat_map(|a| a.as_ref())
+            .map(|a| a.count())
+            .max();
+        let Some(count) = count else {
+            return Err(self.err(format!(
+                "{what}: no TRANSLATION, ROTATION or SCALE attribute"
+            )));
+        };
+        let vec3 = |loader: &mut Self, a: &Option<gltf::Accessor<'_>>, name: &str, default| match a
+        {
+            None => Ok(vec![default; count]),
+            Some(a) => read_vec3(&format!("{what}: {name}"), a, buffers, &mut loader.budget)
+                .map_err(|e| loader.err(e)),
+        };
+        let translations = vec3(self, &t, "TRANSLATION", [0.0; 3])?;
+        let scales = vec3(self, &s, "SCALE", [1.0; 3])?;
+        let rotations = match &r {
+            None => vec![[0.0, 0.0, 0.0, 1.0]; count],
+            Some(a) => read_vec4(&format!("{what}: ROTATION"), a, buffers, &mut self.budget)
+                .map_err(|e| self.err(e))?,
+        };
+        if translations.len() != count || rotations.len() != count || scales.len() != count {
+            return Err(self.err(format!(
+                "{what}: its attributes' counts differ (they must all be {count})"
+            )));
+        }
+        // The copies' positions alone must fit what is left of the memory limit: refused here,
+        // before any copy is made, rather than after reading them one by one.
+        let vertices: u64 = node.mesh().map_or(0, |m| {
+            m.primitives()
+                .filter_map(|p| p.get(&gltf::Semantic::Positions))
+                .map(|a| a.count() as u64)
+                .sum()
+        });
+        let bytes = vertices
+            .saturating_mul(count as u64)
+            .saturating_mul(size_of::<[f32; 3]>() as u64);
+        let limit = self.budget.limit();
+        if bytes > limit.bytes.saturating_sub(self.budget.spent()) {
+            return Err(self.err(format!(
+                "{what}: {count} copies of {vertices} vertices take {} of positions alone, past the scene's memory limit of {limit}",
+                crate::files::gib(bytes)
+            )));
+        }
+        let mut out = Vec::with_capacity(count);
+        for ((t, r), s) in translations.iter().zip(&rotations).zip(&scales) {
+            let q = Quat::from_array(*r);
+            let q = if q.length_squared() > 0.0 {
+                q.normalize()
+            } else {
+                Quat::NAN
+            };
+            let m = world
+                * Mat4::from_scale_rotation_translation(
+                    Vec3::from_array(*s),
+                    q,
+                    Vec3::from_array(*t),
+                );
+            if !m.is_finite() {
+                return Err(self.err(format!(
+                    "{what}: an instance's transform is not finite (or its rotation is zero)"
+                )));
+            }
+            out.push(m);
         }
         Ok(out)
     }

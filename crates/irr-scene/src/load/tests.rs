@@ -626,6 +626,54 @@ fn khr_materials_transmission_is_read_with_what_it_leaves_out() {
     );
 }
 
+/// `EXT_mesh_gpu_instancing`: a node's mesh drawn once per instance, each with the instance's
+/// translation and scale (rotation left to its default) and then the node's own transform; an
+/// instancing whose attributes disagree on the count is refused, naming the node.
+#[test]
+fn mesh_gpu_instances_are_drawn_as_copies() {
+    let d = dir();
+    let file = |scales: &[[f32; 3]]| {
+        let mut g = Gltf::default();
+        let p = g.vec3(&TRIANGLE);
+        let t = g.vec3(&[[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 0.0, -5.0]]);
+        let s = g.vec3(scales);
+        g.json(&format!(
+            r#""extensionsUsed":["EXT_mesh_gpu_instancing"],"extensionsRequired":["EXT_mesh_gpu_instancing"],
+            "scene":0,"scenes":[{{"nodes":[0]}}],
+            "nodes":[{{"mesh":0,"translation":[0,1,0],
+                       "extensions":{{"EXT_mesh_gpu_instancing":{{"attributes":{{"TRANSLATION":{t},"SCALE":{s}}}}}}}}}],
+            "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p}}},"material":0}}]}}],
+            "materials":[{{"emissiveFactor":[1,1,1]}}]"#
+        ))
+    };
+    let one = [1.0f32; 3];
+    let s = load(&write(
+        d.path(),
+        "instances.gltf",
+        file(&[one, [2.0; 3], one]),
+    ));
+    let got = world_triangles(&s);
+    let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+    let expected = [
+        [v(0.0, 1.0, 0.0), v(1.0, 1.0, 0.0), v(0.0, 2.0, 0.0)],
+        [v(10.0, 1.0, 0.0), v(12.0, 1.0, 0.0), v(10.0, 3.0, 0.0)],
+        [v(0.0, 1.0, -5.0), v(1.0, 1.0, -5.0), v(0.0, 2.0, -5.0)],
+    ];
+    assert_eq!(got, expected);
+    assert!(
+        s.warnings.iter().all(|w| !w.feature.contains("instancing")),
+        "{:?}",
+        s.warnings
+    );
+    let e = load_err(&write(d.path(), "uneven.gltf", file(&[one, one])));
+    assert!(
+        e.contains("node 0")
+            && e.contains("EXT_mesh_gpu_instancing")
+            && e.contains("counts differ"),
+        "{e}"
+    );
+}
+
 /// A volume's attenuation distance must be above 0 (`KHR_materials_volume`): a file with a
 /// negative one is refused, naming the material and the value.
 #[test]
