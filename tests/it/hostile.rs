@@ -355,6 +355,54 @@ fn shared_accessors_load_within_the_memory_limit() {
     assert_eq!(loaded.scene.geometry().triangle_count(), triangles);
 }
 
+/// An instancing bomb: one node draws a grid of 10⁴ vertices 2¹⁶ times
+/// (`EXT_mesh_gpu_instancing`, 0.8 MB of translations), 7.9 GB of positions alone. Under a
+/// 1 GiB limit it is refused before any copy is made, naming the node and the copies (a loader
+/// that copied first would be refused later by the budget, with another message, after reading
+/// the grid thousands of times).
+#[test]
+fn an_instancing_bomb_is_refused_before_its_copies() {
+    let dir = temp();
+    let n = 99u32;
+    let mut g = irr_scene::testutil::Gltf::default();
+    let vertices: Vec<[f32; 3]> = (0..=n)
+        .flat_map(|j| (0..=n).map(move |i| [i as f32, 0.0, j as f32]))
+        .collect();
+    let positions = g.vec3(&vertices);
+    let indices: Vec<u32> = (0..n)
+        .flat_map(|j| (0..n).map(move |i| (i, j)))
+        .flat_map(|(i, j)| {
+            let v = |a: u32, b: u32| b * (n + 1) + a;
+            [v(i, j), v(i, j + 1), v(i + 1, j)]
+        })
+        .collect();
+    let indices = g.indices(&indices, 5125);
+    let copies = 1usize << 16;
+    let translations: Vec<[f32; 3]> = (0..copies).map(|k| [0.0, k as f32, 0.0]).collect();
+    let translations = g.vec3(&translations);
+    let json = g.json(&format!(
+        r#""extensionsUsed":["EXT_mesh_gpu_instancing"],"scene":0,"scenes":[{{"nodes":[0]}}],
+        "nodes":[{{"mesh":0,"extensions":{{"EXT_mesh_gpu_instancing":{{"attributes":{{"TRANSLATION":{translations}}}}}}}}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{positions}}},"indices":{indices}}}]}}]"#
+    ));
+    let path = dir.path().join("forest.gltf");
+    write(&path, &json);
+    let tight = LoadOptions {
+        max_memory: Some(1 << 30),
+        ..LoadOptions::default()
+    };
+    load_error(
+        &path,
+        &tight,
+        &[
+            "node 0",
+            "EXT_mesh_gpu_instancing",
+            "65536 copies of 10000 vertices",
+            "memory limit",
+        ],
+    );
+}
+
 /// A long chain of nodes (each the only child of the one before) loads: the walk keeps
 /// no recursion and no per-level copy.
 #[test]
