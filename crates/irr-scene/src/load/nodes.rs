@@ -1,4 +1,4 @@
-//! The node hierarchy, its transforms, and cameras.
+//! The node hierarchy, its transforms, `EXT_mesh_gpu_instancing`'s instances, and cameras.
 
 use super::{Loader, describe};
 use crate::accessor::{Buffers, read_vec3, read_vec4};
