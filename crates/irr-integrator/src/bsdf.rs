@@ -96,7 +96,7 @@ impl Bsdf {
         }
         // A volume's boundary refracts by which side the light comes from: its frame's normal
         // is the outward one (the winding normal's side), so `wo` lies below it from inside.
-        let ns = if material.transmits() && !material.thin_walled {
+        let ns = if material.refracts() {
             let outward = scene.geometry().geometric_normal(x.triangle);
             if x.ng.dot(outward) < 0.0 { -x.ns } else { x.ns }
         } else {

@@ -245,9 +245,7 @@ impl Scene {
         let lights = LightSampler::new(&geometry, &light_weights(&materials, &textures));
         let unlit = materials.iter().any(|m| m.unlit);
         let cutouts = unlit || materials.iter().any(Material::can_cut_out);
-        let absorbs = materials
-            .iter()
-            .any(|m| m.transmits() && !m.thin_walled && m.attenuation != Vec3::ZERO);
+        let absorbs = materials.iter().any(Material::absorbs);
         Ok(Self {
             geometry,
             materials,
@@ -479,7 +477,7 @@ impl Scene {
             return Vec3::ONE;
         }
         let m = self.material_of(x.triangle);
-        if m.attenuation == Vec3::ZERO || !m.transmits() || m.thin_walled {
+        if !m.absorbs() {
             return Vec3::ONE;
         }
         if wi.dot(self.geometry.geometric_normal(x.triangle)) >= 0.0 {
@@ -691,7 +689,7 @@ impl Scene {
             reflection
                 .with_transmission(self.transmission(triangle, b1, b2), true)
                 .with_straight_transmission()
-        } else if material.transmits() {
+        } else if material.refracts() {
             reflection.with_transmission(self.transmission(triangle, b1, b2), false)
         } else {
             reflection

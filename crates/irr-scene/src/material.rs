@@ -230,6 +230,18 @@ impl Material {
         self.transmission > 0.0 && !self.unlit && !self.is_emissive()
     }
 
+    /// Whether the surface bounds a volume and refracts: a transmitting material that is not a
+    /// thin sheet ([`Material::transmits`], [`Material::thin_walled`]).
+    pub fn refracts(&self) -> bool {
+        self.transmits() && !self.thin_walled
+    }
+
+    /// Whether the volume the surface bounds absorbs ([`Material::refracts`] and a non-zero
+    /// [`Material::attenuation`]).
+    pub fn absorbs(&self) -> bool {
+        self.refracts() && self.attenuation != Vec3::ZERO
+    }
+
     /// Whether rays pass straight through the surface, with the probability of its straight
     /// transmittance: a transmitting thin sheet ([`Material::transmits`] and
     /// [`Material::thin_walled`]). A volume's boundary stops every ray and refracts by its BSDF.

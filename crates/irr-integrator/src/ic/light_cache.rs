@@ -317,14 +317,17 @@ impl CellSums {
     /// Whether this cell's mean luminance and `other`'s differ by more than [`SIDES_APART`]
     /// standard errors of their difference (each side's from its own deposits).
     fn apart_from(&self, other: &CellSums) -> bool {
-        let stats = |c: &CellSums| {
-            let n = f64::from(c.count);
-            let mean = luminance(c.sum) / n;
-            let var = ((c.squares - n * mean * mean) / (n - 1.0)).max(0.0);
-            (mean, var / n)
-        };
-        let ((m0, v0), (m1, v1)) = (stats(self), stats(other));
-        (m0 - m1).abs() > SIDES_APART * (v0 + v1).sqrt()
+        let ((m0, v0), (m1, v1)) = (self.luminance_stats(), other.luminance_stats());
+        let (n0, n1) = (f64::from(self.count), f64::from(other.count));
+        (m0 - m1).abs() > SIDES_APART * (v0 / n0 + v1 / n1).sqrt()
+    }
+
+    /// The mean luminance of the cell's deposits and their sample variance (at least 0).
+    fn luminance_stats(&self) -> (f64, f64) {
+        let n = f64::from(self.count);
+        let mean = luminance(self.sum) / n;
+        let var = ((self.squares - n * mean * mean) / (n - 1.0)).max(0.0);
+        (mean, var)
     }
 
     /// The cell's mean without the last `deeper` vertices' parts of its deposits, if it holds
@@ -337,13 +340,11 @@ impl CellSums {
 
     /// The squared relative standard error of the cell's mean luminance (0 for a black cell).
     fn relative_variance(&self) -> f64 {
-        let n = f64::from(self.count);
-        let mean = luminance(self.sum) / n;
+        let (mean, var) = self.luminance_stats();
         if self.count < 2 || mean <= 0.0 {
             return 0.0;
         }
-        let var = ((self.squares - n * mean * mean) / (n - 1.0)).max(0.0);
-        var / (n * mean * mean)
+        var / (f64::from(self.count) * mean * mean)
     }
 }
 
@@ -773,15 +774,14 @@ fn trace_light_path(
     };
     let mut ray = *ray;
     let mut j = 0usize;
-    // The density and origin of the last vertex's draw, for weighting the emission it finds.
-    let mut last_draw: Option<(f32, Vec3, f32)> = None;
-    // The last vertex, whose drawn ray is `ray`.
-    let mut from: Option<ShadingPoint> = None;
+    // The last vertex, whose drawn ray is `ray`, with its draw's density and light samples,
+    // for weighting the emission the ray finds.
+    let mut last: Option<(ShadingPoint, f32, f32)> = None;
     loop {
         rays.closest += 1;
         let hit = scene.intersect(&ray);
         // Inside an absorbing volume, the segment keeps e^(−σd) of the light it carries back.
-        if let Some(x) = &from {
+        if let Some((x, _, _)) = &last {
             let tr = scene.segment_transmittance(x, ray.direction, hit.map(|h| h.t));
             if tr != Vec3::ONE {
                 for slot in &mut slots {
@@ -799,10 +799,11 @@ fn trace_light_path(
         let surface = geometry.surface(&ray, &hit);
         // Emission the last vertex's draw found: light arriving there, weighted against its
         // light sample by the power heuristic (as the path tracer weighs them).
-        if let Some((pdf_draw, from, light_samples)) = last_draw {
+        if let Some((from, pdf_draw, light_samples)) = &last {
+            let (pdf_draw, light_samples) = (*pdf_draw, *light_samples);
             let le = scene.emitted_at(&surface, -ray.direction);
             if le != Vec3::ZERO {
-                let ray = (from, ray.direction);
+                let ray = (from.position, ray.direction);
                 let w = emission_weight(scene, &surface, ray, pdf_draw, light_samples);
                 add(&mut slots, j - 1, le * w);
             }
@@ -889,8 +890,7 @@ fn trace_light_path(
                 slot.factor *= d.weight / q;
             }
         }
-        last_draw = Some((d.pdf, x.position, d.light_samples(1.0)));
-        from = Some(x);
+        last = Some((x, d.pdf, d.light_samples(1.0)));
         ray = Ray::spawn(x.position, x.ng, d.wi);
         j += 1;
     }
