@@ -17,6 +17,9 @@ use irr_geometry::Ray;
 use irr_sampling::{Frame, HemisphereStrata, SampleKey, sample_cosine_hemisphere};
 use std::sync::atomic::AtomicU64;
 
+/// A first-level record's radiance slot when it holds no coefficients (`Level::radiance_slot`).
+const NO_COEFFICIENTS: u32 = u32::MAX;
+
 /// One level of cache: the records, what the leak guard keeps of each and the level's gather
 /// settings.
 #[derive(Clone, Debug)]
@@ -26,9 +29,14 @@ pub(super) struct Level<V: IcValue> {
     pub(super) guard: Vec<GuardRecord>,
     /// Per record (by id): the estimated relative standard error of its irradiance.
     pub(super) noise: Vec<f32>,
-    /// With radiance caching, on the first level: per record (by id), its coefficients and
-    /// their gradients (`RadianceCaching::stride()` each, module `radiance`); empty otherwise.
+    /// With radiance caching, on the first level: the coefficients and their gradients
+    /// (`RadianceCaching::stride()` each, module `radiance`) of the records that hold them;
+    /// empty otherwise.
     pub(super) radiance: Vec<Vec3>,
+    /// With radiance caching, on the first level: per record (by id), the index of its
+    /// coefficients in `radiance`, or [`NO_COEFFICIENTS`] for a record made on a material the
+    /// records do not reflect (`RadianceCaching::holds`); empty otherwise.
+    pub(super) radiance_slot: Vec<u32>,
     pub(super) strata: HemisphereStrata,
 }
 
@@ -65,6 +73,7 @@ impl<V: IcValue> Core<V> {
                     guard: Vec::new(),
                     noise: Vec::new(),
                     radiance: Vec::new(),
+                    radiance_slot: Vec::new(),
                     strata: settings.strata_at(l)?,
                 })
             })
@@ -129,7 +138,11 @@ impl<V: IcValue> Core<V> {
     /// The coefficients of record `id` of `level`, when it has them.
     pub(super) fn coefficients<'a>(&self, level: &'a Level<V>, id: u32) -> Option<&'a [Vec3]> {
         let stride = self.radiance.as_ref()?.stride();
-        let start = id as usize * stride;
+        let slot = *level.radiance_slot.get(id as usize)?;
+        if slot == NO_COEFFICIENTS {
+            return None;
+        }
+        let start = slot as usize * stride;
         level.radiance.get(start..start + stride)
     }
 
@@ -225,13 +238,18 @@ impl<V: IcValue> Core<V> {
                     debug_assert_eq!(id as usize, l.guard.len());
                     l.guard.push(c.guard);
                     l.noise.push(c.noise);
-                    // Coefficients stay aligned with the ids: a record of the first level has
-                    // them whenever radiance caching is on (`complete`).
-                    if let Some(mut coefficients) = c.radiance {
-                        if let Some(r) = &self.radiance {
-                            r.cap_gradients(&mut coefficients, &placement.gradient_scale);
+                    // With radiance caching every first-level record has a slot, which names
+                    // its coefficients where its material is one the records reflect
+                    // (`complete`).
+                    if let Some(r) = self.radiance.as_ref().filter(|_| level == 0) {
+                        match c.radiance {
+                            Some(mut coefficients) => {
+                                r.cap_gradients(&mut coefficients, &placement.gradient_scale);
+                                l.radiance_slot.push((l.radiance.len() / r.stride()) as u32);
+                                l.radiance.extend(coefficients);
+                            }
+                            None => l.radiance_slot.push(NO_COEFFICIENTS),
                         }
-                        l.radiance.extend(coefficients);
                     }
                     stats.inserted += 1;
                 }

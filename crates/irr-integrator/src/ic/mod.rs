@@ -728,8 +728,13 @@ impl CacheBuilder for IrradianceCacheIntegrator {
     fn complete(&self, scene: &Scene, probe: &Probe, rays: &mut RayCounter) -> Option<Candidate> {
         let li = probe.level as usize;
         let mut spent = RayCounter::default();
-        // With radiance caching, a first-level record also keeps its rays' coefficients.
-        let radiance = self.core.radiance.as_ref().filter(|_| li == 0);
+        // With radiance caching, a first-level record on a material whose lobe the records
+        // reflect also keeps its rays' coefficients.
+        let radiance = self
+            .core
+            .radiance
+            .as_ref()
+            .filter(|r| li == 0 && r.holds(scene.material_of(probe.x.triangle)));
         let mut log = Vec::new();
         let (samples, pilot, frame) = self.core.gather(
             scene,

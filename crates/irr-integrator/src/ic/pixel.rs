@@ -418,6 +418,7 @@ impl IrradianceCacheIntegrator {
                 guard: Vec::new(),
                 noise: Vec::new(),
                 radiance: Vec::new(),
+                radiance_slot: Vec::new(),
                 strata: self.core.fallback_strata,
             });
             if l.cache.insert_with_radius(record, &inputs).is_ok() {
