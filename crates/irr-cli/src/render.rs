@@ -144,8 +144,7 @@ pub struct IcArgs {
     pub direct_samples: u32,
     /// BSDF samples per camera hit for a path-traced glossy lobe that carries all of the
     /// surface's reflection (a metal), 1 to 256; a lobe carrying the share p of the albedo
-    /// takes ⌈p²·this⌉, and with --radiance-order every lobe beyond the records this. Each adds
-    /// a ray; the camera sample's other work is shared
+    /// takes ⌈p²·this⌉ (with --radiance-order too, beyond the records). Each adds a ray; the camera sample's other work is shared
     #[arg(long, default_value_t = IcSettings::default().glossy_samples)]
     pub glossy_samples: u32,
     /// Adaptive gathers: the target relative standard error of a record's irradiance (e.g.

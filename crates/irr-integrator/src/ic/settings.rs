@@ -203,8 +203,7 @@ pub struct IcSettings {
     /// BSDF samples per camera hit for a glossy lobe that is path-traced (the light the cache's
     /// ρ_d/π·E leaves out) where that lobe carries all of the surface's reflection (a metal);
     /// a lobe carrying the share p of its albedo takes ⌈p²·this⌉ (one on a rough white
-    /// dielectric unless seen at a grazing angle), and every lobe beyond the radiance records
-    /// takes this. Averaged: each costs one ray and a light-cache lookup, a fraction of a
+    /// dielectric unless seen at a grazing angle), with radiance records or without. Averaged: each costs one ray and a light-cache lookup, a fraction of a
     /// camera sample, whose shading, records and direct light they share; the direct light's
     /// MIS weighs the light samples against all of them. Default: 8: on a
     /// rough metal floor 2.9× less error than one at equal time, on the glossy room a tie
