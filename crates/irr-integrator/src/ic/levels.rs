@@ -5,7 +5,7 @@ use super::IcMetric;
 use super::builder::{Candidate, CommitStats, DisplayRecord, Probe};
 use super::guard::{GuardRecord, Query};
 use super::light_cache::CacheView;
-use super::radiance::RadianceCaching;
+use super::radiance::{RadianceCaching, may_take, order_may_hold};
 use super::settings::{IcSettings, IcSettingsError};
 use super::value::{IcValue, convert_record};
 use crate::integrator::RayCounter;
@@ -116,21 +116,27 @@ impl<V: IcValue> Core<V> {
         let d = (hi - lo).length();
         self.diagonal = if d.is_finite() && d > 0.0 { d } else { 1.0 };
         let order = self.settings.radiance_order as usize;
-        // The roughness each glossy material reaches: its factor, or from 0 to it under a
-        // metallic-roughness texture (whose green channel scales it); the table holds those.
-        let ranges: Vec<(f32, f32)> = scene
-            .materials()
-            .iter()
-            .filter(|m| !m.is_lambertian())
-            .map(|m| match m.metallic_roughness_texture {
-                Some(_) => (0.0, m.roughness),
-                None => (m.roughness, m.roughness),
-            })
-            .collect();
-        self.radiance = (order > 0 && !ranges.is_empty() && !self.levels.is_empty())
+        // The roughness each material the records may take reaches (module `radiance`, "Which
+        // lobes"): its factor, or from 0 to it under a metallic-roughness texture (whose green
+        // channel scales it); the table holds those, and none is built without one.
+        let max_error = self.settings.radiance_error;
+        let ranges: Vec<(f32, f32)> = if order > 0 && !self.levels.is_empty() {
+            scene
+                .materials()
+                .iter()
+                .filter(|m| may_take(m) && order_may_hold(order, max_error, m))
+                .map(|m| match m.metallic_roughness_texture {
+                    Some(_) => (0.0, m.roughness),
+                    None => (m.roughness, m.roughness),
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        self.radiance = (!ranges.is_empty())
             .then(|| {
                 let gradients = self.settings.radiance_gradients as usize;
-                RadianceCaching::new(order, self.settings.radiance_error, &ranges, gradients).ok()
+                RadianceCaching::new(order, max_error, &ranges, gradients).ok()
             })
             .flatten();
     }

@@ -16,15 +16,27 @@
 //! hit reflects and the background, never an emitter's own light (that is the direct light's,
 //! by next-event estimation).
 //!
+//! # Which lobes
+//! A lookup replaces the lobe's path-traced samples, ⌈p²·K⌉ of them for the share p of the
+//! surface's reflection the lobe carries (`--glossy-samples` K): K on a metal, one on a
+//! dielectric seen head-on (p ≈ 0.04–0.1), whose lobe adds little noise. So the records take
+//! only lobes carrying at least [`MIN_SHARE`] (≈ 1/√8) of the reflection, and a scene's
+//! materials only where that holds seen head-on ([`may_take`]) and order n holds the head-on
+//! lobe within the threshold ([`order_may_hold`], by direct quadrature): the table is built for
+//! those materials' roughness, and not at all without one. On the glossy room (dielectric
+//! lobes, a gold of roughness 0.3) that leaves nothing, the image and time as with records
+//! off; before, the table and the dielectric walls' records cost 8 % more time for no gain
+//! (docs/performance.md, "Radiance caching").
+//!
 //! # Which records
-//! Only first-level records made on a material whose lobe the records reflect at some view
+//! Only first-level records made on a material the records take at some view
 //! ([`RadianceCaching::holds`]). A glossy point weighs the records about it as the irradiance
 //! does, and those need normals and positions close to its own: its own surface's records. A
 //! record on a wall or floor keeps none, as no point there would read them; it is skipped
 //! where a glossy neighbour weighs it. The projection costs n² products a gather ray, with
 //! gradients as much again per wall, so keeping it to the records that are read cut the
 //! construction's extra time from +0.23 s to none on a white-metal box where 126 of 2444
-//! records are on the metal (docs/performance.md, "Radiance caching").
+//! records are on the metal.
 //!
 //! # A glossy shading point
 //! Its BRDF minus the diffuse stand-in the irradiance cache already covers, f − ρ_d/π, is
@@ -36,10 +48,12 @@
 //! coefficients: the lobe's indirect light, with no ray traced. Its direct light is then next-
 //! event estimation alone (no BSDF sample to weigh it against).
 //!
-//! **When.** Only where the lobe's relative reconstruction error at the point's roughness and
-//! view angle is at most [`IcSettings::radiance_error`] (the cosine-weighted lobe's error in
-//! the basis by Parseval's identity, computed per table node); elsewhere (sharp lobes, grazing views), and where no record with coefficients
-//! covers the point, the lobe is path-traced as without radiance caching. The choice depends
+//! **When.** Only where the lobe carries at least [`MIN_SHARE`] of the point's reflection and
+//! its relative reconstruction error at the point's roughness and view angle is at most
+//! [`IcSettings::radiance_error`] (the cosine-weighted lobe's error in the basis by Parseval's
+//! identity, computed per table node); elsewhere (weak or sharp lobes, grazing views), and where
+//! no record with coefficients covers the point, the lobe is path-traced as without radiance
+//! caching. The choice depends
 //! only on the point, so it is deterministic.
 //!
 //! # Gradients
@@ -64,7 +78,10 @@
 
 use crate::bsdf::Bsdf;
 use glam::{Mat3, Vec3};
-use irr_bsdf::basis::{BasisTableError, ResidualTable, rotate_about_z};
+use irr_bsdf::MetallicRoughness;
+use irr_bsdf::basis::{
+    BasisTableError, QUADRATURE_NODES, ResidualTable, reconstruction_error, rotate_about_z,
+};
 use irr_gradients::{GatherSamples, TranslationGradient, rotate_to_world};
 use irr_sampling::Frame;
 use irr_scene::Material;
@@ -125,20 +142,19 @@ impl RadianceCaching {
             // `scale`), which the tables do not know: path-traced.
             Bsdf::Glossy { material, wo, .. } => {
                 material.transmission() == 0.0
+                    && bsdf.residual_probability() >= MIN_SHARE
                     && self.table.reconstruction_error(material.roughness(), wo.z) <= self.max_error
             }
         }
     }
 
     /// Whether a record made on `material` keeps coefficients (module docs, "Which records"):
-    /// a glossy, non-transmitting material whose lobe the records reflect at some view, at the
-    /// most roughness it reaches (its factor; a texture only scales it down), the error
-    /// falling with roughness. Elsewhere no point reads a record through its lobe, except a
-    /// glossy neighbour across an edge, which takes the records of its own surface.
+    /// a material the records may take ([`may_take`]) whose lobe the table holds within the
+    /// threshold at some view, at the most roughness it reaches (its factor; a texture only
+    /// scales it down), the error falling with roughness.
     pub(super) fn holds(&self, material: &Material) -> bool {
         // cos θo on a grid of 32 steps: the table's own nodes are coarser.
-        !material.is_lambertian()
-            && material.transmission == 0.0
+        may_take(material)
             && (1..=32).any(|k| {
                 self.table
                     .reconstruction_error(material.roughness, k as f32 / 32.0)
@@ -313,6 +329,45 @@ impl RadianceCaching {
     }
 }
 
+/// The least share of a surface's reflection (`Bsdf::residual_probability`, p) a lobe carries
+/// where the records take it (module docs, "Which lobes"): 1/√8, where the default
+/// `--glossy-samples` 8 gives a path-traced lobe ⌈8p²⌉ = 2 samples or more.
+pub(super) const MIN_SHARE: f32 = 0.35;
+
+/// Whether the records may take `material`'s lobe: glossy, not transmitting, its lobe carrying
+/// at least [`MIN_SHARE`] of its reflection seen head-on (by its factors: a texture only scales
+/// metallic down).
+pub(super) fn may_take(material: &Material) -> bool {
+    if material.is_lambertian() || material.transmission != 0.0 {
+        return false;
+    }
+    let head_on = Bsdf::Glossy {
+        material: MetallicRoughness::with_specular(
+            material.albedo,
+            material.metallic,
+            material.roughness,
+            material.specular,
+        )
+        .with_ior(material.ior),
+        frame: Frame::from_normal(Vec3::Z),
+        wo: Vec3::Z,
+        scale: 1.0,
+    };
+    head_on.residual_probability() >= MIN_SHARE
+}
+
+/// Whether order `order` may hold `material`'s lobe within `max_error` at all: its head-on
+/// reconstruction error (the smallest over views, irr-bsdf's basis docs) by direct
+/// quadrature, at the most roughness the material reaches. What the table is built for,
+/// before it exists.
+pub(super) fn order_may_hold(order: usize, max_error: f32, material: &Material) -> bool {
+    let Ok(basis) = Basis::sh(order) else {
+        return false;
+    };
+    reconstruction_error(basis, f64::from(material.roughness), 1.0, QUADRATURE_NODES)
+        .is_ok_and(|e| e <= f64::from(max_error))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -325,10 +380,12 @@ mod tests {
     }
 
     /// Records keep coefficients on the materials whose lobes they reflect at some view and on
-    /// no other: not on a Lambertian wall, not on glass, not on a lobe sharper than the order
-    /// holds at any view (roughness 0.05 at order 4: the table's error there is near 1, far
-    /// above the threshold 0.5), and on a rough metal (roughness 0.9 at order 4: error about
-    /// 0.05 at normal incidence, irr-bsdf's basis docs).
+    /// no other: not on a Lambertian wall, not on glass, not on a white dielectric (its lobe
+    /// carries 0.04 of its reflection head-on, below `MIN_SHARE`), not on a lobe sharper than
+    /// the order holds at any view (roughness 0.05 at order 4: the table's error there is near
+    /// 1, far above the threshold 0.5), and on a rough metal (roughness 0.9 at order 4: error
+    /// about 0.05 at normal incidence, irr-bsdf's basis docs); `order_may_hold` agrees before
+    /// any table.
     #[test]
     fn records_hold_coefficients_where_a_lobe_reads_them() {
         let rc = caching(4);
@@ -336,6 +393,17 @@ mod tests {
         assert!(!rc.holds(&Material::diffuse(white)));
         assert!(rc.holds(&Material::metallic_roughness(white, 1.0, 0.9)));
         assert!(!rc.holds(&Material::metallic_roughness(white, 1.0, 0.05)));
+        assert!(!rc.holds(&Material::metallic_roughness(white, 0.0, 0.9)));
+        assert!(order_may_hold(
+            4,
+            0.5,
+            &Material::metallic_roughness(white, 1.0, 0.9)
+        ));
+        assert!(!order_may_hold(
+            4,
+            0.5,
+            &Material::metallic_roughness(white, 1.0, 0.05)
+        ));
         let glass = Material {
             transmission: 1.0,
             ..Material::metallic_roughness(white, 0.0, 0.9)
