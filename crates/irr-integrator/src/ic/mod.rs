@@ -113,6 +113,7 @@ use irr_gradients::TranslationGradient;
 use irr_sampling::SampleKey;
 use irr_sampling::rng::Dimensions;
 use levels::{Core, display};
+use radiance::glossy_radius_scale;
 use settings::setting_error;
 use std::f32::consts::FRAC_1_PI;
 use std::sync::atomic::Ordering;
@@ -753,6 +754,13 @@ impl CacheBuilder for IrradianceCacheIntegrator {
             GradientMode::KrivanekGautron => Some(TranslationGradient::KrivanekGautron),
         };
         candidate.radiance = radiance.map(|r| r.project(&samples, &log, &frame, variant));
+        // A record read through a lobe is valid over a smaller region than its irradiance
+        // (module `radiance`, "Records placed for glossy light").
+        if candidate.radiance.is_some() {
+            if let Bsdf::Glossy { material, .. } = Bsdf::at(scene, &probe.x) {
+                candidate.inputs.distance *= glossy_radius_scale(material.alpha());
+            }
+        }
         Some(candidate)
     }
 
