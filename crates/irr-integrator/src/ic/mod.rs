@@ -756,10 +756,10 @@ impl CacheBuilder for IrradianceCacheIntegrator {
         candidate.radiance = radiance.map(|r| r.project(&samples, &log, &frame, variant));
         // A record read through a lobe is valid over a smaller region than its irradiance
         // (module `radiance`, "Records placed for glossy light").
-        if candidate.radiance.is_some() {
-            if let Bsdf::Glossy { material, .. } = Bsdf::at(scene, &probe.x) {
-                candidate.inputs.distance *= glossy_radius_scale(material.alpha());
-            }
+        if candidate.radiance.is_some()
+            && let Bsdf::Glossy { material, .. } = Bsdf::at(scene, &probe.x)
+        {
+            candidate.inputs.distance *= glossy_radius_scale(material.alpha());
         }
         Some(candidate)
     }
