@@ -15,6 +15,7 @@ use glam::Vec3;
 use irr_cache::{ErrorMetric, InsertError, IrradianceCache, Record};
 use irr_geometry::Ray;
 use irr_sampling::{Frame, HemisphereStrata, SampleKey, sample_cosine_hemisphere};
+use std::collections::HashMap;
 use std::sync::atomic::AtomicU64;
 
 /// A first-level record's radiance slot when it holds no coefficients (`Level::radiance_slot`).
@@ -120,11 +121,18 @@ impl<V: IcValue> Core<V> {
         // lobes"): its factor, or from 0 to it under a metallic-roughness texture (whose green
         // channel scales it); the table holds those, and none is built without one.
         let max_error = self.settings.radiance_error;
+        // One quadrature per distinct roughness, however many materials share it.
+        let mut held: HashMap<u32, bool> = HashMap::new();
         let ranges: Vec<(f32, f32)> = if order > 0 && !self.levels.is_empty() {
             scene
                 .materials()
                 .iter()
-                .filter(|m| may_take(m) && order_may_hold(order, max_error, m))
+                .filter(|m| {
+                    may_take(m)
+                        && *held
+                            .entry(m.roughness.to_bits())
+                            .or_insert_with(|| order_may_hold(order, max_error, m))
+                })
                 .map(|m| match m.metallic_roughness_texture {
                     Some(_) => (0.0, m.roughness),
                     None => (m.roughness, m.roughness),
