@@ -167,11 +167,11 @@ pub struct IcArgs {
     pub fill_samples: bool,
     /// Radiance caching of glossy lobes (Křivánek et al. 2005): each record on a rough metal
     /// also stores its gather's incoming light in real spherical harmonics of this order (N²
-    /// coefficients per colour, N ≤ 10), and a point whose lobe the order holds reflects their
-    /// interpolation instead of path-tracing its lobe. 0: off [default: 10; 0 with --cache or
-    /// --shared-cache, whose cache files hold irradiance records only]
-    #[arg(long)]
-    pub radiance_order: Option<u32>,
+    /// coefficients per colour, N ≤ 10; 10 with --radiance-error 0.3 is the measured choice),
+    /// and a point whose lobe the order holds reflects their interpolation instead of
+    /// path-tracing its lobe. 0: off
+    #[arg(long, default_value_t = IcSettings::default().radiance_order)]
+    pub radiance_order: u32,
     /// With --radiance-order: a glossy point uses the records where its lobe's relative
     /// reconstruction error in the basis (by roughness and view angle) is at most this, in
     /// (0, 1]; elsewhere its lobe is path-traced. Larger: more points cached, more bias
@@ -201,10 +201,8 @@ pub struct IcArgs {
 }
 
 impl IcArgs {
-    /// The settings, checked (an error names the option); with `files`, the records travel in
-    /// cache files (`--cache`, `--shared-cache`), which hold no radiance records, so
-    /// `--radiance-order` defaults to 0.
-    pub fn settings(&self, max_depth: u32, files: bool) -> Result<IcSettings, String> {
+    /// The settings, checked (an error names the option).
+    pub fn settings(&self, max_depth: u32) -> Result<IcSettings, String> {
         let s = IcSettings {
             metric: match self.metric {
                 MetricChoice::TabellionLamorlette => MetricKind::TabellionLamorlette,
@@ -250,11 +248,7 @@ impl IcArgs {
             pixel_error: self.pixel_error,
             gather_budget: self.gather_budget,
             fill_samples: self.fill_samples,
-            radiance_order: self.radiance_order.unwrap_or(if files {
-                0
-            } else {
-                IcSettings::default().radiance_order
-            }),
+            radiance_order: self.radiance_order,
             radiance_error: self.radiance_error,
             radiance_gradients: self.radiance_gradients,
             second_order: self.second_order,
@@ -616,7 +610,7 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
         }
         // The shared cache travels in irr's cache file format (between shards, and to the
         // frames), which holds irradiance records only.
-        if args.ic.radiance_order.is_some_and(|n| n > 0) {
+        if args.ic.radiance_order > 0 {
             return Err("--shared-cache: a shared cache holds irradiance records only; use --radiance-order 0".into());
         }
     } else if args.shards != 1 || args.shard.is_some() {
@@ -660,10 +654,7 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
         }
     }
     let ic_settings = match args.integrator {
-        IntegratorChoice::Ic | IntegratorChoice::IcAo => Some(
-            args.ic
-                .settings(args.max_depth, args.ic.cache.is_some() || args.shared_cache)?,
-        ),
+        IntegratorChoice::Ic | IntegratorChoice::IcAo => Some(args.ic.settings(args.max_depth)?),
         _ => None,
     };
     if args.ic.cache.is_some() && args.integrator != IntegratorChoice::Ic {
@@ -671,7 +662,7 @@ pub fn run(args: RenderArgs, scene_path: &Path, out: &Path) -> Result<(), String
     }
     // A cache file holds irradiance records only: a render read back from one would path-trace
     // the lobes the first one reflected from radiance records, a different image.
-    if args.ic.cache.is_some() && args.ic.radiance_order.is_some_and(|n| n > 0) {
+    if args.ic.cache.is_some() && args.ic.radiance_order > 0 {
         return Err(
             "--cache: cache files do not hold radiance records; use --radiance-order 0 with --cache"
                 .into(),
@@ -1067,16 +1058,8 @@ mod tests {
         assert_eq!(cli.args.integrator, IntegratorChoice::Ic);
         assert_eq!(default_spp(IntegratorChoice::Path), 256);
         assert_eq!(
-            cli.args.ic.settings(cli.args.max_depth, false),
+            cli.args.ic.settings(cli.args.max_depth),
             Ok(IcSettings::default())
-        );
-        // Cache files hold irradiance records only: without the option, no radiance records.
-        assert_eq!(
-            cli.args.ic.settings(cli.args.max_depth, true),
-            Ok(IcSettings {
-                radiance_order: 0,
-                ..IcSettings::default()
-            })
         );
         // Negative sizes reach the library's range check, which names the option.
         let cli = Cli::try_parse_from(["render", "--width", "-5", "--debug-pixel", "3,4"])

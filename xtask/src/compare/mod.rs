@@ -373,8 +373,8 @@ fn radiance_sweep(base: IcSettings) -> Vec<Sweep> {
 }
 
 /// The irradiance-cache settings of the sweep: the ladder, then the ablations; with `glossy`
-/// (the scene has a glossy material), every lobe path-traced (`radiance-order=0`, with the
-/// default split and with one lobe sample a camera sample) and radiance caching's rows.
+/// (the scene has a glossy material), one lobe sample a camera sample (`glossy-samples=1`) and
+/// radiance caching's rows.
 fn ic_sweep(quick: bool, glossy: bool) -> Vec<Sweep> {
     let base = IcSettings::default();
     let mut out: Vec<Sweep> = ladder(quick)
@@ -522,24 +522,17 @@ fn ic_sweep(quick: bool, glossy: bool) -> Vec<Sweep> {
         });
     }
     if glossy {
-        // Every glossy lobe path-traced (no radiance records), with the default split and
-        // with one sample a camera sample, as before `--glossy-samples`, so that every glossy
-        // report shows what the records and the split lobes buy.
-        for (label, glossy_samples) in [
-            ("radiance-order=0", base.glossy_samples),
-            ("radiance-order=0 glossy-samples=1", 1),
-        ] {
-            out.push(Sweep {
-                label: label.into(),
-                group: Group::Variant,
-                kappa: base.error,
-                settings: IcSettings {
-                    radiance_order: 0,
-                    glossy_samples,
-                    ..base
-                },
-            });
-        }
+        // The path-traced glossy lobes with one sample a camera sample, as before
+        // `--glossy-samples`, so that every glossy report shows what the split lobes buy.
+        out.push(Sweep {
+            label: "glossy-samples=1".into(),
+            group: Group::Variant,
+            kappa: base.error,
+            settings: IcSettings {
+                glossy_samples: 1,
+                ..base
+            },
+        });
         out.extend(radiance_sweep(base));
     }
     out

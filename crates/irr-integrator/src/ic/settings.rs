@@ -257,18 +257,15 @@ pub struct IcSettings {
     /// Radiance caching (Křivánek et al. 2005) for glossy lobes: the order n of the real
     /// spherical harmonics (n² coefficients per colour) in which each first-level record on a
     /// material whose lobe they take (a rough metal, module `radiance`) also stores the
-    /// cosine-weighted incoming radiance of its gather. 0: off (every glossy lobe path-traced
-    /// by [`IcSettings::glossy_samples`]' BSDF samples per camera sample). Default: 10, the
-    /// highest: it holds lobes of roughness ≳ 0.6; a scene without such a lobe builds nothing
-    /// and renders as with 0 (docs/performance.md, "Radiance caching": on a rough metal floor
-    /// 30 % less error in the same time, elsewhere the same time). Range:
-    /// 0..=[`MAX_RADIANCE_ORDER`].
+    /// cosine-weighted incoming radiance of its gather. 0 (the default): off (every glossy lobe
+    /// path-traced by [`IcSettings::glossy_samples`]' BSDF samples per camera sample; on a
+    /// curved textured metal, records at order 10 cost 60 % more time for no gain:
+    /// docs/performance.md, "Radiance caching"). Range: 0..=[`MAX_RADIANCE_ORDER`].
     pub radiance_order: u32,
     /// With radiance caching: a glossy shading point uses the records only where its lobe's
     /// relative L2 reconstruction error in the basis (irr-bsdf's `ResidualTable`, by
-    /// roughness and view angle) is at most this; elsewhere the lobe is path-traced. Default:
-    /// 0.3, where the records' bias on a rough metal floor stays below a 2048-spp reference's
-    /// noise (1 is 3–5× worse). Range: (0, 1].
+    /// roughness and view angle) is at most this; elsewhere the lobe is path-traced. Range:
+    /// (0, 1].
     pub radiance_error: f32,
     /// With radiance caching: the coefficients of the first this many bands (this² of them)
     /// also get their translation gradients (the irradiance's walls, `--gradients`' variant),
@@ -321,8 +318,8 @@ impl Default for IcSettings {
             light_cache_error: 0.12,
             light_cache_cell: 1.0 / 48.0,
             fill_samples: false,
-            radiance_order: MAX_RADIANCE_ORDER,
-            radiance_error: 0.3,
+            radiance_order: 0,
+            radiance_error: 0.1,
             radiance_gradients: 0,
             second_order: 0.0,
             path: PathSettings::default(),
