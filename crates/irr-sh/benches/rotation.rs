@@ -1,13 +1,14 @@
 //! Benchmarks of what a radiance-cache lookup pays per record whose normal differs from the
 //! query's: building the rotation between the two frames and applying it to the record's RGB
-//! coefficients, exactly (Ivanic–Ruedenberg) or by Křivánek et al.'s fast z-y-z rotation, at the
+//! coefficients, exactly (Ivanic–Ruedenberg, or z-y-z with fixed quarter turns) or by Křivánek et
+//! al.'s fast z-y-z rotation, at the
 //! orders a radiance cache uses.
 //!
 //! Run with `cargo bench -p irr-sh`.
 
 use divan::Bencher;
 use glam::{Mat3, Vec3};
-use irr_sh::{FastRotation, ShRotation, Taylor};
+use irr_sh::{FastRotation, ShRotation, Taylor, ZyzRotation};
 
 fn main() {
     divan::main();
@@ -46,6 +47,19 @@ fn exact_apply(bencher: Bencher, order: usize) {
     let r = ShRotation::new(order, rotation()).unwrap_or_else(|e| panic!("{e}"));
     bencher.bench_local(|| {
         r.apply(divan::black_box(&input), &mut output)
+            .unwrap_or_else(|e| panic!("{e}"));
+        divan::black_box(&output);
+    });
+}
+
+#[divan::bench(args = [4, 6, 8, 10])]
+fn zyz_build_and_apply(bencher: Bencher, order: usize) {
+    let input = coefficients(order);
+    let mut output = vec![Vec3::ZERO; input.len()];
+    bencher.bench_local(|| {
+        let r =
+            ZyzRotation::new(order, divan::black_box(rotation())).unwrap_or_else(|e| panic!("{e}"));
+        r.apply(&input, &mut output)
             .unwrap_or_else(|e| panic!("{e}"));
         divan::black_box(&output);
     });

@@ -220,7 +220,7 @@ impl FastRotation {
 
 /// One band (`input`, 2l+1 values, m = −l..l) turned about z: each pair (c^m, c^{−m}) by mθ,
 /// with `trig[m]` = (cos mθ, sin mθ).
-fn rotate_z<V: Coefficient>(input: &[V], trig: &[(f64, f64)], output: &mut [V]) {
+pub(crate) fn rotate_z<V: Coefficient>(input: &[V], trig: &[(f64, f64)], output: &mut [V]) {
     let l = input.len() / 2;
     output[l] = input[l];
     for m in 1..=l {

@@ -14,6 +14,8 @@
 //!   any [`Coefficient`] (f32, f64, `Vec3` RGB, `DVec3`).
 //! - [`ShRotation`]: the exact rotation of SH coefficients by Ivanic & Ruedenberg's recurrence
 //!   ([`rotation`]).
+//! - [`ZyzRotation`]: the same rotation through z-y-z Euler angles and two fixed quarter turns
+//!   about x, 8× cheaper per rotation at order 10 ([`zyz`]).
 //! - [`FastRotation`]: Křivánek et al. 2006's approximation (Euler z-y-z, the y rotation by a
 //!   first- or second-order Taylor polynomial), with its exact error norm and a measured table
 //!   ([`fast`]).
@@ -134,6 +136,7 @@ mod legendre;
 pub mod project;
 pub mod rotation;
 mod value;
+pub mod zyz;
 
 pub use basis::{Basis, Domain, index};
 pub use error::ShError;
@@ -142,6 +145,7 @@ pub use hemisphere::{Extension, HemisphereConversion};
 pub use project::{Projection, project};
 pub use rotation::{ROTATION_TOLERANCE, ShRotation};
 pub use value::Coefficient;
+pub use zyz::ZyzRotation;
 
 /// The largest supported order n (bands 0..n): 32, 1024 coefficients.
 pub const MAX_ORDER: usize = 32;
