@@ -54,7 +54,7 @@
 //! Its BRDF minus the diffuse stand-in the irradiance cache already covers, f − ρ_d/π, is
 //! irr-bsdf's [`ResidualTable`] (cosine-free, so that its product with L cos θ is the reflected
 //! light). The point takes every record the irradiance cache would weigh there (same weights,
-//! same leak guard), rotates each one's coefficients into its own frame (irr-sh's exact SH
+//! same leak guard), rotates each one's coefficients into its own frame (irr-sh's exact z-y-z SH
 //! rotation; none where the normals are equal), averages them by weight, turns the result
 //! about the normal to wo's azimuth and takes the dot product with the residual's
 //! coefficients: the lobe's indirect light, with no ray traced. Its direct light is then next-
@@ -97,7 +97,7 @@ use irr_bsdf::basis::{
 use irr_gradients::{GatherSamples, TranslationGradient, rotate_to_world};
 use irr_sampling::Frame;
 use irr_scene::Material;
-use irr_sh::{Basis, ShRotation};
+use irr_sh::{Basis, ZyzRotation};
 use std::f32::consts::PI;
 
 /// One ray of a gather as the projection reads it: its cell's index, its direction in the
@@ -312,8 +312,10 @@ impl RadianceCaching {
             frame.to_local(record.t),
             frame.to_local(record.n),
         );
+        // Exact, through z-y-z angles and fixed quarter turns: 2.0 µs for RGB at order 10
+        // against 16.6 µs for the recurrence's matrix (`cargo bench -p irr-sh`).
         let order = self.basis.order();
-        let Ok(r) = ShRotation::new(order, rotation) else {
+        let Ok(r) = ZyzRotation::new(order, rotation) else {
             return;
         };
         if r.apply(stored, turned).is_err() {
