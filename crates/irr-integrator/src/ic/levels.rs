@@ -5,7 +5,7 @@ use super::IcMetric;
 use super::builder::{Candidate, CommitStats, DisplayRecord, Probe};
 use super::guard::{GuardRecord, Query};
 use super::light_cache::CacheView;
-use super::radiance::{RadianceCaching, may_take, order_may_hold};
+use super::radiance::{RadianceCaching, least_roughness_held, may_take, order_may_hold};
 use super::settings::{IcSettings, IcSettingsError};
 use super::value::{IcValue, convert_record};
 use crate::integrator::RayCounter;
@@ -123,6 +123,7 @@ impl<V: IcValue> Core<V> {
         let max_error = self.settings.radiance_error;
         // One quadrature per distinct roughness, however many materials share it.
         let mut held: HashMap<u32, bool> = HashMap::new();
+        let mut least: HashMap<u32, f32> = HashMap::new();
         let ranges: Vec<(f32, f32)> = if order > 0 && !self.levels.is_empty() {
             scene
                 .materials()
@@ -134,7 +135,14 @@ impl<V: IcValue> Core<V> {
                             .or_insert_with(|| order_may_hold(order, max_error, m))
                 })
                 .map(|m| match m.metallic_roughness_texture {
-                    Some(_) => (0.0, m.roughness),
+                    // A texture scales the roughness down, but below the least roughness
+                    // the order holds no lobe is taken: no rows there.
+                    Some(_) => (
+                        *least
+                            .entry(m.roughness.to_bits())
+                            .or_insert_with(|| least_roughness_held(order, max_error, m.roughness)),
+                        m.roughness,
+                    ),
                     None => (m.roughness, m.roughness),
                 })
                 .collect()

@@ -386,11 +386,37 @@ pub(super) fn may_take(material: &Material) -> bool {
 /// quadrature, at the most roughness the material reaches. What the table is built for,
 /// before it exists.
 pub(super) fn order_may_hold(order: usize, max_error: f32, material: &Material) -> bool {
+    holds_head_on(order, max_error, material.roughness)
+}
+
+/// Whether order `order` holds the head-on lobe of roughness `roughness` within `max_error`.
+fn holds_head_on(order: usize, max_error: f32, roughness: f32) -> bool {
     let Ok(basis) = Basis::sh(order) else {
         return false;
     };
-    reconstruction_error(basis, f64::from(material.roughness), 1.0, QUADRATURE_NODES)
+    reconstruction_error(basis, f64::from(roughness), 1.0, QUADRATURE_NODES)
         .is_ok_and(|e| e <= f64::from(max_error))
+}
+
+/// The least roughness in [0, `most`] whose head-on lobe order `order` holds within
+/// `max_error`, to 1/256 and rounded down (the error falls with roughness, irr-bsdf's basis
+/// docs): below it no view's lobe is taken, so a textured material's table need not start at
+/// 0. `most` itself when even it is not held (the caller has checked it is).
+pub(super) fn least_roughness_held(order: usize, max_error: f32, most: f32) -> f32 {
+    if holds_head_on(order, max_error, 0.0) {
+        return 0.0;
+    }
+    // Invariant: lo not held, hi held (or `most`).
+    let (mut lo, mut hi) = (0.0f32, most);
+    for _ in 0..8 {
+        let mid = 0.5 * (lo + hi);
+        if holds_head_on(order, max_error, mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    lo
 }
 
 #[cfg(test)]
@@ -594,6 +620,28 @@ mod tests {
                 "κ {kappa}: the error is not ⟨g_r − g_q, P f⟩: {off} > {slack}"
             );
         }
+    }
+
+    /// The least roughness held brackets the threshold to 1/256: not held there (unless 0),
+    /// held 1/256 above (the head-on error falls with roughness). At order 10 and error 0.3
+    /// it lies between 0.2 and 0.4, where the head-on error is 0.82 and 0.18 (irr-bsdf's
+    /// `sh_reconstruction_error_table`): 0.348, so a textured metal's table skips a third of
+    /// its rows.
+    #[test]
+    fn the_least_roughness_held_brackets_the_threshold() {
+        for (order, max_error) in [(4, 0.5), (10, 0.3), (10, 0.1)] {
+            let r = least_roughness_held(order, max_error, 1.0);
+            assert!(
+                r == 0.0 || !holds_head_on(order, max_error, r),
+                "{order}, {max_error}: {r}"
+            );
+            assert!(
+                holds_head_on(order, max_error, r + 1.0 / 256.0),
+                "{order}, {max_error}: {r}"
+            );
+        }
+        let r = least_roughness_held(10, 0.3, 1.0);
+        assert!((0.2..0.4).contains(&r), "{r}");
     }
 
     /// A glossy record's radius scale is the lobe's GGX width α, never above 1 (a wider lobe

@@ -259,7 +259,7 @@ pub struct IcSettings {
     /// material whose lobe they take (a rough metal, module `radiance`) also stores the
     /// cosine-weighted incoming radiance of its gather. 0 (the default): off (every glossy lobe
     /// path-traced by [`IcSettings::glossy_samples`]' BSDF samples per camera sample; on a
-    /// curved textured metal, records at order 10 cost 35 % more time for no gain:
+    /// curved textured metal, records at order 10 cost 25 % more time for no gain:
     /// docs/performance.md, "Radiance caching"). Range: 0..=[`MAX_RADIANCE_ORDER`].
     pub radiance_order: u32,
     /// With radiance caching: a glossy shading point uses the records only where its lobe's
