@@ -118,8 +118,8 @@ impl<V: IcValue> Core<V> {
         self.diagonal = if d.is_finite() && d > 0.0 { d } else { 1.0 };
         let order = self.settings.radiance_order as usize;
         // The roughness each material the records may take reaches (module `radiance`, "Which
-        // lobes"): its factor, or from 0 to it under a metallic-roughness texture (whose green
-        // channel scales it); the table holds those, and none is built without one.
+        // lobes"): its factor, or up to it under a metallic-roughness texture (whose green
+        // channel scales it down); the table holds those, and none is built without one.
         let max_error = self.settings.radiance_error;
         // One quadrature per distinct roughness, however many materials share it.
         let mut held: HashMap<u32, bool> = HashMap::new();
@@ -135,8 +135,7 @@ impl<V: IcValue> Core<V> {
                             .or_insert_with(|| order_may_hold(order, max_error, m))
                 })
                 .map(|m| match m.metallic_roughness_texture {
-                    // A texture scales the roughness down, but below the least roughness
-                    // the order holds no lobe is taken: no rows there.
+                    // Below the least roughness the order holds no lobe is taken: no rows.
                     Some(_) => (
                         *least
                             .entry(m.roughness.to_bits())
