@@ -46,9 +46,9 @@
 //! construction then places records that much more densely where glossy points read them.
 //! On the held-out white-metal box's block of roughness 0.6 (α 0.36) its records' systematic
 //! error (the coefficients are constant over a record) made the block's glossy light worse
-//! than path-traced lobes, 1.19e-4 against 9.8e-5; radii scaled by 0.5 / 0.25 give 8.1e-5 /
-//! 6.7e-5 in the same time, and on the metal floor (α 0.64) 0.5 costs 3 % more time for 3 %
-//! less error there (docs/performance.md, "Radiance caching").
+//! than path-traced lobes, 1.19e-4 against 9.8e-5; radii scaled by α give 7.2e-5 in the same
+//! time, and the metal floor's (α 0.64) glossy bias goes from −1.29 % to −0.12 % (a fixed 0.25:
+//! 6.7e-5, but the floor +6 % time; docs/performance.md, "Radiance caching").
 //!
 //! # A glossy shading point
 //! Its BRDF minus the diffuse stand-in the irradiance cache already covers, f − ρ_d/π, is
