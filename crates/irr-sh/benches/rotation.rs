@@ -27,16 +27,24 @@ fn coefficients(order: usize) -> Vec<Vec3> {
         .collect()
 }
 
-#[divan::bench(args = [4, 6, 8, 10])]
-fn exact_build_and_apply(bencher: Bencher, order: usize) {
+/// Times `rotate` (build a rotation of `rotation()` and apply it to the input) at `order`.
+fn build_and_apply(
+    bencher: Bencher,
+    order: usize,
+    rotate: impl Fn(Mat3, &[Vec3], &mut [Vec3]) -> Result<(), irr_sh::ShError>,
+) {
     let input = coefficients(order);
     let mut output = vec![Vec3::ZERO; input.len()];
     bencher.bench_local(|| {
-        let r =
-            ShRotation::new(order, divan::black_box(rotation())).unwrap_or_else(|e| panic!("{e}"));
-        r.apply(&input, &mut output)
-            .unwrap_or_else(|e| panic!("{e}"));
+        rotate(divan::black_box(rotation()), &input, &mut output).unwrap_or_else(|e| panic!("{e}"));
         divan::black_box(&output);
+    });
+}
+
+#[divan::bench(args = [4, 6, 8, 10])]
+fn exact_build_and_apply(bencher: Bencher, order: usize) {
+    build_and_apply(bencher, order, |r, input, output| {
+        ShRotation::new(order, r)?.apply(input, output)
     });
 }
 
@@ -54,26 +62,14 @@ fn exact_apply(bencher: Bencher, order: usize) {
 
 #[divan::bench(args = [4, 6, 8, 10])]
 fn zyz_build_and_apply(bencher: Bencher, order: usize) {
-    let input = coefficients(order);
-    let mut output = vec![Vec3::ZERO; input.len()];
-    bencher.bench_local(|| {
-        let r =
-            ZyzRotation::new(order, divan::black_box(rotation())).unwrap_or_else(|e| panic!("{e}"));
-        r.apply(&input, &mut output)
-            .unwrap_or_else(|e| panic!("{e}"));
-        divan::black_box(&output);
+    build_and_apply(bencher, order, |r, input, output| {
+        ZyzRotation::new(order, r)?.apply(input, output)
     });
 }
 
 #[divan::bench(args = [4, 6, 8, 10])]
 fn fast_build_and_apply(bencher: Bencher, order: usize) {
-    let input = coefficients(order);
-    let mut output = vec![Vec3::ZERO; input.len()];
-    bencher.bench_local(|| {
-        let r = FastRotation::new(order, divan::black_box(rotation()), Taylor::First)
-            .unwrap_or_else(|e| panic!("{e}"));
-        r.apply(&input, &mut output)
-            .unwrap_or_else(|e| panic!("{e}"));
-        divan::black_box(&output);
+    build_and_apply(bencher, order, |r, input, output| {
+        FastRotation::new(order, r, Taylor::First)?.apply(input, output)
     });
 }

@@ -5,7 +5,7 @@ use super::IcMetric;
 use super::builder::{Candidate, CommitStats, DisplayRecord, Probe};
 use super::guard::{GuardRecord, Query};
 use super::light_cache::CacheView;
-use super::radiance::{RadianceCaching, least_roughness_held, may_take, order_may_hold};
+use super::radiance::{RadianceCaching, holds_head_on, least_roughness_held, may_take};
 use super::settings::{IcSettings, IcSettingsError};
 use super::value::{IcValue, convert_record};
 use crate::integrator::RayCounter;
@@ -132,7 +132,7 @@ impl<V: IcValue> Core<V> {
                     may_take(m)
                         && *held
                             .entry(m.roughness.to_bits())
-                            .or_insert_with(|| order_may_hold(order, max_error, m))
+                            .or_insert_with(|| holds_head_on(order, max_error, m.roughness))
                 })
                 .map(|m| match m.metallic_roughness_texture {
                     // Below the least roughness the order holds no lobe is taken: no rows.

@@ -467,8 +467,12 @@ impl IrradianceCacheIntegrator {
     /// more time for 3 % less error (docs/performance.md, "Glossy lobes: more samples per
     /// camera sample", "Radiance caching").
     fn lobe_samples(&self, bsdf: &Bsdf) -> u32 {
+        self.lobe_samples_for(bsdf.residual_probability())
+    }
+
+    /// [`IrradianceCacheIntegrator::lobe_samples`] for a lobe carrying the share `p`.
+    fn lobe_samples_for(&self, p: f32) -> u32 {
         let k = self.core.settings.glossy_samples.max(1);
-        let p = bsdf.residual_probability();
         ((k as f32 * p * p).ceil() as u32).clamp(1, k)
     }
 

@@ -127,11 +127,12 @@ impl IrradianceCacheIntegrator {
             // Direct light: NEE at x₀; on a glossy x₀ weighted against the BSDF sample that
             // also brings the light the cache leaves out (`glossy_sample`), unless the
             // radiance records reflect that lobe (module `radiance`): then NEE alone.
+            let share = bsdf.residual_probability();
             let lobe = self
                 .core
                 .radiance
                 .as_ref()
-                .is_some_and(|r| r.covers(&bsdf))
+                .is_some_and(|r| r.covers(&bsdf, share))
                 .then_some(bsdf);
             let glossy = !bsdf.is_lambertian() && lobe.is_none();
             // Without a cache level (at most one reflection) no record brings the background
@@ -140,7 +141,7 @@ impl IrradianceCacheIntegrator {
             let whole = self.core.levels.is_empty() && scene.background() != Vec3::ZERO;
             // How many BSDF samples the lobe takes, once for the MIS weights and the samples.
             let count = if glossy || whole {
-                self.lobe_samples(&bsdf)
+                self.lobe_samples_for(share)
             } else {
                 0
             };

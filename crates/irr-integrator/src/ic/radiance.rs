@@ -22,7 +22,7 @@
 //! dielectric seen head-on (p ≈ 0.04–0.1), whose lobe adds little noise. So the records take
 //! only lobes carrying at least [`MIN_SHARE`] (≈ 1/√8) of the reflection, and a scene's
 //! materials only where that holds seen head-on ([`may_take`]) and order n holds the head-on
-//! lobe within the threshold ([`order_may_hold`], by direct quadrature): the table is built for
+//! lobe within the threshold ([`holds_head_on`], by direct quadrature): the table is built for
 //! those materials' roughness, and not at all without one. On the glossy room (dielectric
 //! lobes, a gold of roughness 0.3) that leaves nothing, the image and time as with records
 //! off; before, the table and the dielectric walls' records cost 8 % more time for no gain
@@ -147,14 +147,16 @@ impl RadianceCaching {
     }
 
     /// Whether `bsdf`'s lobe is reflected from the records (module docs, "When").
-    pub(super) fn covers(&self, bsdf: &Bsdf) -> bool {
+    /// `share` is `bsdf`'s `residual_probability`, which the caller also sizes a path-traced
+    /// lobe by (computed once a camera hit).
+    pub(super) fn covers(&self, bsdf: &Bsdf, share: f32) -> bool {
         match bsdf {
             Bsdf::Lambertian { .. } => false,
             // Glass's reflection is scaled by its stopping probability (`Bsdf::Glossy`'s
             // `scale`), which the tables do not know: path-traced.
             Bsdf::Glossy { material, wo, .. } => {
                 material.transmission() == 0.0
-                    && bsdf.residual_probability() >= MIN_SHARE
+                    && share >= MIN_SHARE
                     && self.table.reconstruction_error(material.roughness(), wo.z) <= self.max_error
             }
         }
@@ -381,16 +383,11 @@ pub(super) fn may_take(material: &Material) -> bool {
     head_on.residual_probability() >= MIN_SHARE
 }
 
-/// Whether order `order` may hold `material`'s lobe within `max_error` at all: its head-on
-/// reconstruction error (the smallest over views, irr-bsdf's basis docs) by direct
-/// quadrature, at the most roughness the material reaches. What the table is built for,
-/// before it exists.
-pub(super) fn order_may_hold(order: usize, max_error: f32, material: &Material) -> bool {
-    holds_head_on(order, max_error, material.roughness)
-}
-
-/// Whether order `order` holds the head-on lobe of roughness `roughness` within `max_error`.
-fn holds_head_on(order: usize, max_error: f32, roughness: f32) -> bool {
+/// Whether order `order` holds the head-on lobe of roughness `roughness` within `max_error`:
+/// its head-on reconstruction error (the smallest over views, irr-bsdf's basis docs) by
+/// direct quadrature. At a material's most roughness, whether the table is built for it,
+/// before the table exists.
+pub(super) fn holds_head_on(order: usize, max_error: f32, roughness: f32) -> bool {
     let Ok(basis) = Basis::sh(order) else {
         return false;
     };
@@ -661,7 +658,7 @@ mod tests {
     /// carries 0.04 of its reflection head-on, below `MIN_SHARE`), not on a lobe sharper than
     /// the order holds at any view (roughness 0.05 at order 4: the table's error there is near
     /// 1, far above the threshold 0.5), and on a rough metal (roughness 0.9 at order 4: error
-    /// about 0.05 at normal incidence, irr-bsdf's basis docs); `order_may_hold` agrees before
+    /// about 0.05 at normal incidence, irr-bsdf's basis docs); `holds_head_on` agrees before
     /// any table.
     #[test]
     fn records_hold_coefficients_where_a_lobe_reads_them() {
@@ -671,16 +668,8 @@ mod tests {
         assert!(rc.holds(&Material::metallic_roughness(white, 1.0, 0.9)));
         assert!(!rc.holds(&Material::metallic_roughness(white, 1.0, 0.05)));
         assert!(!rc.holds(&Material::metallic_roughness(white, 0.0, 0.9)));
-        assert!(order_may_hold(
-            4,
-            0.5,
-            &Material::metallic_roughness(white, 1.0, 0.9)
-        ));
-        assert!(!order_may_hold(
-            4,
-            0.5,
-            &Material::metallic_roughness(white, 1.0, 0.05)
-        ));
+        assert!(holds_head_on(4, 0.5, 0.9));
+        assert!(!holds_head_on(4, 0.5, 0.05));
         let glass = Material {
             transmission: 1.0,
             ..Material::metallic_roughness(white, 0.0, 0.9)

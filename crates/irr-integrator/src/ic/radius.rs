@@ -100,7 +100,10 @@ impl<V: IcValue> Core<V> {
             // from the camera, never reads a record, unless its lobe is reflected from the
             // radiance records (module `radiance`).
             if bsdf.diffuse_reflectance() == Vec3::ZERO
-                && !self.radiance.as_ref().is_some_and(|r| r.covers(&bsdf))
+                && !self
+                    .radiance
+                    .as_ref()
+                    .is_some_and(|r| r.covers(&bsdf, bsdf.residual_probability()))
             {
                 return None;
             }
