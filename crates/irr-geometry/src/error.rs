@@ -65,4 +65,29 @@ pub enum GeometryError {
         /// How many triangles were kept.
         count: usize,
     },
+    /// A prototype mesh of [`Geometry::build_instanced`](crate::Geometry::build_instanced) is
+    /// malformed (`source` names it as mesh 0).
+    #[error("prototype {prototype}: {source}")]
+    Prototype {
+        /// Index of the prototype in the slice given to the build.
+        prototype: usize,
+        /// What is wrong with it.
+        source: Box<GeometryError>,
+    },
+    /// An instance names a prototype that was not given.
+    #[error("instance {instance} places prototype {prototype}, but there are {prototypes}")]
+    PrototypeOutOfRange {
+        /// Index of the instance.
+        instance: usize,
+        /// The prototype it names.
+        prototype: u32,
+        /// How many prototypes were given.
+        prototypes: usize,
+    },
+    /// The placed triangles need more ids than a `u32` holds.
+    #[error("{count} triangles placed: more than the 4294967295 ids a hit can name")]
+    TooManyIds {
+        /// How many ids they would need.
+        count: u64,
+    },
 }

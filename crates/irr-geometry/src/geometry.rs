@@ -9,6 +9,7 @@ use glam::Vec3;
 use obvhs::bvh2::node::Bvh2Node;
 
 use crate::build;
+use crate::instances::{Instance, Instances, Placement};
 use crate::intersect::TriSoa;
 use crate::layout::{BvhLayout, Nodes, bvh2_depth};
 use crate::mesh::{drop_bad_triangles, validate_mesh};
@@ -61,6 +62,9 @@ pub struct Geometry {
     /// layout's nodes are then tested with one 8-lane slab test instead of two 4-lane ones.
     #[cfg(target_arch = "x86_64")]
     pub(crate) v3: Option<pulp::x86::V3>,
+    /// The placements of a geometry built with [`Geometry::build_instanced`] (`instances.rs`);
+    /// the fields above are then its world meshes' tree, which may be empty.
+    pub(crate) instances: Option<Box<Instances>>,
 }
 
 /// The shading normals of one mesh that has them: the mesh's per-vertex normals and the vertex
@@ -246,7 +250,132 @@ impl Geometry {
             arch: pulp::Arch::new(),
             #[cfg(target_arch = "x86_64")]
             v3: pulp::x86::V3::try_new(),
+            instances: None,
         })
+    }
+
+    /// A geometry of world meshes (as [`Geometry::build_owned`]) and of prototype meshes placed
+    /// by `instances`, each prototype stored once in its own object space with its own BVH,
+    /// under a top-level BVH over the placements (see `instances.rs` for the ids and the
+    /// object-space rays). A prototype that no instance places is still numbered in the
+    /// attribute ids ([`Geometry::attribute_id`]) but not built.
+    ///
+    /// Without instances this is [`Geometry::build_owned`]: the same geometry, ids and answers.
+    ///
+    /// # Errors
+    /// As [`Geometry::build`] for the world meshes (whose [`GeometryError::EmptyScene`] only
+    /// counts when nothing is placed either), [`GeometryError::Prototype`] naming a malformed
+    /// prototype, [`GeometryError::PrototypeOutOfRange`] for an instance naming no prototype,
+    /// and [`GeometryError::TooManyIds`] if the placed triangles do not fit `u32` ids.
+    pub fn build_instanced(
+        meshes: Vec<TriangleMesh>,
+        prototypes: Vec<TriangleMesh>,
+        instances: &[Instance],
+    ) -> Result<Geometry, GeometryError> {
+        Geometry::build_instanced_with_layout(meshes, prototypes, instances, BvhLayout::default())
+    }
+
+    /// [`Geometry::build_instanced`] with a chosen BVH layout, for the world tree and every
+    /// prototype's.
+    ///
+    /// # Errors
+    /// As [`Geometry::build_instanced`].
+    pub fn build_instanced_with_layout(
+        meshes: Vec<TriangleMesh>,
+        prototypes: Vec<TriangleMesh>,
+        instances: &[Instance],
+        layout: BvhLayout,
+    ) -> Result<Geometry, GeometryError> {
+        if instances.is_empty() && prototypes.is_empty() {
+            return Geometry::build_owned_with_layout(meshes, layout);
+        }
+        let mut world = match Geometry::build_owned_with_layout(meshes, layout) {
+            Ok(g) => g,
+            Err(GeometryError::EmptyScene {
+                dropped_degenerate,
+                dropped_non_finite,
+            }) => Geometry::empty(BuildReport {
+                dropped_degenerate,
+                dropped_non_finite,
+                ..BuildReport::default()
+            }),
+            Err(e) => return Err(e),
+        };
+        let mut built = Vec::with_capacity(prototypes.len());
+        let mut report = world.report;
+        for (p, mesh) in prototypes.into_iter().enumerate() {
+            let geometry = match Geometry::build_owned_with_layout(vec![mesh], layout) {
+                Ok(g) => {
+                    report.dropped_degenerate += g.report.dropped_degenerate;
+                    report.dropped_non_finite += g.report.dropped_non_finite;
+                    report.kept += g.report.kept;
+                    Some(g)
+                }
+                Err(GeometryError::EmptyScene {
+                    dropped_degenerate,
+                    dropped_non_finite,
+                }) => {
+                    report.dropped_degenerate += dropped_degenerate;
+                    report.dropped_non_finite += dropped_non_finite;
+                    None
+                }
+                Err(e) => {
+                    return Err(GeometryError::Prototype {
+                        prototype: p,
+                        source: Box::new(e),
+                    });
+                }
+            };
+            built.push(geometry);
+        }
+        let instances = Instances::new(
+            built,
+            instances,
+            world.world_count() as u32,
+            &mut report.dropped_instances,
+        )?;
+        if instances.total == 0 {
+            return Err(GeometryError::EmptyScene {
+                dropped_degenerate: report.dropped_degenerate,
+                dropped_non_finite: report.dropped_non_finite,
+            });
+        }
+        let (lo, hi) = instances.bounds;
+        world.bounds = (world.bounds.0.min(lo), world.bounds.1.max(hi));
+        world.report = report;
+        world.instances = Some(Box::new(instances));
+        Ok(world)
+    }
+
+    /// A world tree with no triangles, for a geometry whose triangles are all placed.
+    fn empty(report: BuildReport) -> Geometry {
+        Geometry {
+            material_ids: Vec::new(),
+            slots: Vec::new(),
+            shading: Vec::new(),
+            nodes: Nodes::Bvh2(Vec::new()),
+            stack_len: 0,
+            bvh_triangles: Vec::new(),
+            bvh_ids: Vec::new(),
+            report,
+            bounds: (Vec3::INFINITY, Vec3::NEG_INFINITY),
+            coordinate_bound: 0.0,
+            arch: pulp::Arch::new(),
+            #[cfg(target_arch = "x86_64")]
+            v3: pulp::x86::V3::try_new(),
+            instances: None,
+        }
+    }
+
+    /// The world meshes' triangle count (all of them without instances).
+    #[inline]
+    pub(crate) fn world_count(&self) -> usize {
+        self.material_ids.len()
+    }
+
+    /// The box around a prototype's triangles (its world tree: prototypes are not instanced).
+    pub(crate) fn world_bounds(&self) -> (Vec3, Vec3) {
+        self.bounds
     }
 
     /// What the build kept and dropped.
@@ -259,7 +388,76 @@ impl Geometry {
     /// mesh) with dropped triangles skipped.
     #[must_use]
     pub fn triangle_count(&self) -> usize {
-        self.material_ids.len()
+        self.instances
+            .as_ref()
+            .map_or(self.world_count(), |i| i.total as usize)
+    }
+
+    /// The number of *unique* triangles: the world meshes' and the prototypes' kept triangles
+    /// (the attribute ids' range, see [`Geometry::attribute_id`]); `triangle_count()` without
+    /// instances.
+    #[must_use]
+    pub fn unique_triangle_count(&self) -> usize {
+        self.instances
+            .as_ref()
+            .map_or(self.world_count(), |i| i.unique as usize)
+    }
+
+    /// The unique triangle whose per-vertex data triangle `id` shares: `id` itself for a world
+    /// triangle; for a placed one, its prototype's triangle, numbered after the world's
+    /// (`W + ` the kept triangles of the prototypes before it `+` its own kept index). A
+    /// caller keeps its per-vertex data by this id.
+    ///
+    /// # Panics
+    /// If `id >= triangle_count()`.
+    #[must_use]
+    #[inline]
+    pub fn attribute_id(&self, id: u32) -> u32 {
+        match &self.instances {
+            Some(i) if id >= i.world => i.attribute_id(id),
+            _ => id,
+        }
+    }
+
+    /// The world meshes' triangles: ids `0..world_triangle_count()` (all of them without
+    /// instances); the placements' ids follow.
+    #[must_use]
+    pub fn world_triangle_count(&self) -> usize {
+        self.world_count()
+    }
+
+    /// The kept placements of a geometry built with [`Geometry::build_instanced`], in id order
+    /// (none otherwise): what a caller walks instead of every placed id, to find the emitting
+    /// ones, say.
+    pub fn placements(&self) -> impl Iterator<Item = Placement> + '_ {
+        self.instances.iter().flat_map(|i| i.placements())
+    }
+
+    /// The index (into the build's `instances`) of the instance triangle `id` lies on, or
+    /// `None` for a world triangle.
+    ///
+    /// # Panics
+    /// If `id >= triangle_count()`.
+    #[must_use]
+    pub fn instance_of(&self, id: u32) -> Option<u32> {
+        match &self.instances {
+            Some(i) if id >= i.world => Some(i.instance_of(id)),
+            _ => None,
+        }
+    }
+
+    /// A vector given in the object space of triangle `id`'s mesh (a tangent, say) in world
+    /// space: mapped by its instance's linear part, unchanged for a world triangle. Not
+    /// normalised.
+    ///
+    /// # Panics
+    /// If `id >= triangle_count()`.
+    #[must_use]
+    pub fn vector_to_world(&self, id: u32, v: Vec3) -> Vec3 {
+        match &self.instances {
+            Some(i) if id >= i.world => i.vector_to_world(id, v),
+            _ => v,
+        }
     }
 
     /// The kept triangle with this id: its vertices bit for bit as given to the build.
@@ -269,6 +467,11 @@ impl Geometry {
     /// [`Geometry::get_triangle`] for a checked lookup.
     #[must_use]
     pub fn triangle(&self, id: u32) -> Triangle {
+        if let Some(i) = &self.instances
+            && id >= i.world
+        {
+            return i.triangle(id).0;
+        }
         Triangle {
             p: self.stored(id).vertices(),
             material_id: self.material_ids[id as usize],
@@ -282,6 +485,11 @@ impl Geometry {
     /// If `id >= triangle_count()`.
     #[must_use]
     pub fn material_id(&self, id: u32) -> u32 {
+        if let Some(i) = &self.instances
+            && id >= i.world
+        {
+            return i.material_id(id);
+        }
         self.material_ids[id as usize]
     }
 
@@ -291,9 +499,14 @@ impl Geometry {
         ((id as usize) < self.triangle_count()).then(|| self.triangle(id))
     }
 
-    /// All kept triangles, by id.
+    /// All triangles, by id (placed ones in world space).
     pub fn triangles(&self) -> impl ExactSizeIterator<Item = Triangle> + '_ {
         (0..self.triangle_count() as u32).map(|id| self.triangle(id))
+    }
+
+    /// The world meshes' triangles, by id.
+    pub(crate) fn world_triangles(&self) -> impl ExactSizeIterator<Item = Triangle> + '_ {
+        (0..self.world_count() as u32).map(|id| self.triangle(id))
     }
 
     /// `(min, max)` corners of the box around all kept triangles.
@@ -340,6 +553,9 @@ impl Geometry {
             Nodes::Wide4(w) => out.extend(w.heap_bytes()),
             Nodes::Wide8(w) => out.extend(w.heap_bytes()),
         }
+        if let Some(i) = &self.instances {
+            out.extend(i.heap_bytes());
+        }
         out
     }
 
@@ -348,6 +564,11 @@ impl Geometry {
     #[inline]
     #[must_use]
     pub fn geometric_normal(&self, id: u32) -> Vec3 {
+        if let Some(i) = &self.instances
+            && id >= i.world
+        {
+            return i.geometric_normal(id);
+        }
         self.stored(id).normal()
     }
 
@@ -377,11 +598,12 @@ impl Geometry {
     /// The number of BVH nodes (for statistics and benchmarks).
     #[must_use]
     pub fn node_count(&self) -> usize {
-        match &self.nodes {
+        let world = match &self.nodes {
             Nodes::Bvh2(n) => n.len(),
             Nodes::Wide4(w) => w.node_count(),
             Nodes::Wide8(w) => w.node_count(),
-        }
+        };
+        world + self.instances.as_ref().map_or(0, |i| i.node_count())
     }
 
     /// Whether [`Geometry::intersect_stream`] and [`Geometry::occluded_stream`] keep several

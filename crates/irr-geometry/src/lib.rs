@@ -10,6 +10,11 @@
 //!   (`layout.rs`). The leaves hold each triangle's vertices, once, bit for bit as given: about
 //!   80 bytes per triangle in all ([`Geometry::heap_bytes`]); `build_owned` frees the meshes as
 //!   it goes.
+//! - Instances ([`Geometry::build_instanced`], `instances.rs`): prototype meshes stored once
+//!   in object space, each with its own BVH, placed by [`Instance`] transforms under a
+//!   top-level BVH (pbrt-v4's, Mitsuba 3's and Cycles' two levels). Rays are mapped into object
+//!   space with pbrt-v4's error bounds; hits carry one id space
+//!   ([`Geometry::instance_of`], [`Geometry::attribute_id`] for per-vertex data kept once).
 //! - [`Geometry::intersect`] (closest hit: distance, triangle id, barycentrics) and
 //!   [`Geometry::occluded`] (any hit), with a watertight triangle test (Woop et al. 2013) that
 //!   reports a hit only when its distance is provably inside `(0, t_max)`; and for batches:
@@ -122,6 +127,7 @@
 mod build;
 mod error;
 mod geometry;
+mod instances;
 mod intersect;
 mod layout;
 mod mesh;
@@ -134,6 +140,7 @@ mod wide;
 
 pub use error::GeometryError;
 pub use geometry::{BUILT_BYTES_PER_TRIANGLE, Geometry, MAX_TRIANGLES};
+pub use instances::{Instance, Placement};
 pub use layout::BvhLayout;
 pub use mesh::{BuildReport, Triangle, TriangleMesh};
 pub use query::{Hit, HitFilter, SurfacePoint};

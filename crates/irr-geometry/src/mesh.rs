@@ -90,12 +90,16 @@ pub(crate) fn cross_f64(p: [Vec3; 3]) -> DVec3 {
 /// What [`Geometry::build`](crate::Geometry::build) kept and dropped, so a caller can warn.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct BuildReport {
-    /// Triangles kept (ids `0..kept`).
+    /// Unique triangles kept: the world meshes' (ids `0..kept` without instances) and the
+    /// prototypes' ([`Geometry::unique_triangle_count`](crate::Geometry::unique_triangle_count)).
     pub kept: usize,
     /// Triangles dropped because their area is exactly zero (collinear or repeated vertices).
     pub dropped_degenerate: usize,
     /// Triangles dropped because a vertex coordinate is NaN or infinite.
     pub dropped_non_finite: usize,
+    /// Instances dropped because their transform is not finite or not invertible, or their
+    /// prototype kept no triangle ([`Geometry::build_instanced`](crate::Geometry::build_instanced)).
+    pub dropped_instances: usize,
 }
 
 /// Checks a mesh's indices and array lengths.
@@ -205,7 +209,8 @@ mod tests {
             BuildReport {
                 kept: 2,
                 dropped_degenerate: 2,
-                dropped_non_finite: 3
+                dropped_non_finite: 3,
+                dropped_instances: 0
             }
         );
         assert_eq!(g.bounds(), (Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0)));

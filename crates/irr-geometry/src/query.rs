@@ -10,6 +10,7 @@
 use glam::Vec3;
 use obvhs::bvh2::node::Bvh2Node;
 
+use crate::instances::Instances;
 use crate::intersect::{PreparedRay, TriHit, TriSoa, intersect_triangle};
 use crate::layout::Job;
 use crate::wide::{Entry, NodeTest, Query, Walk, WideBvh};
@@ -232,7 +233,7 @@ impl Geometry {
     /// If `rays` and `hits` differ in length.
     pub fn intersect_many(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
-        self.trace(Many(rays, hits, false, AcceptAll));
+        self.many(rays, hits, false, AcceptAll);
     }
 
     /// [`Geometry::intersect_many`] with a hit filter: `hits[i]` is exactly what
@@ -247,7 +248,7 @@ impl Geometry {
         filter: &F,
     ) {
         assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
-        self.trace(Many(rays, hits, false, filter));
+        self.many(rays, hits, false, filter);
     }
 
     /// The closest hits of many incoherent rays (one bounce of many paths, from all over the
@@ -263,7 +264,7 @@ impl Geometry {
     /// If `rays` and `hits` differ in length.
     pub fn intersect_stream(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
-        self.trace(Many(rays, hits, true, AcceptAll));
+        self.many(rays, hits, true, AcceptAll);
     }
 
     /// [`Geometry::intersect_stream`] with a hit filter: `hits[i]` is exactly what
@@ -278,7 +279,7 @@ impl Geometry {
         filter: &F,
     ) {
         assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
-        self.trace(Many(rays, hits, true, filter));
+        self.many(rays, hits, true, filter);
     }
 
     /// Whether each of many incoherent rays is occluded: `occluded[i]` is exactly what
@@ -289,7 +290,7 @@ impl Geometry {
     /// If `rays` and `occluded` differ in length.
     pub fn occluded_stream(&self, rays: &[Ray], occluded: &mut [bool]) {
         assert_eq!(rays.len(), occluded.len(), "one answer slot per ray");
-        self.trace(Many(rays, occluded, true, AcceptAll));
+        self.many(rays, occluded, true, AcceptAll);
     }
 
     /// [`Geometry::occluded_stream`] with a hit filter: `occluded[i]` is exactly what
@@ -304,7 +305,7 @@ impl Geometry {
         filter: &F,
     ) {
         assert_eq!(rays.len(), occluded.len(), "one answer slot per ray");
-        self.trace(Many(rays, occluded, true, filter));
+        self.many(rays, occluded, true, filter);
     }
 
     /// Whether anything is hit with `t` in `(0, ray.t_max)` (with the same error margins as
@@ -328,6 +329,49 @@ impl Geometry {
     /// [`Geometry::intersect`] with filter `filter` bound to `ray`.
     #[inline(always)]
     fn closest<B: RayFilter>(&self, ray: &Ray, filter: B) -> Option<Hit> {
+        if self.instances.is_none() {
+            return self.world_closest(ray, filter);
+        }
+        self.closest_placed(ray, filter)
+    }
+
+    /// [`Geometry::occluded`] with filter `filter` bound to `ray`.
+    #[inline(always)]
+    fn any<B: RayFilter>(&self, ray: &Ray, filter: B) -> bool {
+        if self.instances.is_none() {
+            return self.world_any(ray, filter);
+        }
+        self.any_placed(ray, filter)
+    }
+
+    /// `closest` with placements: out of line, so that a geometry without them runs the
+    /// code it ran before they existed.
+    #[inline(never)]
+    fn closest_placed<B: RayFilter>(&self, ray: &Ray, filter: B) -> Option<Hit> {
+        let world = if self.world_count() > 0 {
+            self.world_closest(ray, filter)
+        } else {
+            None
+        };
+        match &self.instances {
+            Some(i) => i.closest(ray, world, filter, false),
+            None => world,
+        }
+    }
+
+    /// `any` with placements, out of line as `closest_placed`.
+    #[inline(never)]
+    fn any_placed<B: RayFilter>(&self, ray: &Ray, filter: B) -> bool {
+        (self.world_count() > 0 && self.world_any(ray, filter))
+            || self
+                .instances
+                .as_ref()
+                .is_some_and(|i| i.any(ray, filter, false))
+    }
+
+    /// The closest hit in the world meshes' tree (all of it without instances).
+    #[inline(always)]
+    pub(crate) fn world_closest<B: RayFilter>(&self, ray: &Ray, filter: B) -> Option<Hit> {
         if !PreparedRay::traceable(ray) {
             return None;
         }
@@ -335,14 +379,29 @@ impl Geometry {
         self.trace(Closest(&mut r, filter))
     }
 
-    /// [`Geometry::occluded`] with filter `filter` bound to `ray`.
+    /// Whether the world meshes' tree is hit.
     #[inline(always)]
-    fn any<B: RayFilter>(&self, ray: &Ray, filter: B) -> bool {
+    pub(crate) fn world_any<B: RayFilter>(&self, ray: &Ray, filter: B) -> bool {
         if !PreparedRay::traceable(ray) {
             return false;
         }
         let mut r = PreparedRay::prepare(ray, self.coordinate_bound);
         self.trace(Any(&mut r, filter))
+    }
+
+    /// The answers of a batch (`Many`'s), then the placements' for each ray.
+    fn many<A: Answer, F: Filter>(&self, rays: &[Ray], out: &mut [A], stream: bool, filter: F) {
+        let Some(i) = &self.instances else {
+            return self.trace(Many(rays, out, stream, filter));
+        };
+        if self.world_count() > 0 {
+            self.trace(Many(rays, &mut *out, stream, filter));
+        } else {
+            out.fill(A::MISS);
+        }
+        for (ray, a) in rays.iter().zip(out.iter_mut()) {
+            *a = A::placed(i, ray, *a, filter.on(ray));
+        }
     }
 
     /// The surface point of a hit returned by [`Geometry::intersect`]. The ray is not needed
@@ -353,10 +412,22 @@ impl Geometry {
     /// If `hit.triangle` is not a valid id (hits from this geometry always are).
     #[must_use]
     pub fn surface(&self, _ray: &Ray, hit: &Hit) -> SurfacePoint {
-        let stored = self.stored(hit.triangle);
-        let ng = stored.normal();
-        let shading_normal = self
-            .vertex_normals(hit.triangle)
+        let (tri, ng, normals) = match &self.instances {
+            Some(i) if hit.triangle >= i.world => {
+                let (tri, k, local) = i.triangle(hit.triangle);
+                let ng = TriSoa::new(tri.p).normal();
+                (tri, ng, i.vertex_normals(k, local))
+            }
+            _ => {
+                let stored = self.stored(hit.triangle);
+                let tri = Triangle {
+                    p: stored.vertices(),
+                    material_id: self.material_ids[hit.triangle as usize],
+                };
+                (tri, stored.normal(), self.vertex_normals(hit.triangle))
+            }
+        };
+        let shading_normal = normals
             .map(|n| {
                 let b0 = 1.0 - hit.b1 - hit.b2;
                 let ns = (b0 * n[0] + hit.b1 * n[1] + hit.b2 * n[2]).normalize_or_zero();
@@ -369,10 +440,6 @@ impl Geometry {
                 }
             })
             .unwrap_or(ng);
-        let tri = Triangle {
-            p: stored.vertices(),
-            material_id: self.material_ids[hit.triangle as usize],
-        };
         SurfacePoint {
             position: tri.point(hit.b1, hit.b2),
             geometric_normal: ng,
@@ -420,10 +487,32 @@ impl Geometry {
 
     /// The brute-force closest hit, with filter `filter` bound to `ray`.
     fn closest_brute_force<B: RayFilter>(&self, ray: &Ray, filter: B) -> Option<Hit> {
+        let world = self.world_closest_brute_force(ray, filter);
+        match &self.instances {
+            Some(i) => i.closest(ray, world, filter, true),
+            None => world,
+        }
+    }
+
+    /// The brute-force any hit, with filter `filter` bound to `ray`.
+    fn any_brute_force<B: RayFilter>(&self, ray: &Ray, filter: B) -> bool {
+        self.world_any_brute_force(ray, filter)
+            || self
+                .instances
+                .as_ref()
+                .is_some_and(|i| i.any(ray, filter, true))
+    }
+
+    /// The brute-force closest hit among the world meshes' triangles.
+    pub(crate) fn world_closest_brute_force<B: RayFilter>(
+        &self,
+        ray: &Ray,
+        filter: B,
+    ) -> Option<Hit> {
         let r = PreparedRay::new(ray)?;
         let mut t_best = r.t_max;
         let mut best = None;
-        for (id, tri) in self.triangles().enumerate() {
+        for (id, tri) in self.world_triangles().enumerate() {
             let soa = TriSoa::new(tri.p);
             let h = match r.kz() {
                 0 => intersect_triangle::<0>(&soa, &r, t_best),
@@ -446,12 +535,12 @@ impl Geometry {
         best
     }
 
-    /// The brute-force any hit, with filter `filter` bound to `ray`.
-    fn any_brute_force<B: RayFilter>(&self, ray: &Ray, filter: B) -> bool {
+    /// The brute-force any hit among the world meshes' triangles.
+    pub(crate) fn world_any_brute_force<B: RayFilter>(&self, ray: &Ray, filter: B) -> bool {
         let Some(r) = PreparedRay::new(ray) else {
             return false;
         };
-        self.triangles().enumerate().any(|(id, tri)| {
+        self.world_triangles().enumerate().any(|(id, tri)| {
             let soa = TriSoa::new(tri.p);
             match r.kz() {
                 0 => intersect_triangle::<0>(&soa, &r, r.t_max),
@@ -593,6 +682,8 @@ trait Answer: Query + Copy {
     const MISS: Self;
     /// The answer from a finished traversal's `walk.best`.
     fn from_best<const G: usize>(w: &WideBvh<G>, best: Option<(u32, usize, TriHit)>) -> Self;
+    /// The answer with the placements', given the world tree's.
+    fn placed<B: RayFilter>(i: &Instances, ray: &Ray, world: Self, filter: B) -> Self;
     /// One ray's answer on a wide BVH, with a stack of `WideBvh::walks` times its
     /// `stack_len` entries, counting only the hits `filter` accepts.
     #[inline(always)]
@@ -625,6 +716,10 @@ impl Query for Option<Hit> {
 impl Answer for Option<Hit> {
     const MISS: Self = None;
 
+    fn placed<B: RayFilter>(i: &Instances, ray: &Ray, world: Self, filter: B) -> Self {
+        i.closest(ray, world, filter, false)
+    }
+
     #[inline(always)]
     fn from_best<const G: usize>(w: &WideBvh<G>, best: Option<(u32, usize, TriHit)>) -> Self {
         best.map(|(p, lane, h)| Hit {
@@ -652,6 +747,10 @@ impl Query for bool {
 
 impl Answer for bool {
     const MISS: Self = false;
+
+    fn placed<B: RayFilter>(i: &Instances, ray: &Ray, world: Self, filter: B) -> Self {
+        world || i.any(ray, filter, false)
+    }
 
     #[inline(always)]
     fn from_best<const G: usize>(_: &WideBvh<G>, best: Option<(u32, usize, TriHit)>) -> Self {
