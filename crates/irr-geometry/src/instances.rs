@@ -29,7 +29,7 @@
 //! world space in `f64` and rounded once, so [`Geometry::surface`], [`Geometry::triangle`] and
 //! [`Geometry::geometric_normal`] agree with each other exactly, as for world triangles.
 
-use glam::{DAffine3, DMat3, DVec3, Vec3};
+use glam::{DAffine3, DVec3, Vec3};
 use obvhs::bvh2::node::Bvh2Node;
 
 use crate::build;
@@ -79,9 +79,8 @@ pub(crate) struct Placed {
     /// [`Instance::material_id`], or [`NO_MATERIAL`] for the prototype's own.
     material: u32,
     to_world: DAffine3,
+    /// `to_world`'s inverse; its linear part's transpose maps shading normals.
     to_object: DAffine3,
-    /// The inverse transpose of `to_world`'s linear part, for shading normals.
-    normals: DMat3,
     /// The instance's index in the build's input, for [`Geometry::instance_of`].
     input: u32,
 }
@@ -258,14 +257,17 @@ impl Instances {
                 material: inst.material_id.unwrap_or(NO_MATERIAL),
                 to_world: m,
                 to_object,
-                normals: to_object.matrix3.transpose(),
                 input: k as u32,
             });
         }
+        placed.shrink_to_fit();
+        bases.shrink_to_fit();
         let (nodes, order) = if prims.is_empty() {
             (Vec::new(), Vec::new())
         } else {
             let mut bvh = build::build_bvh2(prims).0;
+            bvh.nodes.shrink_to_fit();
+            bvh.primitive_indices.shrink_to_fit();
             (
                 std::mem::take(&mut bvh.nodes),
                 std::mem::take(&mut bvh.primitive_indices),
@@ -367,7 +369,7 @@ impl Instances {
     /// The prototype's vertex shading normals of placed triangle `(k, local)`, mapped to world
     /// space (unnormalised: the interpolation normalises).
     pub(crate) fn vertex_normals(&self, k: usize, local: u32) -> Option<[Vec3; 3]> {
-        let m = self.placed[k].normals;
+        let m = self.placed[k].to_object.matrix3.transpose();
         self.prototype(k)
             .vertex_normals(local)
             .map(|n| n.map(|n| (m * n.as_dvec3()).as_vec3()))
@@ -816,6 +818,31 @@ mod tests {
                 prototype: 2,
                 prototypes: 1
             })
+        );
+    }
+
+    /// A placement costs at most `BUILT_BYTES_PER_INSTANCE` (10⁴ placements of one quad,
+    /// whose prototype's bytes are counted apart).
+    #[test]
+    fn the_bytes_per_placement_stay_under_their_bound() {
+        let instances: Vec<Instance> = (0..10_000)
+            .map(|k| Instance {
+                prototype: 0,
+                to_world: DAffine3::from_translation(DVec3::new(f64::from(k), 0.0, 0.0)),
+                material_id: None,
+            })
+            .collect();
+        let g = Geometry::build_instanced(Vec::new(), vec![mixed_meshes(4).remove(3)], &instances)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let placements = g
+            .heap_bytes()
+            .iter()
+            .find(|(name, _)| *name == "placements")
+            .map_or(0, |(_, b)| *b);
+        let per = placements as f64 / 1e4;
+        assert!(
+            per <= crate::BUILT_BYTES_PER_INSTANCE as f64,
+            "{per} bytes a placement"
         );
     }
 
