@@ -59,7 +59,9 @@ pub struct LightSampler {
     probabilities: Vec<f32>,
     /// cdf[i] = probability of choosing one of entries 0..=i; the last entry is exactly 1.
     cdf: Vec<f32>,
-    /// For every triangle of the geometry, its index in `triangles`, or `u32::MAX`.
+    /// For every triangle of a geometry without placements, its index in `triangles`, or
+    /// `u32::MAX`; empty with placements, whose ids may number billions: `triangles` (in
+    /// increasing id order) is then searched.
     light_of_triangle: Vec<u32>,
 }
 
@@ -77,19 +79,26 @@ impl LightSampler {
         materials: &[Material],
         lights: &[PunctualLight],
     ) -> Self {
+        let dense = geometry.placements().next().is_none();
         let mut s = Self {
-            light_of_triangle: vec![u32::MAX; geometry.triangle_count()],
+            light_of_triangle: if dense {
+                vec![u32::MAX; geometry.triangle_count()]
+            } else {
+                Vec::new()
+            },
             ..Self::default()
         };
         let mut powers = Vec::new();
-        for id in 0..geometry.triangle_count() as u32 {
+        let emissive = |id: u32| {
+            materials
+                .get(geometry.material_id(id) as usize)
+                .filter(|m| m.is_emissive())
+        };
+        for id in candidate_emitters(geometry, materials) {
             // The material first: only an emitter's vertices are read back from the BVH.
-            let Some(m) = materials.get(geometry.material_id(id) as usize) else {
+            let Some(m) = emissive(id) else {
                 continue;
             };
-            if !m.is_emissive() {
-                continue;
-            }
             let tri = geometry.triangle(id);
             let area = tri.area();
             if area <= 0.0 || !area.is_finite() {
@@ -101,7 +110,9 @@ impl LightSampler {
                 * sides
                 * f64::from(m.emission.element_sum())
                 / 3.0;
-            s.light_of_triangle[id as usize] = s.triangles.len() as u32;
+            if dense {
+                s.light_of_triangle[id as usize] = s.triangles.len() as u32;
+            }
             s.triangles.push(id);
             s.areas.push(area);
             s.normals.push(tri.normal());
@@ -206,11 +217,46 @@ impl LightSampler {
     /// for a triangle that does not emit.
     #[inline]
     pub fn pdf_area(&self, triangle: u32) -> f32 {
-        match self.light_of_triangle.get(triangle as usize) {
-            Some(&i) if i != u32::MAX => {
-                self.probabilities[i as usize] * uniform_triangle_pdf(self.areas[i as usize])
-            }
-            _ => 0.0,
+        let i = if self.light_of_triangle.is_empty() {
+            self.triangles.binary_search(&triangle).ok()
+        } else {
+            self.light_of_triangle
+                .get(triangle as usize)
+                .filter(|&&i| i != u32::MAX)
+                .map(|&i| i as usize)
+        };
+        match i {
+            Some(i) => self.probabilities[i] * uniform_triangle_pdf(self.areas[i]),
+            None => 0.0,
         }
     }
+}
+
+/// The ids that may emit, in increasing order: every world triangle, and the triangles of each
+/// placement whose material (its own, or one of its prototype's) emits; a placement of a
+/// prototype none of whose materials emit is skipped whole, so a geometry of many placements
+/// is not walked id by id.
+fn candidate_emitters<'a>(
+    geometry: &'a Geometry,
+    materials: &'a [Material],
+) -> impl Iterator<Item = u32> + 'a {
+    let emits = move |id: u32| {
+        materials
+            .get(geometry.material_id(id) as usize)
+            .is_some_and(Material::is_emissive)
+    };
+    let mut prototype_emits = std::collections::HashMap::new();
+    let placed = geometry
+        .placements()
+        .filter(move |p| {
+            let ids = p.first_id..p.first_id + p.count;
+            match p.material_id {
+                Some(m) => materials.get(m as usize).is_some_and(Material::is_emissive),
+                None => *prototype_emits
+                    .entry(p.prototype)
+                    .or_insert_with(|| ids.clone().any(emits)),
+            }
+        })
+        .flat_map(|p| p.first_id..p.first_id + p.count);
+    (0..geometry.world_triangle_count() as u32).chain(placed)
 }

@@ -436,6 +436,76 @@ fn area_and_point_lights_add_up() {
     assert_close("disk and point light", est, expected);
 }
 
+/// Placed emitters light as their closed form: one emitting square, stored once as a
+/// prototype, placed twice (turned to face the floor, one placement with a brighter material
+/// of its own) over a floor point. The floor's radiance is (ρ/π)·(E₁ + E₂), each E the
+/// square's polygon irradiance at its placed vertices. The light sampler must find the placed
+/// triangles (their world areas and normals), choose them by power, and give their density to
+/// MIS when a BSDF sample hits one; a placed copy missed, or an area taken in object space
+/// (the placements scale by 0.5), biases the sum. The same in a scene of world-space copies.
+#[test]
+fn placed_emitters_light_as_their_closed_form() {
+    use glam::{DAffine3, DQuat, DVec3};
+    use irr_geometry::Instance;
+    let (l1, l2, rho) = (4.0f32, 7.0f32, 0.6f32);
+    // A unit square facing +z in object space, placed facing -y at height 1.
+    let prototype = square(Vec3::ZERO, Vec3::Z, 0.5, 1);
+    let place = |x: f64, material_id| Instance {
+        prototype: 0,
+        to_world: DAffine3::from_scale_rotation_translation(
+            DVec3::splat(0.5),
+            DQuat::from_rotation_x(std::f64::consts::FRAC_PI_2),
+            DVec3::new(x, 1.0, 0.2),
+        ),
+        material_id,
+    };
+    let instances = [place(-0.6, None), place(0.7, Some(2))];
+    let floor = square(Vec3::ZERO, Vec3::Y, 10.0, 0);
+    let materials = || {
+        vec![
+            Material::diffuse(Vec3::splat(rho)),
+            Material::emitter(Vec3::splat(l1)),
+            Material::emitter(Vec3::splat(l2)),
+        ]
+    };
+    let placed = Geometry::build_instanced(vec![floor.clone()], vec![prototype], &instances)
+        .unwrap_or_else(|e| panic!("{e}"));
+    // The placed triangles as world-space copies (the same ids).
+    let mut copies = vec![floor];
+    for id in 2..placed.triangle_count() as u32 {
+        let t = placed.triangle(id);
+        copies.push(TriangleMesh {
+            positions: t.p.to_vec(),
+            indices: vec![[0, 1, 2]],
+            normals: None,
+            material_ids: vec![t.material_id],
+        });
+    }
+    let mut expected = 0.0;
+    for (k, le) in [(2u32, l1), (4, l2)] {
+        // Both triangles of a placement: their four distinct vertices, in order.
+        let [a, b, c] = placed.triangle(k).p;
+        let d = placed.triangle(k + 1).p[2];
+        assert!(placed.geometric_normal(k).y < -0.99, "faces the floor");
+        expected += polygon_irradiance(&[a, b, c, d], f64::from(le));
+    }
+    let expected = f64::from(rho) / PI * expected;
+    let ray = ray_to(Vec3::new(0.0, 0.5, 3.0), Vec3::ZERO);
+    let pt = PathTracer::default();
+    for (what, geometry) in [
+        ("placed", placed),
+        (
+            "copied",
+            Geometry::build(&copies).unwrap_or_else(|e| panic!("{e}")),
+        ),
+    ] {
+        let s = Scene::new(geometry, materials()).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(s.emitter_count(), 4, "{what}");
+        let est = estimate(20_000, |i| li(&pt, &s, &ray, 31, i));
+        assert_close(what, est, expected);
+    }
+}
+
 /// The light sampler chooses every light with probability proportional to its power: a
 /// triangle's π·A·s·Le and the punctual lights' (point 4πI, spot 2πI((1 − cos θ_i) +
 /// (cos θ_i − cos θ_o)/3), directional πr²E with r the scene's bounding radius); the

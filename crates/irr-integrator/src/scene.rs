@@ -144,7 +144,8 @@ impl Scene {
 
     /// [`Scene::new`] with textures: every [`TextureRef`] must index `textures` with a finite
     /// transform, an albedo texture must stay within [0, 1], and `tex_coords` must hold, for
-    /// every triangle by id, one triple per set its material reads
+    /// every unique triangle by attribute id (`Geometry::attribute_id`: placed triangles share
+    /// their prototype's), one triple per set its material reads
     /// ([`Material::tex_coord_sets`]), or be empty when no material is textured.
     ///
     /// The light sampler chooses a textured emitter by its emission factor × the texture's
@@ -231,7 +232,7 @@ impl Scene {
                 });
             }
         }
-        for id in 0..geometry.triangle_count() as u32 {
+        for id in distinct_triangles(&geometry) {
             let material = geometry.material_id(id);
             if material as usize >= materials.len() {
                 return Err(SceneError::MissingMaterial {
@@ -272,14 +273,17 @@ impl Scene {
             None => m.albedo,
             Some(t) => m.albedo * self.lookup(triangle, t, b1, b2),
         };
-        match self.colours.at(triangle, b1, b2) {
+        match self
+            .colours
+            .at(self.geometry.attribute_id(triangle), b1, b2)
+        {
             None => base,
             Some(c) => base * c,
         }
     }
 
     /// The scene with per-vertex colours (glTF `COLOR_0`), which multiply the base colour:
-    /// `colours` must cover every triangle by id (or be empty), each colour finite and in
+    /// `colours` must cover every unique triangle by attribute id (or be empty), each colour finite and in
     /// [0, 1] (so the albedo stays in [0, 1]).
     pub fn with_vertex_colours(mut self, colours: VertexColours) -> Result<Self, SceneError> {
         if colours.is_empty() {
@@ -292,10 +296,11 @@ impl Scene {
         Ok(self)
     }
 
-    /// The scene with per-vertex tangents (glTF `TANGENT`, world space), which orient the
-    /// normal textures: `tangents` must cover every triangle by id (or be empty), each finite
-    /// with a non-zero direction. A triangle of a normal-textured material without tangents
-    /// shades with its vertex normals.
+    /// The scene with per-vertex tangents (glTF `TANGENT`, world space; a placed triangle's
+    /// in its prototype's object space), which orient the normal textures: `tangents` must
+    /// cover every unique triangle by attribute id (or be empty), each finite with a non-zero
+    /// direction. A triangle of a normal-textured material without tangents shades with its
+    /// vertex normals.
     pub fn with_tangents(mut self, tangents: VertexTangents) -> Result<Self, SceneError> {
         if tangents.is_empty() {
             return Ok(self);
@@ -318,11 +323,11 @@ impl Scene {
     where
         T: Copy + std::fmt::Display + std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>,
     {
-        if values.triangle_count() != self.geometry.triangle_count() {
+        if values.triangle_count() != self.geometry.unique_triangle_count() {
             return Err(format!(
                 "given for {} triangles, but the geometry has {}",
                 values.triangle_count(),
-                self.geometry.triangle_count()
+                self.geometry.unique_triangle_count()
             ));
         }
         match values.all().iter().flatten().find(|v| !valid(v)) {
@@ -345,11 +350,18 @@ impl Scene {
         }
         let (triangle, b1, b2) = (surface.triangle, surface.b1, surface.b2);
         let m = self.material_of(triangle);
-        let (Some(texture), Some(tangent)) =
-            (&m.normal_texture, self.tangents.at(triangle, b1, b2))
-        else {
+        let (Some(texture), Some(tangent)) = (
+            &m.normal_texture,
+            self.tangents
+                .at(self.geometry.attribute_id(triangle), b1, b2),
+        ) else {
             return n;
         };
+        // A placed triangle's tangents are its prototype's, in object space.
+        let tangent = self
+            .geometry
+            .vector_to_world(triangle, tangent.truncate())
+            .extend(tangent.w);
         let c = self.lookup(triangle, texture, b1, b2) * 2.0 - Vec3::ONE;
         let t = tangent.truncate();
         let Some(t) = (t - n * n.dot(t)).try_normalize() else {
@@ -405,14 +417,14 @@ impl Scene {
             None => m.alpha,
             Some(t) => m.alpha * self.lookup(triangle, t, b1, b2).x,
         };
-        match self.alphas.at(triangle, b1, b2) {
+        match self.alphas.at(self.geometry.attribute_id(triangle), b1, b2) {
             None => a,
             Some(v) => a * v,
         }
     }
 
     /// The scene with per-vertex alphas (glTF `COLOR_0`'s fourth component), which multiply
-    /// the coverage α: `alphas` must cover every triangle by id (or be empty), each in [0, 1].
+    /// the coverage α: `alphas` must cover every unique triangle by attribute id (or be empty), each in [0, 1].
     pub fn with_vertex_alphas(mut self, alphas: VertexAttribute<f32>) -> Result<Self, SceneError> {
         if alphas.is_empty() {
             return Ok(self);
@@ -729,7 +741,12 @@ impl Scene {
     #[inline]
     pub fn tex_coord(&self, triangle: u32, texture: &TextureRef, b1: f32, b2: f32) -> Vec2 {
         let m = self.material_of(triangle);
-        let uv = self.tex_coords.at(triangle, m.slot(texture), b1, b2);
+        let uv = self.tex_coords.at(
+            self.geometry.attribute_id(triangle),
+            m.slot(texture),
+            b1,
+            b2,
+        );
         texture.transform.transform_point2(uv)
     }
 
@@ -940,16 +957,16 @@ fn check_textures(
     if !textured && tex_coords.is_empty() {
         return Ok(());
     }
-    if tex_coords.triangle_count() != geometry.triangle_count() {
+    if tex_coords.triangle_count() != geometry.unique_triangle_count() {
         return Err(SceneError::TexCoordCount {
-            triangles: geometry.triangle_count(),
+            triangles: geometry.unique_triangle_count(),
             found: tex_coords.triangle_count(),
         });
     }
-    for triangle in 0..geometry.triangle_count() as u32 {
+    for triangle in distinct_triangles(geometry) {
         let m = &materials[geometry.material_id(triangle) as usize];
         let expected = m.tex_coord_sets().count();
-        let found = tex_coords.of(triangle).len();
+        let found = tex_coords.of(geometry.attribute_id(triangle)).len();
         if found != expected {
             return Err(SceneError::TexCoords {
                 triangle,
@@ -959,4 +976,18 @@ fn check_textures(
         }
     }
     Ok(())
+}
+
+/// The ids of a triangle of every distinct (per-vertex data, material) pair: every world
+/// triangle, and of the placements, each prototype's triangles once per material it is placed
+/// with (a placement of the prototype's own materials, or of one of its own), in id order. What
+/// a check of every triangle's material and per-vertex data needs to look at, however many times
+/// the prototypes are placed.
+pub(crate) fn distinct_triangles(geometry: &Geometry) -> impl Iterator<Item = u32> + '_ {
+    let mut seen = std::collections::HashSet::new();
+    let placed = geometry
+        .placements()
+        .filter(move |p| seen.insert((p.prototype, p.material_id)))
+        .flat_map(|p| p.first_id..p.first_id + p.count);
+    (0..geometry.world_triangle_count() as u32).chain(placed)
 }
