@@ -277,11 +277,10 @@ fn allocation_bombs_are_refused() {
 }
 
 /// A mesh whose accessors many primitives share (as the Khronos sample
-/// MetalRoughSpheresNoTextures shares two accessors among 98 spheres) loads: repeats are how
-/// users build scenes, so only the memory limit bounds them, not the files' size. The 320 copies
-/// of a 40×40 grid (10⁶ triangles) hold 29 MB of arrays, past the 16 MiB + 64× the file's
-/// 137 kB (25.5 MB) that bounds data no file holds. Under a limit set just below the scene's arrays
-/// and BVH, the same file is refused, with the figures, before the BVH is built.
+/// MetalRoughSpheresNoTextures shares two accessors among 98 spheres) loads as one prototype
+/// placed once per primitive: the 320 draws of a 40×40 grid (10⁶ triangles, 29 MB of arrays as
+/// copies) hold one grid's arrays. The memory check counts the grid's BVH and the placements,
+/// and a limit just below that figure refuses the file before the BVH is built.
 #[test]
 fn shared_accessors_load_within_the_memory_limit() {
     let dir = temp();
@@ -324,17 +323,14 @@ fn shared_accessors_load_within_the_memory_limit() {
     let path = dir.path().join("shared.gltf");
     write(&path, &json);
     let data = load_gltf(&path).unwrap_or_else(|e| panic!("{e}"));
-    let triangles = copies * 2 * (n * n) as usize;
-    assert_eq!(
-        data.meshes.iter().map(|m| m.indices.len()).sum::<usize>(),
-        triangles
-    );
-    let file = json.len() as u64;
+    let grid = 2 * (n * n) as usize;
+    let triangles = copies * grid;
+    assert_eq!((data.meshes.len(), data.prototypes.len()), (0, 1));
+    assert_eq!(data.instances.len(), copies);
+    assert_eq!(data.prototypes[0].indices.len(), grid);
+    // One grid's arrays (positions, normals, indices, material ids: 88 kB), not 320.
     let arrays = data.heap_bytes();
-    assert!(
-        arrays > (16 << 20) + 64 * file,
-        "{arrays} bytes from {file}"
-    );
+    assert!(arrays < 1 << 20, "{arrays} bytes");
     let need = data.check_memory().unwrap_or_else(|e| panic!("{e}"));
     assert!(need > arrays);
     let tight = LoadOptions {
@@ -346,22 +342,23 @@ fn shared_accessors_load_within_the_memory_limit() {
         &tight,
         &["memory limit", "set by --max-memory", "BVH"],
     );
-    assert!(e.contains(&format!("{triangles} triangles")), "{e}");
+    assert!(e.contains(&format!("{grid} triangles")), "{e}");
     let enough = LoadOptions {
         max_memory: Some(need),
         ..LoadOptions::default()
     };
     let loaded = load_scene_with(&path, &enough).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(loaded.scene.geometry().triangle_count(), triangles);
+    let geometry = loaded.scene.geometry();
+    assert_eq!(geometry.triangle_count(), triangles);
+    assert_eq!(geometry.unique_triangle_count(), grid);
 }
 
-/// An instancing bomb: one node draws a grid of 10⁴ vertices 2¹⁶ times
-/// (`EXT_mesh_gpu_instancing`, 0.8 MB of translations), 7.9 GB of positions alone. Under a
-/// 1 GiB limit it is refused before any copy is made, naming the node and the copies (a loader
-/// that copied first would be refused later by the budget, with another message, after reading
-/// the grid thousands of times).
+/// A forest: one node draws a grid of 10⁴ vertices 2¹⁶ times (`EXT_mesh_gpu_instancing`,
+/// 0.8 MB of translations), 6.4·10⁸ triangles and 7.9 GB of positions as copies. Placed, it
+/// loads and builds under a 1 GiB limit (about 37 MB of placements); under 16 MiB its
+/// placements are refused before any is made, naming the node and their count.
 #[test]
-fn an_instancing_bomb_is_refused_before_its_copies() {
+fn a_forest_of_instances_loads_and_its_placements_are_bounded() {
     let dir = temp();
     let n = 99u32;
     let mut g = irr_scene::testutil::Gltf::default();
@@ -387,8 +384,23 @@ fn an_instancing_bomb_is_refused_before_its_copies() {
     ));
     let path = dir.path().join("forest.gltf");
     write(&path, &json);
-    let tight = LoadOptions {
+    let roomy = LoadOptions {
         max_memory: Some(1 << 30),
+        ..LoadOptions::default()
+    };
+    let loaded = load_scene_with(&path, &roomy).unwrap_or_else(|e| panic!("{e}"));
+    let geometry = loaded.scene.geometry();
+    let grid = 99 * 99; // one triangle per quad
+    assert_eq!(geometry.unique_triangle_count(), grid);
+    assert_eq!(geometry.triangle_count(), copies * grid);
+    // A ray down the column of grids (one every unit of y) meets the top one, at y = 65535.
+    let ray = irr_geometry::Ray::new(Vec3::new(0.5, 65545.0, 0.25), -Vec3::Y);
+    let hit = geometry
+        .intersect(&ray)
+        .unwrap_or_else(|| panic!("the forest was missed"));
+    assert_eq!(geometry.instance_of(hit.triangle), Some(copies as u32 - 1));
+    let tight = LoadOptions {
+        max_memory: Some(16 << 20),
         ..LoadOptions::default()
     };
     load_error(
@@ -397,7 +409,7 @@ fn an_instancing_bomb_is_refused_before_its_copies() {
         &[
             "node 0",
             "EXT_mesh_gpu_instancing",
-            "65536 copies of 10000 vertices",
+            "65536 instances take",
             "memory limit",
         ],
     );

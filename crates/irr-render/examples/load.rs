@@ -27,9 +27,12 @@ fn main() -> ExitCode {
         return match load_gltf_with(scene.as_ref(), &options) {
             Ok(data) => {
                 let triangles: usize = data.meshes.iter().map(|m| m.indices.len()).sum();
+                let unique: usize = data.prototypes.iter().map(|m| m.indices.len()).sum();
                 println!(
-                    "{scene}: {triangles} triangles in {} meshes, loaded in {:.3} s",
+                    "{scene}: {triangles} triangles in {} meshes, {unique} in {} prototypes placed {} times, loaded in {:.3} s",
                     data.meshes.len(),
+                    data.prototypes.len(),
+                    data.instances.len(),
                     started.elapsed().as_secs_f64()
                 );
                 ExitCode::SUCCESS
@@ -42,8 +45,11 @@ fn main() -> ExitCode {
     }
     match load_scene_with(scene.as_ref(), &options) {
         Ok(loaded) => {
+            let geometry = loaded.scene.geometry();
             println!(
-                "{scene}: {} warnings, loaded and BVH built in {:.3} s",
+                "{scene}: {} triangles ({} unique), {} warnings, loaded and BVH built in {:.3} s",
+                geometry.triangle_count(),
+                geometry.unique_triangle_count(),
                 loaded.warnings.len(),
                 started.elapsed().as_secs_f64()
             );

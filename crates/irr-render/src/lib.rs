@@ -236,7 +236,9 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
     let data = load_gltf_with(path, options)?;
     data.check_memory()?;
     let SceneData {
-        meshes,
+        mut meshes,
+        prototypes,
+        instances,
         materials,
         textures,
         tex_coords,
@@ -251,8 +253,10 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
         animated_content,
         ..
     } = data;
-    // Texture coordinates by geometry id, before the meshes are consumed (degenerate triangles
-    // the build drops have none).
+    // Texture coordinates by attribute id (the world meshes', then the prototypes'), before the
+    // meshes are consumed (degenerate triangles the build drops have none).
+    let world = meshes.len();
+    meshes.extend(prototypes);
     let tex_coords = irr_scene::tex_coords_by_id(&meshes, &materials, &tex_coords)
         .map_err(|e| RenderError::scene(path, e))?;
     let colours =
@@ -263,8 +267,9 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
         irr_scene::attribute_by_id(&meshes, &alphas).map_err(|e| RenderError::scene(path, e))?;
     // The meshes are consumed: each part is freed as soon as the BVH's leaves hold it, so a
     // large scene is never in memory twice.
-    let geometry =
-        Geometry::build_owned(meshes).map_err(|e| RenderError::scene(path, e.to_string()))?;
+    let prototypes = meshes.split_off(world);
+    let geometry = Geometry::build_instanced(meshes, prototypes, &instances)
+        .map_err(|e| RenderError::scene(path, e.to_string()))?;
     let report = *geometry.report();
     if report.dropped_degenerate > 0 {
         warnings.push(Warning {

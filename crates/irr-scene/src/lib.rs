@@ -2,7 +2,8 @@
 //!
 //! # What it owns
 //! - [`load_gltf`]: glTF 2.0 (`.gltf` with external or `data:` buffers, `.glb`) into
-//!   world-space triangle meshes ([`SceneData`]) with metallic-roughness materials, their
+//!   world-space triangle meshes, and prototypes with their placements for what is drawn more
+//!   than once ([`SceneData`]), with metallic-roughness materials, their
 //!   base-colour, emissive, metallic-roughness, normal and alpha textures (PNG and JPEG images,
 //!   decoded to linear RGB here) and vertex colours, `KHR_lights_punctual` lights and the file's
 //!   cameras; every ignored feature becomes a [`Warning`] with a count, every unreadable input

@@ -4,9 +4,12 @@
 //! # What irr reads
 //! - The default scene (`scene`, else the first), its node hierarchy and transforms (matrix or
 //!   TRS; normals by the inverse transpose; a negative determinant flips the winding so the
-//!   front face stays where the file meant it); `EXT_mesh_gpu_instancing`'s instances, each a
-//!   copy of the node's mesh (refused before any copy when their positions alone would pass the
-//!   memory limit).
+//!   front face stays where the file meant it); `EXT_mesh_gpu_instancing`'s instances. A
+//!   primitive whose data (accessors, mode, the texture sets its material reads) is drawn more
+//!   than once, by several nodes, by instancing, or by meshes that share its accessors, is kept
+//!   once as an object-space prototype and placed by each draw's transform
+//!   ([`SceneData::instances`]); a mirroring draw and a primitive with morph targets are copied
+//!   into world space instead.
 //! - Triangle primitives (`TRIANGLES`, `TRIANGLE_STRIP`, `TRIANGLE_FAN`), indexed (u8, u16, u32
 //!   indices) or not; `POSITION`, `NORMAL` if present, and the `TEXCOORD_n` a textured material
 //!   reads (float, or normalized unsigned byte or short; with `KHR_mesh_quantization` the 8- and
@@ -81,6 +84,7 @@
 
 mod animation;
 mod buffers;
+mod instancing;
 mod json;
 mod lights;
 mod materials;
@@ -105,8 +109,9 @@ use crate::files::{
 use crate::glb;
 use crate::{Material, PunctualLight, Texture};
 use glam::{Vec2, Vec3, Vec4};
-use irr_geometry::TriangleMesh;
-use std::collections::BTreeMap;
+use instancing::{PrimitiveKey, Prototypes, bounds_of, corners, material_of, mirrors};
+use irr_geometry::{Instance, TriangleMesh};
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
 /// The largest coordinate magnitude (metres, after the node transforms) that irr accepts.
@@ -155,13 +160,22 @@ impl std::fmt::Display for Warning {
 pub struct SceneData {
     /// The file it came from.
     pub path: PathBuf,
-    /// One mesh per primitive instance, in world space; `material_ids` index `materials`.
+    /// One mesh per primitive drawn once (or drawn mirrored), in world space; `material_ids`
+    /// index `materials`.
     pub meshes: Vec<TriangleMesh>,
+    /// One mesh per primitive drawn more than once, in its object space: `instances` place
+    /// them (see irr-geometry's `Geometry::build_instanced`).
+    pub prototypes: Vec<TriangleMesh>,
+    /// The draws of the prototypes: each one's transform and material.
+    pub instances: Vec<Instance>,
     /// The materials, in the file's order, plus glTF's default material at the end if a
     /// primitive has none.
     pub materials: Vec<Material>,
     /// The textures the materials read (`TextureRef::texture` indexes them): linear RGB.
     pub textures: Vec<Texture>,
+    /// The per-triangle arrays below hold one entry per mesh, then one per prototype (whose
+    /// tangents are in object space).
+    ///
     /// Per mesh, the texture coordinates of its triangles: for triangle t, entries
     /// `t·k..(t+1)·k`, where k is the number of sets its material reads
     /// (`Material::tex_coord_sets`); empty for an untextured material.
@@ -213,6 +227,7 @@ impl SceneData {
         let meshes: u64 = self
             .meshes
             .iter()
+            .chain(&self.prototypes)
             .map(|m| {
                 bytes(&m.positions)
                     + bytes(&m.indices)
@@ -226,6 +241,7 @@ impl SceneData {
             .map(|t| u64::from(t.width()) * u64::from(t.height()) * size_of::<Vec3>() as u64)
             .sum();
         meshes
+            + bytes(&self.instances)
             + texels
             + self.tex_coords.iter().map(|a| bytes(a)).sum::<u64>()
             + self.colours.iter().map(|a| bytes(a)).sum::<u64>()
@@ -238,9 +254,19 @@ impl SceneData {
     /// [`irr_geometry::BUILT_BYTES_PER_TRIANGLE`] a triangle bound what the build holds at its
     /// peak (it frees the meshes as it goes). Returns that estimate.
     pub fn check_memory(&self) -> Result<u64, LoadError> {
-        let triangles: u64 = self.meshes.iter().map(|m| m.indices.len() as u64).sum();
+        let triangles: u64 = self
+            .meshes
+            .iter()
+            .chain(&self.prototypes)
+            .map(|m| m.indices.len() as u64)
+            .sum();
         let loaded = self.heap_bytes();
-        let bvh = triangles.saturating_mul(irr_geometry::BUILT_BYTES_PER_TRIANGLE);
+        let bvh = triangles
+            .saturating_mul(irr_geometry::BUILT_BYTES_PER_TRIANGLE)
+            .saturating_add(
+                (self.instances.len() as u64)
+                    .saturating_mul(irr_geometry::BUILT_BYTES_PER_INSTANCE),
+            );
         let need = loaded.saturating_add(bvh);
         if need > self.memory_limit.bytes {
             return Err(LoadError::scene(
@@ -446,7 +472,28 @@ impl<'a> Loader<'a> {
         let mut used_default_material = 0;
         let mut lights = Vec::new();
         let mut placed = vec![false; self.light_count()];
-        for (node, world) in self.walk_nodes()? {
+        let nodes = self.walk_nodes()?;
+        // Every node's draws first, to learn which primitives are drawn more than once.
+        let mut draws = Vec::with_capacity(nodes.len());
+        for (node, world) in &nodes {
+            draws.push(match node.mesh() {
+                Some(_) => self.instances(node, *world, &buffers)?,
+                None => Vec::new(),
+            });
+        }
+        let mut drawn: HashMap<PrimitiveKey, usize> = HashMap::new();
+        for ((node, _), transforms) in nodes.iter().zip(&draws) {
+            let Some(mesh) = node.mesh() else { continue };
+            let unmirrored = transforms.iter().filter(|m| !mirrors(m)).count();
+            for primitive in mesh.primitives() {
+                let (_, sets, normal_set) = material_of(&primitive, &materials, default_material);
+                if let Some(key) = PrimitiveKey::of(&primitive, &sets, normal_set) {
+                    *drawn.entry(key).or_default() += unmirrored;
+                }
+            }
+        }
+        let mut prototypes = Prototypes::default();
+        for ((node, world), transforms) in nodes.into_iter().zip(draws) {
             if let Some(index) = lights::light_index(self.document, &node) {
                 lights.push(self.light(&node, world, index)?);
                 if let Some(p) = placed.get_mut(index) {
@@ -472,18 +519,26 @@ impl<'a> Loader<'a> {
                 }
             }
             if let Some(mesh) = node.mesh() {
-                let instances = self.instances(&node, world, &buffers)?;
-                for world in instances {
+                for world in transforms {
                     for primitive in mesh.primitives() {
                         let file_material = primitive.material().index();
-                        let material_id = file_material.map_or(default_material, |i| i as u32);
-                        let material = materials.get(material_id as usize);
-                        let sets: Vec<u32> = material
-                            .map(|m| m.tex_coord_sets().collect())
-                            .unwrap_or_default();
-                        let normal_set = material
-                            .and_then(|m| m.normal_texture)
-                            .and_then(|t| sets.iter().position(|&s| s == t.tex_coord));
+                        let (material_id, sets, normal_set) =
+                            material_of(&primitive, &materials, default_material);
+                        let key = PrimitiveKey::of(&primitive, &sets, normal_set)
+                            .filter(|k| !mirrors(&world) && drawn.get(k).is_some_and(|&n| n > 1));
+                        if let Some(key) = key {
+                            if self.place(
+                                &mut prototypes,
+                                key,
+                                (&node, &mesh, &primitive),
+                                world,
+                                (material_id, &sets, normal_set),
+                                &buffers,
+                            )? {
+                                used_default_material += usize::from(file_material.is_none());
+                            }
+                            continue;
+                        }
                         if let Some(p) = self.primitive(
                             &node,
                             &mesh,
@@ -503,6 +558,19 @@ impl<'a> Loader<'a> {
                 }
             }
         }
+        let Prototypes {
+            meshes: prototype_meshes,
+            instances,
+            tex_coords: prototype_tex_coords,
+            colours: prototype_colours,
+            alphas: prototype_alphas,
+            tangents: prototype_tangents,
+            ..
+        } = prototypes;
+        tex_coords.extend(prototype_tex_coords);
+        colours.extend(prototype_colours);
+        alphas.extend(prototype_alphas);
+        tangents.extend(prototype_tangents);
         if used_default_material > 0 {
             // The specification's default material: base colour 1, metallic 1, roughness 1, a
             // white rough metal, single-sided.
@@ -526,15 +594,21 @@ impl<'a> Loader<'a> {
                 "no perspective camera is attached to a node of the scene: irr frames the scene's bounds instead".to_string()
             });
         }
+        let emits = |id: u32| {
+            materials
+                .get(id as usize)
+                .is_some_and(|m| m.emission.max_element() > 0.0)
+        };
         let emissive_triangles = meshes
             .iter()
             .flat_map(|m| m.material_ids.iter())
-            .filter(|&&id| {
-                materials
-                    .get(id as usize)
-                    .is_some_and(|m| m.emission.max_element() > 0.0)
-            })
-            .count();
+            .filter(|&&id| emits(id))
+            .count()
+            + instances
+                .iter()
+                .filter(|i| i.material_id.is_some_and(emits))
+                .map(|i| prototype_meshes[i.prototype as usize].indices.len())
+                .sum::<usize>();
         self.count_unplaced_lights(&placed);
         let emitting_lights = lights
             .iter()
@@ -550,18 +624,25 @@ impl<'a> Loader<'a> {
                 }
             });
         }
-        let bounds = meshes.iter().flat_map(|m| m.positions.iter()).fold(
-            None,
-            |acc: Option<(Vec3, Vec3)>, &p| {
+        let placed_corners = instances.iter().flat_map(|i| {
+            let (lo, hi) = bounds_of(&prototype_meshes[i.prototype as usize]);
+            corners(lo, hi).map(|c| i.to_world.transform_point3(c.as_dvec3()).as_vec3())
+        });
+        let bounds = meshes
+            .iter()
+            .flat_map(|m| m.positions.iter().copied())
+            .chain(placed_corners)
+            .fold(None, |acc: Option<(Vec3, Vec3)>, p| {
                 Some(match acc {
                     Some((lo, hi)) => (lo.min(p), hi.max(p)),
                     None => (p, p),
                 })
-            },
-        );
+            });
         Ok(SceneData {
             path: self.path.to_path_buf(),
             meshes,
+            prototypes: prototype_meshes,
+            instances,
             materials,
             textures,
             tex_coords,

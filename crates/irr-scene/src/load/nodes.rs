@@ -63,8 +63,7 @@ impl<'a> Loader<'a> {
 
     /// The world transforms `node`'s mesh is drawn with: `world` alone, or with
     /// `EXT_mesh_gpu_instancing` one per instance, `world` × the instance's T·R·S (the
-    /// extension applies the instance's transform first, then the node's). The instances are
-    /// drawn as copies: each one's triangles count against the memory limit.
+    /// extension applies the instance's transform first, then the node's).
     pub(super) fn instances(
         &mut self,
         node: &gltf::Node<'_>,
@@ -121,24 +120,23 @@ impl<'a> Loader<'a> {
                 "{what}: its attributes' counts differ (they must all be {count})"
             )));
         }
-        // The copies' positions alone must fit what is left of the memory limit: refused here,
-        // before any copy is made, rather than after reading them one by one.
-        let vertices: u64 = node.mesh().map_or(0, |m| {
-            m.primitives()
-                .filter_map(|p| p.get(&gltf::Semantic::Positions))
-                .map(|a| a.count() as u64)
-                .sum()
-        });
-        let bytes = vertices
-            .saturating_mul(count as u64)
-            .saturating_mul(size_of::<[f32; 3]>() as u64);
+        // The placements (each a transform here, then a record and its top-level nodes in the
+        // geometry) must fit what is left of the memory limit: refused here, before any is
+        // made. A mirroring instance is copied instead, and charged as it is loaded.
+        let bytes = (count as u64).saturating_mul(
+            (size_of::<Mat4>() + size_of::<irr_geometry::Instance>()) as u64
+                + irr_geometry::BUILT_BYTES_PER_INSTANCE,
+        );
         let limit = self.budget.limit();
         if bytes > limit.bytes.saturating_sub(self.budget.spent()) {
             return Err(self.err(format!(
-                "{what}: {count} copies of {vertices} vertices take {} of positions alone, past the scene's memory limit of {limit}",
+                "{what}: {count} instances take {}, past the scene's memory limit of {limit}",
                 crate::files::gib(bytes)
             )));
         }
+        self.budget
+            .charge::<Mat4>(&what, count)
+            .map_err(|e| self.err(e))?;
         let mut out = Vec::with_capacity(count);
         for ((t, r), s) in translations.iter().zip(&rotations).zip(&scales) {
             let q = Quat::from_array(*r);

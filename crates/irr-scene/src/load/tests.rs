@@ -31,15 +31,18 @@ fn one_mesh(g: &Gltf, node_extra: &str, primitive: &str) -> String {
 }
 
 fn world_triangles(s: &SceneData) -> Vec<[Vec3; 3]> {
-    s.meshes
-        .iter()
-        .flat_map(|m| {
-            m.indices
-                .iter()
-                .map(|t| t.map(|i| m.positions[i as usize]))
-                .collect::<Vec<_>>()
-        })
-        .collect()
+    let triangles = |m: &TriangleMesh| -> Vec<[Vec3; 3]> {
+        m.indices
+            .iter()
+            .map(|t| t.map(|i| m.positions[i as usize]))
+            .collect()
+    };
+    let placed = s.instances.iter().flat_map(|i| {
+        triangles(&s.prototypes[i.prototype as usize])
+            .into_iter()
+            .map(|t| t.map(|p| i.to_world.transform_point3(p.as_dvec3()).as_vec3()))
+    });
+    s.meshes.iter().flat_map(triangles).chain(placed).collect()
 }
 
 #[test]
@@ -296,7 +299,10 @@ fn ignored_features_are_counted_in_warnings() {
         s.materials
     );
     assert_eq!(s.materials[2].albedo, Vec3::ONE);
-    assert_eq!(s.meshes.last().map(|m| m.material_ids[0]), Some(2));
+    // The three triangle primitives read one POSITION accessor: one prototype, placed three
+    // times, the last with the default material.
+    assert_eq!(s.prototypes.len(), 1);
+    assert_eq!(s.instances.last().and_then(|i| i.material_id), Some(2));
 }
 
 #[test]
@@ -626,11 +632,12 @@ fn khr_materials_transmission_is_read_with_what_it_leaves_out() {
     );
 }
 
-/// `EXT_mesh_gpu_instancing`: a node's mesh drawn once per instance, each with the instance's
-/// translation and scale (rotation left to its default) and then the node's own transform; an
+/// `EXT_mesh_gpu_instancing`: a node's mesh placed once per instance (one prototype), each
+/// with the instance's translation and scale (rotation left to its default) and then the
+/// node's own transform; an
 /// instancing whose attributes disagree on the count is refused, naming the node.
 #[test]
-fn mesh_gpu_instances_are_drawn_as_copies() {
+fn mesh_gpu_instances_are_placed() {
     let d = dir();
     let file = |scales: &[[f32; 3]]| {
         let mut g = Gltf::default();
@@ -652,6 +659,10 @@ fn mesh_gpu_instances_are_drawn_as_copies() {
         "instances.gltf",
         file(&[one, [2.0; 3], one]),
     ));
+    assert_eq!(
+        (s.meshes.len(), s.prototypes.len(), s.instances.len()),
+        (0, 1, 3)
+    );
     let got = world_triangles(&s);
     let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
     let expected = [
