@@ -632,6 +632,37 @@ fn khr_materials_transmission_is_read_with_what_it_leaves_out() {
     );
 }
 
+/// A mesh drawn by several nodes is loaded once and placed by each (the world triangles as
+/// the nodes' transforms put them); a node that mirrors it is copied instead, its winding
+/// swapped so the front face stays where the file meant; a mesh drawn once stays a world mesh.
+#[test]
+fn meshes_drawn_by_several_nodes_are_placed() {
+    let d = dir();
+    let mut g = Gltf::default();
+    let p = g.vec3(&TRIANGLE);
+    let q = g.vec3(&[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]);
+    let json = g.json(&format!(
+        r#""scene":0,"scenes":[{{"nodes":[0,1,2,3]}}],
+        "nodes":[{{"mesh":0,"translation":[5,0,0]}},{{"mesh":0,"scale":[2,2,2]}},
+                 {{"mesh":0,"scale":[-1,1,1]}},{{"mesh":1}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p}}}}}]}},
+                  {{"primitives":[{{"attributes":{{"POSITION":{q}}}}}]}}]"#
+    ));
+    let s = load(&write(d.path(), "nodes.gltf", json));
+    // The mirrored draw and mesh 1, in node order; then the placements of mesh 0.
+    assert_eq!((s.meshes.len(), s.prototypes.len(), s.instances.len()), (2, 1, 2));
+    let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+    assert_eq!(
+        world_triangles(&s),
+        [
+            [v(0.0, 0.0, 0.0), v(0.0, 1.0, 0.0), v(-1.0, 0.0, 0.0)],
+            [v(0.0, 0.0, 1.0), v(1.0, 0.0, 1.0), v(0.0, 1.0, 1.0)],
+            [v(5.0, 0.0, 0.0), v(6.0, 0.0, 0.0), v(5.0, 1.0, 0.0)],
+            [v(0.0, 0.0, 0.0), v(2.0, 0.0, 0.0), v(0.0, 2.0, 0.0)],
+        ]
+    );
+}
+
 /// `EXT_mesh_gpu_instancing`: a node's mesh placed once per instance (one prototype), each
 /// with the instance's translation and scale (rotation left to its default) and then the
 /// node's own transform; an
