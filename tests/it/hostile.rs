@@ -356,7 +356,8 @@ fn shared_accessors_load_within_the_memory_limit() {
 /// A forest: one node draws a grid of 10⁴ vertices 2¹⁶ times (`EXT_mesh_gpu_instancing`,
 /// 0.8 MB of translations), 6.4·10⁸ triangles and 7.9 GB of positions as copies. Placed, it
 /// loads and builds under a 1 GiB limit (about 37 MB of placements); under 16 MiB its
-/// placements are refused before any is made, naming the node and their count.
+/// placements are refused before any is made, naming the node and their count; made emissive,
+/// its light sampler's bytes refuse it under 1 GiB.
 #[test]
 fn a_forest_of_instances_loads_and_its_placements_are_bounded() {
     let dir = temp();
@@ -413,6 +414,21 @@ fn a_forest_of_instances_loads_and_its_placements_are_bounded() {
             "memory limit",
         ],
     );
+    // The same forest glowing: 6.4·10⁸ emitting triangles, 41 GB of light sampler at
+    // `BYTES_PER_EMITTER`, refused before the BVH and the sampler are built.
+    let glowing = json.replacen(
+        r#""primitives":[{"attributes""#,
+        r#""primitives":[{"material":0,"attributes""#,
+        1,
+    );
+    let glowing = glowing.replacen(
+        r#""meshes":"#,
+        r#""materials":[{"emissiveFactor":[1,1,1]}],"meshes":"#,
+        1,
+    );
+    let path = dir.path().join("glowing-forest.gltf");
+    write(&path, &glowing);
+    load_error(&path, &roomy, &["memory limit", "loaded"]);
 }
 
 /// A long chain of nodes (each the only child of the one before) loads: the walk keeps

@@ -146,6 +146,18 @@ impl LightSampler {
         s
     }
 
+    /// The heap bytes its arrays hold (at most [`irr_scene::BYTES_PER_EMITTER`] an emitting
+    /// triangle, beside the table of a geometry without placements: 4 bytes a triangle).
+    #[must_use]
+    pub fn heap_bytes(&self) -> usize {
+        self.triangles.capacity() * size_of::<u32>()
+            + self.areas.capacity() * size_of::<f32>()
+            + self.normals.capacity() * size_of::<Vec3>()
+            + self.punctual.capacity() * size_of::<PunctualLight>()
+            + (self.probabilities.capacity() + self.cdf.capacity()) * size_of::<f32>()
+            + self.light_of_triangle.capacity() * size_of::<u32>()
+    }
+
     /// Number of lights: emitting triangles plus punctual lights.
     #[inline]
     pub fn len(&self) -> usize {

@@ -506,6 +506,39 @@ fn placed_emitters_light_as_their_closed_form() {
     }
 }
 
+/// The light sampler holds at most `irr_scene::BYTES_PER_EMITTER` an emitting triangle (the
+/// figure the loader's memory check charges): 3000 placed emitters of a 2-triangle square,
+/// whose ids no dense table covers.
+#[test]
+fn the_light_samplers_bytes_per_emitter_stay_under_their_bound() {
+    use glam::{DAffine3, DVec3};
+    use irr_geometry::Instance;
+    let instances: Vec<Instance> = (0..3000)
+        .map(|k| Instance {
+            prototype: 0,
+            to_world: DAffine3::from_translation(DVec3::new(f64::from(k), 2.0, 0.0)),
+            material_id: None,
+        })
+        .collect();
+    let geometry = Geometry::build_instanced(
+        vec![square(Vec3::ZERO, Vec3::Y, 1.0, 0)],
+        vec![square(Vec3::ZERO, -Vec3::Y, 0.4, 1)],
+        &instances,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let materials = [
+        Material::diffuse(Vec3::splat(0.5)),
+        Material::emitter(Vec3::ONE),
+    ];
+    let sampler = LightSampler::new(&geometry, &materials);
+    assert_eq!(sampler.len(), 6000);
+    let per = sampler.heap_bytes() as f64 / 6000.0;
+    assert!(
+        per <= irr_scene::BYTES_PER_EMITTER as f64,
+        "{per} bytes an emitter"
+    );
+}
+
 /// The light sampler chooses every light with probability proportional to its power: a
 /// triangle's π·A·s·Le and the punctual lights' (point 4πI, spot 2πI((1 − cos θ_i) +
 /// (cos θ_i − cos θ_o)/3), directional πr²E with r the scene's bounding radius); the

@@ -287,6 +287,18 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
             ),
         });
     }
+    if report.dropped_instances > 0 {
+        let n = report.dropped_instances;
+        warnings.push(Warning {
+            file: path.to_path_buf(),
+            feature: "singular-placement".to_string(),
+            count: n,
+            message: format!(
+                "{n} placement{} of a repeated mesh dropped: its transform is not invertible (a zero scale)",
+                if n == 1 { "" } else { "s" }
+            ),
+        });
+    }
     let bounds = geometry.bounds();
     let scene = Scene::with_textures(geometry, materials, textures, tex_coords)
         .and_then(|s| s.with_vertex_colours(colours))

@@ -57,8 +57,8 @@ pub use files::{
     open_regular, read_prefix,
 };
 pub use load::{
-    MAX_COORDINATE, MAX_IMAGE_SIDE, SceneData, Warning, attribute_by_id, load_gltf, load_gltf_with,
-    tex_coords_by_id,
+    BYTES_PER_EMITTER, MAX_COORDINATE, MAX_IMAGE_SIDE, SceneData, Warning, attribute_by_id,
+    load_gltf, load_gltf_with, tex_coords_by_id,
 };
 
 pub use material::{AlphaMode, Material};

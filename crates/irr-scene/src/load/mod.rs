@@ -121,6 +121,11 @@ use std::path::{Path, PathBuf};
 /// Beyond this a scene overflows to infinity inside the intersection code.
 pub const MAX_COORDINATE: f32 = 1e18;
 
+/// The most bytes a renderer's light sampler holds per emitting triangle (irr-integrator's
+/// `LightSampler` is held to it by a test): what [`SceneData::check_memory`] charges for each,
+/// placed copies included.
+pub const BYTES_PER_EMITTER: u64 = 64;
+
 /// The extensions irr reads.
 const SUPPORTED_EXTENSIONS: [&str; 10] = [
     "EXT_mesh_gpu_instancing",
@@ -260,7 +265,11 @@ impl SceneData {
             .chain(&self.prototypes)
             .map(|m| m.indices.len() as u64)
             .sum();
-        let loaded = self.heap_bytes();
+        // The light sampler's arrays: placements can make a small file emit from billions of
+        // triangles.
+        let loaded = self
+            .heap_bytes()
+            .saturating_add((self.emissive_triangles as u64).saturating_mul(BYTES_PER_EMITTER));
         let bvh = triangles
             .saturating_mul(irr_geometry::BUILT_BYTES_PER_TRIANGLE)
             .saturating_add(

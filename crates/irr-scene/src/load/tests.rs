@@ -650,7 +650,10 @@ fn meshes_drawn_by_several_nodes_are_placed() {
     ));
     let s = load(&write(d.path(), "nodes.gltf", json));
     // The mirrored draw and mesh 1, in node order; then the placements of mesh 0.
-    assert_eq!((s.meshes.len(), s.prototypes.len(), s.instances.len()), (2, 1, 2));
+    assert_eq!(
+        (s.meshes.len(), s.prototypes.len(), s.instances.len()),
+        (2, 1, 2)
+    );
     let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
     assert_eq!(
         world_triangles(&s),
