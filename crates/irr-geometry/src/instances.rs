@@ -29,7 +29,7 @@
 //! world space in `f64` and rounded once, so [`Geometry::surface`], [`Geometry::triangle`] and
 //! [`Geometry::geometric_normal`] agree with each other exactly, as for world triangles.
 
-use glam::{DAffine3, DVec3, Vec3};
+use glam::{DAffine3, DVec3, Vec3, Vec3A};
 use obvhs::bvh2::node::Bvh2Node;
 
 use crate::build;
@@ -99,6 +99,9 @@ pub(crate) struct Instances {
     nodes: Vec<Bvh2Node>,
     /// `placed` indices in leaf order.
     order: Vec<u32>,
+    /// The world box of each entry of `order`: a leaf holds up to four placements, and a
+    /// placement's object-space ray and traversal cost far more than this test.
+    boxes: Vec<(Vec3A, Vec3A)>,
     /// The most entries a top-level traversal's stack holds.
     stack_len: usize,
     /// The first id of each placement's triangles (increasing; after the world's `W`).
@@ -205,6 +208,7 @@ impl Instances {
         let mut placed = Vec::new();
         let mut bases = Vec::new();
         let mut prims = Vec::new();
+        let mut placed_boxes = Vec::new();
         let mut total = u64::from(world);
         let (mut lo_all, mut hi_all) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
         for (k, inst) in instances.iter().enumerate() {
@@ -247,6 +251,7 @@ impl Instances {
             lo_all = lo_all.min(lo);
             hi_all = hi_all.max(hi);
             prims.push(build::Prim::new(lo, hi, placed.len() as u32));
+            placed_boxes.push((Vec3A::from(lo), Vec3A::from(hi)));
             bases.push(total as u32);
             total += proto.world_count() as u64;
             if total > u64::from(u32::MAX) {
@@ -273,7 +278,9 @@ impl Instances {
                 std::mem::take(&mut bvh.primitive_indices),
             )
         };
+        let boxes = order.iter().map(|&k| placed_boxes[k as usize]).collect();
         Ok(Instances {
+            boxes,
             stack_len: if nodes.is_empty() {
                 0
             } else {
@@ -493,8 +500,11 @@ impl Instances {
             let mut next = None;
             if n.is_leaf() {
                 let first = n.first_index as usize;
-                for &k in &self.order[first..first + n.prim_count as usize] {
-                    if visit(k as usize, t_max) {
+                for i in first..first + n.prim_count as usize {
+                    let (lo, hi) = self.boxes[i];
+                    if box_entry(lo, hi, &r, *t_max) != f32::INFINITY
+                        && visit(self.order[i] as usize, t_max)
+                    {
                         return;
                     }
                 }
@@ -546,6 +556,7 @@ impl Instances {
                     + self.bases.capacity() * size_of::<u32>()
                     + self.attribute_bases.capacity() * size_of::<u32>()
                     + self.order.capacity() * size_of::<u32>()
+                    + self.boxes.capacity() * size_of::<(Vec3A, Vec3A)>()
                     + self.nodes.capacity() * size_of::<Bvh2Node>(),
             ),
         ]
