@@ -101,6 +101,119 @@ fn normal_textures_turn_the_shading_normal_in_the_tangent_frame() {
     assert_eq!(shading(texel, 1.0, [None, Some([tangent; 3])]), Vec3::Z);
 }
 
+/// A placed triangle's per-vertex data is its prototype's, read by attribute id, and its
+/// tangent is turned by its placement: a normal-textured square placed (second) turned a
+/// quarter about x and moved shades as its world-space copy, whose tangents are turned alike;
+/// its albedo texture's coordinates are the prototype's (checked: reading tangents unturned,
+/// or texture coordinates by the hit's id, fails it).
+#[test]
+fn placed_normal_textures_turn_with_their_placement() {
+    use glam::{DAffine3, DQuat, DVec3, Vec4};
+    use irr_geometry::{Geometry, Instance, Ray};
+    let texel = Vec3::new(0.8, 0.3, 0.9);
+    let normal =
+        Texture::new(1, 1, vec![texel], Sampler::default()).unwrap_or_else(|e| panic!("{e}"));
+    let albedo = Texture::new(
+        2,
+        1,
+        vec![Vec3::splat(0.2), Vec3::splat(0.7)],
+        Sampler::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let material = Material {
+        normal_texture: Some(TextureRef::new(0, 0)),
+        albedo_texture: Some(TextureRef::new(1, 0)),
+        ..Material::diffuse(Vec3::ONE)
+    };
+    let place = DAffine3::from_rotation_translation(
+        DQuat::from_rotation_x(std::f64::consts::FRAC_PI_2),
+        DVec3::new(3.0, 0.0, 0.0),
+    );
+    let uv = [[
+        Vec2::new(0.1, 0.5),
+        Vec2::new(0.9, 0.5),
+        Vec2::new(0.9, 0.5),
+    ]; 2];
+    // Not along the axis the placement turns onto the normal: unturned, it would still give
+    // a frame, but another one.
+    let tangent = Vec4::new(1.0, 1.0, 0.0, -1.0);
+    let turned = place
+        .transform_vector3(tangent.truncate().as_dvec3())
+        .as_vec3()
+        .extend(-1.0);
+    // Two triangles of per-vertex data: the prototype's, or the copy's.
+    let attributes = |t: Vec4| {
+        let mut tex_coords = TexCoords::default();
+        let mut tangents = VertexTangents::default();
+        for k in 0..2 {
+            tex_coords
+                .push(&uv[k..=k])
+                .unwrap_or_else(|e| panic!("{e}"));
+            tangents
+                .push(Some([t; 3]))
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
+        (tex_coords, tangents)
+    };
+    let placed = Geometry::build_instanced(
+        Vec::new(),
+        vec![square(0)],
+        &[
+            // Another placement first, so that the one the ray meets has ids 2 and 3 and
+            // attribute ids 0 and 1.
+            Instance {
+                prototype: 0,
+                to_world: DAffine3::from_translation(DVec3::new(-3.0, 0.0, 0.0)),
+                material_id: None,
+            },
+            Instance {
+                prototype: 0,
+                to_world: place,
+                material_id: None,
+            },
+        ],
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let mut copy = square(0);
+    for p in &mut copy.positions {
+        *p = place.transform_point3(p.as_dvec3()).as_vec3();
+    }
+    let copied = Geometry::build(&[copy]).unwrap_or_else(|e| panic!("{e}"));
+    let shade = |geometry: Geometry, t: Vec4| {
+        let (tex_coords, tangents) = attributes(t);
+        let s = Scene::with_textures(
+            geometry,
+            vec![material],
+            vec![normal.clone(), albedo.clone()],
+            tex_coords,
+        )
+        .and_then(|s| s.with_tangents(tangents))
+        .unwrap_or_else(|e| panic!("{e}"));
+        // The square, turned to the plane y = 0 facing +y, seen from above.
+        let ray = Ray::new(Vec3::new(3.7, 1.0, 0.2), -Vec3::Y);
+        let hit = s
+            .geometry()
+            .intersect(&ray)
+            .unwrap_or_else(|| panic!("no hit"));
+        let surface = s.geometry().surface(&ray, &hit);
+        let n = s.shading_normal(&surface);
+        assert!(
+            n.dot(surface.geometric_normal) < 0.99,
+            "the texel turns it: {n}"
+        );
+        (n, s.albedo(hit.triangle, hit.b1, hit.b2))
+    };
+    let (n_placed, a_placed) = shade(placed, tangent);
+    let (n_copied, a_copied) = shade(copied, turned);
+    // The same f32 operations on the same unit-sized values, but for the mapped vertices and
+    // tangent (each within an ulp of the other's): a few ulps.
+    assert!(
+        (n_placed - n_copied).length() < 1e-6,
+        "{n_placed} vs {n_copied}"
+    );
+    assert_eq!(a_placed, a_copied);
+}
+
 /// The coverage α is the factor × the vertex alphas (interpolated); a cut-out blocks a ray
 /// where α reaches its cutoff, a blend with probability α; an opaque material always; and
 /// vertex alphas make a non-opaque material with factor 1 cut out.
