@@ -61,6 +61,21 @@ def indirect_room_far_ground():
         g.write_scene = write
 
 
+def sphere_triangles(rings, segments):
+    """The triangles of a latitude-longitude sphere whose vertex (i, j), ring i of rings + 1
+    from the north pole, segment j, is i * segments + j; no sliver triangles at the poles."""
+    triangles = []
+    for i in range(rings):
+        for j in range(segments):
+            a, c = i * segments + j, i * segments + (j + 1) % segments
+            d, e = a + segments, c + segments
+            if i > 0:
+                triangles.append((a, c, d))
+            if i < rings - 1:
+                triangles.append((c, e, d))
+    return triangles
+
+
 def sphere_grid():
     import math
 
@@ -76,15 +91,7 @@ def sphere_grid():
             n = (math.sin(theta) * math.cos(phi), math.cos(theta), math.sin(theta) * math.sin(phi))
             normals.append(n)
             points.append(tuple(radius * c for c in n))
-    triangles = []
-    for i in range(rings):
-        for j in range(segments):
-            a, c = i * segments + j, i * segments + (j + 1) % segments
-            d, e = a + segments, c + segments
-            if i > 0:
-                triangles.append((a, c, d))
-            if i < rings - 1:
-                triangles.append((c, e, d))
+    triangles = sphere_triangles(rings, segments)
     # One accessor of each kind, read by every sphere's mesh (outward windings: (c - a) x (d - a)
     # points away from the centre with y up at theta = 0).
     shared = {
@@ -129,15 +136,7 @@ def forest():
                 (r * math.sin(theta) * math.cos(phi), 1.0 + r * math.cos(theta),
                  r * math.sin(theta) * math.sin(phi))
             )
-    triangles = []
-    for i in range(n):
-        for j in range(n):
-            a, c = i * n + j, i * n + (j + 1) % n
-            d, e = a + n, c + n
-            if i > 0:
-                triangles.append((a, c, d))
-            if i < n - 1:
-                triangles.append((c, e, d))
+    triangles = sphere_triangles(n, n)
     b.meshes.append({"name": "bush", "primitives": [{
         "attributes": {"POSITION": b.positions(points)},
         "indices": b.indices(triangles, 5125), "material": leaves, "mode": 4}]})

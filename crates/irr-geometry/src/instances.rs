@@ -403,16 +403,10 @@ impl Instances {
     ) -> Option<Hit> {
         let mut t_max = best.map_or(ray.t_max, |h| h.t);
         self.walk(ray, &mut t_max, brute_force, |k, t_max| {
-            let p = &self.placed[k];
-            let Some((object, dt)) = p.object_ray(ray, *t_max) else {
+            let Some((proto, object, on)) = self.in_object_space(k, ray, *t_max, filter) else {
                 return false;
             };
-            let on = Mapped {
-                filter,
-                base: self.bases[k],
-                dt,
-            };
-            let proto = self.prototype(k);
+            let (dt, base) = (on.dt, on.base);
             let hit = if brute_force {
                 proto.world_closest_brute_force(&object, on)
             } else {
@@ -424,7 +418,7 @@ impl Instances {
                     *t_max = t;
                     best = Some(Hit {
                         t,
-                        triangle: self.bases[k] + h.triangle,
+                        triangle: base + h.triangle,
                         ..h
                     });
                 }
@@ -434,21 +428,33 @@ impl Instances {
         best
     }
 
+    /// Placement `k`'s prototype, the world ray (up to `t_max`) in its object space, and the
+    /// filter as the prototype's traversal asks it; `None` if nothing is left of the ray.
+    #[inline(always)]
+    fn in_object_space<B: RayFilter>(
+        &self,
+        k: usize,
+        ray: &Ray,
+        t_max: f32,
+        filter: B,
+    ) -> Option<(&Geometry, Ray, Mapped<B>)> {
+        let (object, dt) = self.placed[k].object_ray(ray, t_max)?;
+        let on = Mapped {
+            filter,
+            base: self.bases[k],
+            dt,
+        };
+        Some((self.prototype(k), object, on))
+    }
+
     /// Whether a world ray hits any placement (that `filter` accepts).
     pub(crate) fn any<B: RayFilter>(&self, ray: &Ray, filter: B, brute_force: bool) -> bool {
         let mut t_max = ray.t_max;
         let mut found = false;
         self.walk(ray, &mut t_max, brute_force, |k, t_max| {
-            let p = &self.placed[k];
-            let Some((object, dt)) = p.object_ray(ray, *t_max) else {
+            let Some((proto, object, on)) = self.in_object_space(k, ray, *t_max, filter) else {
                 return false;
             };
-            let on = Mapped {
-                filter,
-                base: self.bases[k],
-                dt,
-            };
-            let proto = self.prototype(k);
             found = if brute_force {
                 proto.world_any_brute_force(&object, on)
             } else {
@@ -602,7 +608,7 @@ mod tests {
     use proptest::prelude::*;
 
     use super::*;
-    use crate::test_meshes::{mixed_meshes, stacked_grids, xorshift};
+    use crate::test_meshes::{box_mesh, mixed_meshes, stacked_grids, xorshift};
     use crate::{BvhLayout, GeometryError, TriangleMesh};
 
     /// `n` placements of prototypes `0..prototypes` with random rotations, scales (some
@@ -857,32 +863,12 @@ mod tests {
         );
     }
 
-    /// A closed unit cube, each face its own material.
+    /// A closed unit cube about the origin, each face its own material.
     fn cube() -> TriangleMesh {
-        let corner = |i: u32| {
-            Vec3::new(
-                (i & 1) as f32 - 0.5,
-                ((i >> 1) & 1) as f32 - 0.5,
-                ((i >> 2) & 1) as f32 - 0.5,
-            )
-        };
-        let faces = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
-        let mut mesh = TriangleMesh {
-            positions: (0..8).map(corner).collect(),
-            ..TriangleMesh::default()
-        };
-        for (f, [a, b, c, d]) in faces.into_iter().enumerate() {
-            mesh.indices.extend([[a, b, c], [a, c, d]]);
-            mesh.material_ids.extend([f as u32; 2]);
-        }
-        mesh
+        box_mesh(|i| {
+            let s = |bit: usize| if i & bit == 0 { -0.5 } else { 0.5 };
+            Vec3::new(s(1), s(2), s(4))
+        })
     }
 
     /// Rays spawned off a placed cube's faces (at tiny, unit and huge scales, rotated,

@@ -29,6 +29,13 @@ pub(crate) fn thin_slab() -> Geometry {
         let s = |bit: usize| if i & bit == 0 { -1.0 } else { 1.0 };
         q * (Vec3::new(s(1), s(2), s(4)) * h)
     };
+    let mesh = box_mesh(corner);
+    Geometry::build(&[mesh]).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A closed box of the eight corners `corner(i)` (bit 1 of `i` the x side, 2 the y side, 4 the
+/// z side), its faces numbered as material ids 0..6 (−x, +x, −y, +y, −z, +z).
+pub(crate) fn box_mesh(corner: impl Fn(usize) -> Vec3) -> TriangleMesh {
     let faces: [[u32; 4]; 6] = [
         [0, 4, 6, 2],
         [1, 3, 7, 5],
@@ -45,7 +52,7 @@ pub(crate) fn thin_slab() -> Geometry {
         mesh.indices.extend([[a, b, c], [a, c, d]]);
         mesh.material_ids.extend([f as u32; 2]);
     }
-    Geometry::build(&[mesh]).unwrap_or_else(|e| panic!("{e}"))
+    mesh
 }
 
 /// A reproducible stream of numbers in [−1, 1] (xorshift32 from `seed`).
