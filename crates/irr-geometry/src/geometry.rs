@@ -379,11 +379,6 @@ impl Geometry {
         self.material_ids.len()
     }
 
-    /// The box around a prototype's triangles (its world tree: prototypes are not instanced).
-    pub(crate) fn world_bounds(&self) -> (Vec3, Vec3) {
-        self.bounds
-    }
-
     /// What the build kept and dropped.
     #[must_use]
     pub fn report(&self) -> &BuildReport {

@@ -231,7 +231,7 @@ impl Instances {
                 continue;
             }
             // The world box: the prototype box's corners mapped in f64, rounded outward.
-            let (pmin, pmax) = proto.world_bounds();
+            let (pmin, pmax) = proto.bounds();
             let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
             for c in 0..8 {
                 let corner = DVec3::new(
@@ -319,6 +319,12 @@ impl Instances {
     /// The material id of placed triangle `id`, without mapping its vertices.
     pub(crate) fn material_id(&self, id: u32) -> u32 {
         let (k, local) = self.locate(id);
+        self.material_of(k, local)
+    }
+
+    /// The material of placement `k`'s copy of its prototype's triangle `local`.
+    #[inline]
+    fn material_of(&self, k: usize, local: u32) -> u32 {
         match self.placed[k].material {
             NO_MATERIAL => self.prototype(k).material_id(local),
             m => m,
@@ -356,14 +362,13 @@ impl Instances {
     /// Placed triangle `id` in world space, and its placement.
     pub(crate) fn triangle(&self, id: u32) -> (Triangle, usize, u32) {
         let (k, local) = self.locate(id);
-        let proto = self.prototype(k);
         let p = &self.placed[k];
-        let material_id = if p.material == NO_MATERIAL {
-            proto.material_id(local)
-        } else {
-            p.material
-        };
-        let v = proto.stored(local).vertices().map(|v| p.map_point(v));
+        let v = self
+            .prototype(k)
+            .stored(local)
+            .vertices()
+            .map(|v| p.map_point(v));
+        let material_id = self.material_of(k, local);
         (Triangle { p: v, material_id }, k, local)
     }
 

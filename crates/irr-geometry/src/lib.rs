@@ -83,7 +83,8 @@
 //!
 //! # What it must not know
 //! Materials, lights, cameras, sampling and radiance. A material id is an opaque `u32` carried
-//! through; the glTF loader lives elsewhere and hands this crate plain world-space meshes.
+//! through; the glTF loader lives elsewhere and hands this crate plain meshes (world-space, or
+//! prototypes in object space with their placements' transforms).
 //!
 //! # Example
 //! ```

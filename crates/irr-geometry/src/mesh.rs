@@ -8,7 +8,9 @@ use glam::{DVec3, Vec3};
 
 use crate::GeometryError;
 
-/// A triangle mesh in world space: the input of [`Geometry::build`](crate::Geometry::build).
+/// A triangle mesh in world space (or, as a prototype of
+/// [`Geometry::build_instanced`](crate::Geometry::build_instanced), in its object space): the
+/// input of [`Geometry::build`](crate::Geometry::build).
 ///
 /// Several meshes can be built into one [`Geometry`](crate::Geometry); triangle ids then run over
 /// all kept triangles, mesh after mesh, in input order.
