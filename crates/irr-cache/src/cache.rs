@@ -318,6 +318,55 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
         mean.finish()
     }
 
+    /// [`IrradianceCache::interpolate_filtered`] for a point that may lie up to `reach` beyond
+    /// the records' spheres of influence: each record weighs in as if `p` were `reach` nearer
+    /// to it (the offset its weight sees shortened by `reach`, the normals' term unchanged),
+    /// while its value is still extrapolated to `p` itself by its gradients. With `reach` 0 it
+    /// is `interpolate_filtered` (the same records, weights and sums, in index order rather
+    /// than the octree's). For a renderer's final pass: a point in a gap between spheres
+    /// narrower than the probes that built the cache reads its neighbours instead of gathering.
+    /// `None` as `interpolate_filtered`, or when `reach` is negative or not finite.
+    pub fn interpolate_within(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        reach: f32,
+        mut accept: impl FnMut(RecordId, &Record<V>) -> bool,
+    ) -> Option<Interpolation<V>> {
+        let (pd, nd) = query(p, n)?;
+        if !(reach >= 0.0 && reach.is_finite()) {
+            return None;
+        }
+        let mut nearby = Vec::new();
+        self.records_meeting_box(p - Vec3::splat(reach), p + Vec3::splat(reach), &mut nearby);
+        let r = f64::from(reach);
+        let mut mean = WeightedMean::<V>::new(self.metric.second_order_limit());
+        for near in &nearby {
+            let Some(record) = self.records.get(near.id as usize) else {
+                continue;
+            };
+            let offset = pd - record.position.as_dvec3();
+            let d = offset.length();
+            let seen = if d > r {
+                offset * ((d - r) / d)
+            } else {
+                DVec3::ZERO
+            };
+            let Some((candidate, w)) = self.weigh(record, seen, seen.length_squared(), nd) else {
+                continue;
+            };
+            if accept(near.id, record) {
+                let at_p = Candidate {
+                    offset,
+                    distance: d,
+                    ..candidate
+                };
+                mean.add(record, &at_p, w);
+            }
+        }
+        mean.finish()
+    }
+
     /// Calls `f` for every record of `nearby` whose sphere contains `p` and whose weight at
     /// (`p`, unit `n`) is positive, in `nearby`'s order.
     fn weighted_among(

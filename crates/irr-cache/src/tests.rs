@@ -1600,3 +1600,105 @@ fn ellipses_are_validated() {
     // Isotropic records need no axis.
     assert!(r.validated().is_ok());
 }
+
+proptest! {
+    #![proptest_config(config(128))]
+
+    /// `interpolate_within(p, ρ)` weighs every record that some point q of the plane within ρ
+    /// of p weighs: on a plane whose records share its normal, Tabellion–Lamorlette's weight is
+    /// positive exactly where the distance is below the influence radius (the normals' term and
+    /// the in-front offset are zero), and the shortened distance |p − pᵢ| − ρ is at most
+    /// |q − pᵢ| by the triangle inequality. q is drawn at up to 0.999ρ from p so that its f32
+    /// rounding (~1e-7 of the coordinates, far below 0.001ρ for ρ ≥ 1e-3) cannot carry it past ρ.
+    /// With ρ = 0 the records are `interpolate_filtered`'s and the value differs only by the
+    /// order of the f64 sums (the bound of `a_box_query_sees_what_each_point_query_sees`).
+    #[test]
+    fn reading_within_a_reach_weighs_what_the_points_within_it_weigh(
+        records in prop::collection::vec(
+            ((-1.0f32..1.0, -1.0f32..1.0), 0.05f32..0.8, rgb())
+                .prop_map(|((x, y), r, e)| Record::new(Vec3::new(x, y, 0.0), Vec3::Z, r, e)),
+            1..60,
+        ),
+        (px, py) in (-1.0f32..1.0, -1.0f32..1.0),
+        reach in 1e-3f32..0.3,
+        (t, turn) in (0.0f32..0.999, 0.0f32..std::f32::consts::TAU),
+    ) {
+        let cache = cache_of(tl(), &records);
+        let p = Vec3::new(px, py, 0.0);
+        let q = p + reach * t * Vec3::new(turn.cos(), turn.sin(), 0.0);
+        let (mut at_q, mut within) = (Vec::new(), Vec::new());
+        cache.interpolate_filtered(q, Vec3::Z, |id, _| { at_q.push(id); true });
+        let read = cache.interpolate_within(p, Vec3::Z, reach, |id, _| { within.push(id); true });
+        for id in &at_q {
+            prop_assert!(within.contains(id), "record {} weighs at q but not within {} of p", id, reach);
+        }
+        prop_assert_eq!(read.is_some(), !within.is_empty());
+
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        let whole = cache.interpolate_filtered(p, Vec3::Z, |id, _| { a.push(id); true });
+        let none_further = cache.interpolate_within(p, Vec3::Z, 0.0, |id, _| { b.push(id); true });
+        a.sort_unstable();
+        prop_assert_eq!(&a, &b);
+        match (whole, none_further) {
+            (None, None) => {}
+            (Some(x), Some(y)) => {
+                let k = f64::from(x.count);
+                for c in 0..3 {
+                    let scale = records.iter().map(|r| f64::from(r.value.0[c])).fold(0.0, f64::max);
+                    let d = (f64::from(x.value.0[c]) - f64::from(y.value.0[c])).abs();
+                    prop_assert!(d <= (2.0 * (k + 1.0) * U64 + 2.0 * U32) * scale, "channel {}: {:?} {:?}", c, x.value, y.value);
+                }
+            }
+            (x, y) => prop_assert!(false, "{:?} vs {:?}", x, y),
+        }
+    }
+}
+
+/// A point beyond a record's sphere by less than the reach reads the record's value carried to
+/// the point itself by its translation gradient, E + (p − pᵢ)·∇ₜE: one record, so the mean is
+/// that value to rounding: the f64 sum of its seven terms (six roundings of partial sums, each
+/// at most u₆₄ of the terms' magnitudes), the weight's product and quotient (2u₆₄ of the
+/// value), 8u₆₄ of the terms in all, then one f32 rounding (u₃₂ relative). A reach short of
+/// the gap reads nothing, as `interpolate_filtered` does.
+#[test]
+fn a_read_within_reach_extrapolates_to_the_point_itself() {
+    let gradient = [
+        Rgb::new(0.5, -0.25, 1.0),
+        Rgb::new(2.0, 0.0, -0.5),
+        Rgb::zero(),
+    ];
+    let record = Record::new(
+        Vec3::new(0.2, -0.1, 0.0),
+        Vec3::Z,
+        0.4,
+        Rgb::new(1.0, 2.0, 3.0),
+    )
+    .with_gradients(gradient, [Rgb::zero(); 3]);
+    let cache = cache_of(tl(), &[record]);
+    let influence = f64::from(tl().influence_radius(record.radius));
+    let gap = 0.05;
+    let p = record.position + Vec3::new(0.6, 0.8, 0.0) * (influence + gap) as f32;
+    assert!(cache.interpolate(p, Vec3::Z).is_none());
+    assert!(
+        cache
+            .interpolate_within(p, Vec3::Z, (0.5 * gap) as f32, |_, _| true)
+            .is_none()
+    );
+    let read = cache
+        .interpolate_within(p, Vec3::Z, (2.0 * gap) as f32, |_, _| true)
+        .unwrap_or_else(|| panic!("a record {gap} beyond p's reach of {}", 2.0 * gap));
+    let step = (p - record.position).as_dvec3();
+    for c in 0..3 {
+        let g = |k: usize| f64::from(gradient[k].0[c]);
+        let expected = f64::from(record.value.0[c]) + step.x * g(0) + step.y * g(1) + step.z * g(2);
+        let got = f64::from(read.value.0[c]);
+        let terms = f64::from(record.value.0[c]).abs()
+            + step
+                .abs()
+                .dot(glam::DVec3::new(g(0).abs(), g(1).abs(), g(2).abs()));
+        assert!(
+            (got - expected).abs() <= U32 * expected.abs() + 8.0 * U64 * terms,
+            "channel {c}: {got} against {expected}"
+        );
+    }
+}
