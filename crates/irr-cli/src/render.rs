@@ -967,9 +967,10 @@ fn render_view(
             u64::from(settings.width) * u64::from(settings.height) * u64::from(settings.spp);
         let share = |n: u64| 100.0 * n as f64 / samples.max(1) as f64;
         eprintln!(
-            "cache queries: {:.3} % of camera samples found no record ({}); {} gathers for them ({:.3} % of samples)",
+            "cache queries: {:.3} % of camera samples found no record ({}); {} read the records within their pixel's reach; {} gathers for the rest ({:.3} % of samples)",
             share(misses.samples),
             misses.samples,
+            misses.within_reach,
             misses.gathers,
             share(misses.gathers)
         );

@@ -388,9 +388,11 @@ pub const MAX_COVERAGE_LATTICE: u32 = 4;
 /// How finely the repair passes probe (every 1/k of a pixel in x and y) for records whose
 /// influence radius is at least `smallest` pixels: every point of the image plane then lies
 /// within half the smallest influence radius of a probe (the farthest point of a lattice cell
-/// of side 1/k is √2/(2k) from its corners), so a point the probes saw covered has no gap
-/// between records around it that a camera sample could fall into; at most
-/// [`MAX_COVERAGE_LATTICE`].
+/// of side 1/k is √2/(2k) from its corners); at most [`MAX_COVERAGE_LATTICE`]. Gaps between
+/// spheres narrower than the lattice can remain (three tangent spheres of influence r leave
+/// one of inscribed radius (2/√3 − 1)·r): a camera sample there lies within its pixel of a
+/// sphere that covered a probe, and the final pass reads across that (irr-integrator's
+/// `ic/pixel.rs`).
 pub fn coverage_lattice(smallest: f32) -> u32 {
     let k = (std::f32::consts::SQRT_2 / smallest).ceil();
     if k.is_finite() && k >= 1.0 {
@@ -793,7 +795,8 @@ fn view_passes(
         // points the earlier passes saw covered, and pixel centres say nothing of the rest of
         // their pixels: repair passes probe a lattice of every 1/k of a pixel, k from the
         // smallest record's influence (`coverage_lattice`), until none is uncovered, at most
-        // MAX_REPAIR_PASSES times; the final pass gathers for any point still uncovered.
+        // MAX_REPAIR_PASSES times; the final pass reads the records within a pixel of any point
+        // still uncovered, and gathers where none is.
         let k = coverage_lattice(builder.smallest_influence_pixels());
         let lattice = repair_lattice(camera, settings, k);
         for _ in 0..MAX_REPAIR_PASSES {

@@ -110,7 +110,9 @@ pub(super) const PROBE_N: u32 = 8;
 pub struct FinalPassMisses {
     /// Samples that no record covered.
     pub samples: u64,
-    /// Gathers made for them.
+    /// Of those, samples that read the records within their pixel's reach.
+    pub within_reach: u64,
+    /// Gathers made for the rest.
     pub gathers: u64,
 }
 
@@ -289,6 +291,7 @@ macro_rules! forward_to_core {
         fn final_pass_misses(&self) -> FinalPassMisses {
             FinalPassMisses {
                 samples: self.core.misses.load(Ordering::Relaxed),
+                within_reach: self.core.fallbacks_within.load(Ordering::Relaxed),
                 gathers: self.core.fallbacks.load(Ordering::Relaxed),
             }
         }

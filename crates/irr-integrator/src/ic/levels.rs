@@ -57,7 +57,10 @@ pub(super) struct Core<V: IcValue> {
     pub(super) fallback_strata: HemisphereStrata,
     /// The final pass's samples that no record of the cache covered.
     pub(super) misses: AtomicU64,
-    /// The final pass's own gathers for them.
+    /// Of those, the samples that read the records within their pixel's reach
+    /// (`IrradianceCache::interpolate_within`).
+    pub(super) fallbacks_within: AtomicU64,
+    /// The final pass's own gathers for the rest.
     pub(super) fallbacks: AtomicU64,
     /// Radiance caching of glossy lobes, when on and the scene has a glossy material (set by
     /// `set_scene`).
@@ -86,6 +89,7 @@ impl<V: IcValue> Core<V> {
             diagonal: 1.0,
             view: None,
             misses: AtomicU64::new(0),
+            fallbacks_within: AtomicU64::new(0),
             fallbacks: AtomicU64::new(0),
             radiance: None,
         })

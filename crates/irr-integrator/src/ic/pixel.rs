@@ -49,6 +49,18 @@ struct Pending {
     partial: Radiance,
 }
 
+/// Which records a pixel's lookup weighs.
+#[derive(Clone, Copy)]
+enum Among<'a> {
+    /// Those the pixel's walk of the octree listed (`IrradianceCache::interpolate_among`).
+    Nearby(&'a [NearbyRecord]),
+    /// The octree's own query, for a pixel whose list grew past [`MAX_NEARBY`].
+    Octree,
+    /// Those whose spheres lie within this distance of the point
+    /// (`IrradianceCache::interpolate_within`).
+    Reach(f32),
+}
+
 /// Scratch for the radiance records' sums (`lobe_in_pixel`), reused across a pixel's samples.
 #[derive(Default)]
 struct LobeScratch {
@@ -236,10 +248,15 @@ impl IrradianceCacheIntegrator {
                 };
                 continue;
             }
+            let among = if walked {
+                Among::Nearby(&nearby)
+            } else {
+                Among::Octree
+            };
             let shared = self.lookup_in_pixel(
                 scene,
                 level,
-                walked.then_some(nearby.as_slice()),
+                among,
                 &q,
                 p.x.triangle,
                 &mut memo,
@@ -255,7 +272,33 @@ impl IrradianceCacheIntegrator {
                         .filter(|o| o.x.triangle == p.x.triangle)
                         .map(|o| (o.x.position - p.x.position).length())
                         .fold(0.0f32, f32::max);
-                    self.local_irradiance(scene, &mut local, &p.x, reach, &mut dims[p.index], rays)
+                    // A point in a gap between the records' spheres narrower than the repair
+                    // passes' probes lies within the pixel's extent on its surface of a sphere
+                    // that covered a probe: it reads the records within that reach (a bias no
+                    // larger than the pixel limits', docs/bias.md) before it gathers.
+                    let within = self.lookup_in_pixel(
+                        scene,
+                        level,
+                        Among::Reach(reach),
+                        &q,
+                        p.x.triangle,
+                        &mut memo,
+                        &mut guard_rays,
+                    );
+                    match within {
+                        Some(e) => {
+                            self.core.fallbacks_within.fetch_add(1, Ordering::Relaxed);
+                            e
+                        }
+                        None => self.local_irradiance(
+                            scene,
+                            &mut local,
+                            &p.x,
+                            reach,
+                            &mut dims[p.index],
+                            rays,
+                        ),
+                    }
                 }
             };
             out[p.index] = Radiance {
@@ -267,8 +310,8 @@ impl IrradianceCacheIntegrator {
         rays.shadow += guard_rays;
     }
 
-    /// The first level's interpolated irradiance at `q`, from the records `nearby` (or, when
-    /// `None`, from the octree's own query), with the leak guard's answers shared through `memo`.
+    /// The first level's interpolated irradiance at `q`, from the records `among` names, with
+    /// the leak guard's answers shared through `memo`.
     #[expect(
         clippy::too_many_arguments,
         reason = "the pixel's shared state (records, memo, counter) beside the query"
@@ -277,7 +320,7 @@ impl IrradianceCacheIntegrator {
         &self,
         scene: &Scene,
         level: &Level<Rgb>,
-        nearby: Option<&[NearbyRecord]>,
+        among: Among,
         q: &Query,
         triangle: u32,
         memo: &mut GuardMemo,
@@ -292,11 +335,14 @@ impl IrradianceCacheIntegrator {
                 !scene.occluded(&ray)
             }),
         };
-        let found = match nearby {
-            Some(nearby) => level
+        let found = match among {
+            Among::Nearby(nearby) => level
                 .cache
                 .interpolate_among(nearby, q.p, q.ns, &mut accept),
-            None => level.cache.interpolate_filtered(q.p, q.ns, &mut accept),
+            Among::Octree => level.cache.interpolate_filtered(q.p, q.ns, &mut accept),
+            Among::Reach(reach) => level
+                .cache
+                .interpolate_within(q.p, q.ns, reach, &mut accept),
         };
         found.map(|i| Vec3::from_array(i.value.0))
     }
