@@ -322,8 +322,8 @@ impl<V: CacheValue, M: ErrorMetric> IrradianceCache<V, M> {
     /// the records' spheres of influence: each record weighs in as if `p` were `reach` nearer
     /// to it (the offset its weight sees shortened by `reach`, the normals' term unchanged),
     /// while its value is still extrapolated to `p` itself by its gradients. With `reach` 0 it
-    /// is `interpolate_filtered` (the same records, weights and sums, in index order rather
-    /// than the octree's). For a renderer's final pass: a point in a gap between spheres
+    /// weighs `interpolate_filtered`'s records with its weights, summed in index order rather
+    /// than the octree's. For a renderer's final pass: a point in a gap between spheres
     /// narrower than the probes that built the cache reads its neighbours instead of gathering.
     /// `None` as `interpolate_filtered`, or when `reach` is negative or not finite.
     pub fn interpolate_within(
