@@ -2,7 +2,10 @@
 //! no light through a thin wall, no halo at a contact, and consistency (the error falls as the
 //! settings tighten, towards the path tracer's image).
 
-use crate::support::{Indirect, built, cuboid, ic_image, path_image, quad, region_mean, rel_mse};
+use crate::support::{
+    Indirect, built, cuboid, ic_image, indirect_reference, mean_bias, path_image, quad,
+    region_mean, rel_mse,
+};
 use glam::Vec3;
 use irr_geometry::Geometry;
 use irr_integrator::{Integrator, Material, Scene};
@@ -449,16 +452,6 @@ fn no_halo_where_boxes_meet_the_floor() {
     );
 }
 
-fn mean_bias(a: &Image, b: &Image) -> f64 {
-    let sum = |im: &Image| {
-        im.pixels()
-            .iter()
-            .map(|p| f64::from(p.element_sum()))
-            .sum::<f64>()
-    };
-    (sum(a) - sum(b)) / sum(b)
-}
-
 /// The cache's indirect image at `ic` settings (built and rendered with `settings`).
 fn ic_indirect(
     scene: &Scene,
@@ -475,36 +468,6 @@ fn ic_indirect(
         .unwrap_or_else(|e| panic!("{e}"))
         .image;
     (image, integrator.cache(0).map_or(0, |c| c.len()))
-}
-
-/// The path tracer's indirect part at 2 × 1024 spp (seeds 91 and 92) and its own relMSE
-/// (relMSE between the halves / 4).
-fn indirect_reference(scene: &Scene, camera: &Camera, settings: &RenderSettings) -> (Image, f64) {
-    let pt = PathTracer::new(PathSettings::default());
-    let view = Indirect {
-        path: Some(&pt),
-        ic: None,
-    };
-    let half = |seed| {
-        let s = RenderSettings {
-            spp: 1024,
-            seed,
-            ..*settings
-        };
-        render(scene, camera, &view, &s, false)
-            .unwrap_or_else(|e| panic!("{e}"))
-            .image
-    };
-    let (a, b) = (half(91), half(92));
-    let mean = a
-        .pixels()
-        .iter()
-        .zip(b.pixels())
-        .map(|(x, y)| (*x + *y) * 0.5)
-        .collect();
-    let image =
-        Image::from_pixels(settings.width, settings.height, mean).unwrap_or_else(|| panic!("size"));
-    (image, rel_mse(&a, &b) / 4.0)
 }
 
 /// Consistency: as the error parameter tightens and the gathers grow, the cache's indirect light

@@ -156,6 +156,52 @@ impl Integrator for Indirect<'_> {
     }
 }
 
+/// The relative difference of two images' sums (all pixels and channels): a's mean bias
+/// against b.
+pub fn mean_bias(a: &Image, b: &Image) -> f64 {
+    let sum = |im: &Image| {
+        im.pixels()
+            .iter()
+            .map(|p| f64::from(p.element_sum()))
+            .sum::<f64>()
+    };
+    (sum(a) - sum(b)) / sum(b)
+}
+
+/// The path tracer's indirect part at 2 × 1024 spp (seeds 91 and 92) and its own relMSE
+/// (relMSE between the halves / 4).
+pub fn indirect_reference(
+    scene: &Scene,
+    camera: &Camera,
+    settings: &RenderSettings,
+) -> (Image, f64) {
+    let pt = PathTracer::new(PathSettings::default());
+    let view = Indirect {
+        path: Some(&pt),
+        ic: None,
+    };
+    let half = |seed| {
+        let s = RenderSettings {
+            spp: 1024,
+            seed,
+            ..*settings
+        };
+        render(scene, camera, &view, &s, false)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .image
+    };
+    let (a, b) = (half(91), half(92));
+    let mean = a
+        .pixels()
+        .iter()
+        .zip(b.pixels())
+        .map(|(x, y)| (*x + *y) * 0.5)
+        .collect();
+    let image =
+        Image::from_pixels(settings.width, settings.height, mean).unwrap_or_else(|| panic!("size"));
+    (image, rel_mse(&a, &b) / 4.0)
+}
+
 /// The path of `name` in the workspace's assets/.
 pub fn asset(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
