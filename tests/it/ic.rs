@@ -1156,7 +1156,8 @@ fn hessian_records_are_short_towards_a_wall() {
 /// resolution follows the view, so none grows with the scene's diagonal (from 0.96 m to
 /// 14 km); rays that left the box now end on the plane with zero radiance, as they ended on
 /// the black background; a ray's nearest hit, which sizes records and their gradients, is the
-/// box's either way. So the images are equal bit for bit, with the default settings.
+/// box's either way. So the images are equal bit for bit, with the default settings and with
+/// the Hessian metric.
 #[test]
 fn a_far_black_ground_plane_changes_no_pixel() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/cornell-box.gltf");
@@ -1174,7 +1175,7 @@ fn a_far_black_ground_plane_changes_no_pixel() {
             .and_then(|s| s.with_lights(data.lights.clone()))
             .unwrap_or_else(|e| panic!("{e}"))
     };
-    let plane = quad(
+    let below = quad(
         [
             Vec3::new(-5000.0, -100.0, -5000.0),
             Vec3::new(-5000.0, -100.0, 5000.0),
@@ -1184,7 +1185,17 @@ fn a_far_black_ground_plane_changes_no_pixel() {
         0,
         Vec3::Y,
     );
-    let (alone, far) = (scene_with(None), scene_with(Some(plane)));
+    let behind = quad(
+        [
+            Vec3::new(-5000.0, -5000.0, 100.0),
+            Vec3::new(5000.0, -5000.0, 100.0),
+            Vec3::new(5000.0, 5000.0, 100.0),
+            Vec3::new(-5000.0, 5000.0, 100.0),
+        ],
+        0,
+        Vec3::NEG_Z,
+    );
+    let alone = scene_with(None);
     let camera = data
         .camera
         .unwrap_or_else(|| panic!("the Cornell box has a camera"));
@@ -1195,14 +1206,36 @@ fn a_far_black_ground_plane_changes_no_pixel() {
         seed: 7,
         threads: 0,
     };
-    let (a, records_a) = ic_image(&alone, &camera, IcSettings::default(), &settings);
-    let (b, records_b) = ic_image(&far, &camera, IcSettings::default(), &settings);
-    assert_eq!(records_a, records_b, "records");
-    let differing = a
-        .pixels()
-        .iter()
-        .zip(b.pixels())
-        .filter(|(p, q)| p != q)
-        .count();
-    assert_eq!(differing, 0, "pixels that the far plane changed");
+    // The Hessian metric's radii √L·(4/|λ|)^¼ take the same length L, and pixel limits this
+    // wide (in pixels and in L), without the gradient cap and neighbour clamping (which bind
+    // first at the defaults), leave them to bind. Its triangle fan reads where escaping rays end (the plane below
+    // changes it), so for it the plane stands 100 m behind the box's back wall, where no ray
+    // from inside the box reaches.
+    let hessian = IcSettings {
+        metric: MetricKind::Hessian,
+        error: 0.6,
+        pixel_min: 0.5,
+        pixel_max: 1000.0,
+        world_max: 1000.0,
+        gradients: irr_render::GradientMode::Off,
+        neighbour_clamping: false,
+        ..IcSettings::default()
+    };
+    for (ic, plane) in [(IcSettings::default(), below), (hessian, behind)] {
+        let far = scene_with(Some(plane));
+        let (a, records_a) = ic_image(&alone, &camera, ic, &settings);
+        let (b, records_b) = ic_image(&far, &camera, ic, &settings);
+        assert_eq!(records_a, records_b, "{:?}: records", ic.metric);
+        let differing = a
+            .pixels()
+            .iter()
+            .zip(b.pixels())
+            .filter(|(p, q)| p != q)
+            .count();
+        assert_eq!(
+            differing, 0,
+            "{:?}: pixels that the far plane changed",
+            ic.metric
+        );
+    }
 }

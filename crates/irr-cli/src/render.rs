@@ -88,8 +88,8 @@ pub struct IcArgs {
     pub metric: MetricChoice,
     /// The error parameter: κ for tabellion-lamorlette (> 0, larger is stricter), a for ward
     /// (> 0, smaller is stricter), a for hessian (> 0, smaller is stricter: a record is used
-    /// within a times its radii, which are Radiance's (4/|λ|)^¼ in units of the scene's
-    /// diagonal)
+    /// within a times its radii, which are Radiance's (4/|λ|)^¼ in units of the image's
+    /// height at the record's distance)
     #[arg(long, default_value_t = IcSettings::default().error, allow_negative_numbers = true)]
     pub error: f32,
     /// Hemisphere strata M×N of a gather (M along θ, N along φ)

@@ -279,8 +279,11 @@ impl<V: IcValue> Core<V> {
     ///
     /// Radii: Radiance's rᵢ = (4/|λᵢ|)^¼ (Schwarzhaupt et al. 2012: the radius that bounds a
     /// record's integrated second-order error), which scales as √length, made a length by the
-    /// scene's diagonal D: rᵢ = √D·(4/|λᵢ|)^¼ — Radiance's radii in units where the scene's
-    /// diagonal is 1, so a scene drawn at any scale gets the same records. The major radius
+    /// length L the record's world limits are fractions of (`Core::length_at`: the view's image
+    /// height at the record's distance, or the scene's diagonal without a view): rᵢ =
+    /// √L·(4/|λᵢ|)^¼ — Radiance's radii in units where what the image shows there is 1, so a
+    /// scene drawn at any scale gets the same records, and a far ground plane or a scene larger
+    /// than the view changes none. The major radius
     /// comes from the smaller |λ| (+∞ for a flat direction: the pipeline's limits bound it);
     /// the minor is at least half the major (Radiance's 2:1 cap), along the direction of the
     /// larger |λ|.
@@ -303,7 +306,7 @@ impl<V: IcValue> Core<V> {
             Some(p) => (p.fan().hessian, None),
         };
         let curvature = Curvature::of(&hessian);
-        let scale = f64::from(self.diagonal).sqrt();
+        let scale = f64::from(self.length_at(x.position)).sqrt();
         let radius = |lambda: f64| {
             if lambda > 0.0 {
                 scale * (4.0 / lambda).sqrt().sqrt()

@@ -52,8 +52,9 @@
 //! With [`MetricKind::Hessian`] (`--metric hessian`) a record is an ellipse on its tangent plane
 //! (Schwarzhaupt, Jensen & Jarosz 2012; Radiance ≥ 4.2): its gather keeps each ray's direction,
 //! irr-gradients' triangle fan over the hit points gives the relative irradiance Hessian, and
-//! its tangent block's eigenvalues λ give the radii √D·(4/|λ|)^¼ (D the scene's diagonal: the
-//! radii stay lengths, so the image does not depend on the unit), the minor one along the
+//! its tangent block's eigenvalues λ give the radii √L·(4/|λ|)^¼ (L the image's height at the
+//! record's distance, or the scene's diagonal without a view: the radii stay lengths, so the
+//! image does not depend on the unit), the minor one along the
 //! direction of fastest curvature and at least half the major. The same fan gives the
 //! occlusion-aware translation gradient. The radius pipeline (gradient limit, pixel and world
 //! limits, neighbour clamping) acts on the major radius; the metric uses a record within the
