@@ -1156,12 +1156,20 @@ fn hessian_records_are_short_towards_a_wall() {
 /// resolution follows the view, so none grows with the scene's diagonal (from 0.96 m to
 /// 14 km); rays that left the box now end on the plane with zero radiance, as they ended on
 /// the black background; a ray's nearest hit, which sizes records and their gradients, is the
-/// box's either way. So the images are equal bit for bit, with the default settings and with
-/// the Hessian metric.
+/// box's either way; a sun beside the box's light keeps its share of the light samples. So the
+/// images are equal bit for bit, with the default settings and with the Hessian metric.
 #[test]
 fn a_far_black_ground_plane_changes_no_pixel() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/cornell-box.gltf");
     let data = irr_render::load_gltf(&path).unwrap_or_else(|e| panic!("{e}"));
+    // A sun beside the box's own light, on the box's roof: its share of the light samples is
+    // its power over the scene's core bounds (`Geometry::core_bounds`), which the plane does
+    // not stretch.
+    let mut lights = data.lights.clone();
+    lights.push(irr_render::PunctualLight::directional(
+        Vec3::new(0.2, -1.0, 0.3),
+        Vec3::splat(3.0),
+    ));
     let scene_with = |extra: Option<irr_geometry::TriangleMesh>| {
         let mut meshes = data.meshes.clone();
         let mut materials = data.materials.clone();
@@ -1172,7 +1180,7 @@ fn a_far_black_ground_plane_changes_no_pixel() {
         }
         let geometry = Geometry::build(&meshes).unwrap_or_else(|e| panic!("{e}"));
         Scene::new(geometry, materials)
-            .and_then(|s| s.with_lights(data.lights.clone()))
+            .and_then(|s| s.with_lights(lights.clone()))
             .unwrap_or_else(|e| panic!("{e}"))
     };
     let below = quad(

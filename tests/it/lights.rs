@@ -544,3 +544,67 @@ fn the_cornell_box_has_no_punctual_light() {
     assert_eq!(loaded.scene.lights().punctual_count(), 0);
     assert_eq!(loaded.scene.background(), Vec3::ZERO);
 }
+
+/// A file without a camera is framed by its core bounds (irr-geometry's
+/// `Geometry::core_bounds`): the lamp room's floor and wall with a 10 km ground 100 m below
+/// them loads with the room's bounds, so the default view frames the room as it frames the
+/// room alone (where the whole box would leave it a dot 60 m across in a view 17 km away); a
+/// directional light over both keeps the same share of the light samples (tests/it/ic.rs,
+/// `a_far_black_ground_plane_changes_no_pixel`).
+#[test]
+fn a_default_view_frames_the_room_not_its_far_ground() {
+    let load = |ground: bool| {
+        let mut bin = Bin::default();
+        let mut meshes = vec![
+            quad([
+                Vec3::new(-2.0, 0.0, 2.0),
+                Vec3::new(2.0, 0.0, 2.0),
+                Vec3::new(2.0, 0.0, -2.0),
+                Vec3::new(-2.0, 0.0, -2.0),
+            ]),
+            quad([
+                Vec3::new(-2.0, 0.0, -2.0),
+                Vec3::new(2.0, 0.0, -2.0),
+                Vec3::new(2.0, 3.0, -2.0),
+                Vec3::new(-2.0, 3.0, -2.0),
+            ]),
+        ];
+        if ground {
+            meshes.push(quad([
+                Vec3::new(-5e3, -100.0, 5e3),
+                Vec3::new(5e3, -100.0, 5e3),
+                Vec3::new(5e3, -100.0, -5e3),
+                Vec3::new(-5e3, -100.0, -5e3),
+            ]));
+        }
+        let meshes: Vec<Value> = meshes
+            .iter()
+            .map(|m| json!({"primitives": [bin.primitive(m, 0)]}))
+            .collect();
+        let root = json!({
+            "asset": {"version": "2.0"},
+            "scene": 0,
+            "scenes": [{"nodes": (0..meshes.len()).collect::<Vec<_>>()}],
+            "nodes": (0..meshes.len()).map(|m| json!({"mesh": m})).collect::<Vec<_>>(),
+            "meshes": meshes,
+            "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0]}}],
+            "accessors": bin.accessors,
+            "bufferViews": bin.views,
+            "buffers": [{"byteLength": bin.bytes.len()}],
+        });
+        let dir = crate::support::temp();
+        let path = dir
+            .path()
+            .join(if ground { "ground.glb" } else { "room.glb" });
+        crate::support::write(&path, glb(&root, &bin.bytes));
+        load_scene(&path).unwrap_or_else(|e| panic!("{e}"))
+    };
+    let (room, far) = (load(false), load(true));
+    assert_eq!(far.bounds, room.bounds, "the far ground's bounds");
+    assert_eq!(
+        room.bounds,
+        (Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 3.0, 2.0)),
+        "the room's bounds"
+    );
+    assert_eq!(far.camera_for(64, 48), room.camera_for(64, 48));
+}

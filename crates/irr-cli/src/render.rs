@@ -822,8 +822,9 @@ fn render_view(
         Some(c) => c,
         None => {
             eprintln!(
-                "note: {} has no camera: irr frames the scene's bounds from +Z (a scene flat in y or x from above or from +X, tilted 45°) with a 45° vertical field of view",
-                scene_path.display()
+                "note: {} has no camera: irr frames the scene's bounds (without any triangle that alone stretches them {}×, such as a far ground plane) from +Z (a scene flat in y or x from above or from +X, tilted 45°) with a 45° vertical field of view",
+                scene_path.display(),
+                irr_render::OUTLIER_SPAN
             );
             Camera::framing(
                 loaded.bounds.0,

@@ -33,6 +33,32 @@ pub const BUILT_BYTES_PER_INSTANCE: u64 = 288;
 /// is 100 GiB.)
 pub const MAX_TRIANGLES: usize = 1 << 30;
 
+/// [`Geometry::core_bounds`] leaves out a triangle wider than this many times the box of
+/// everything narrower: a ground plane under a room, not a wall of it (a room's wall is at most
+/// as wide as the room) nor a studio floor a few times a product's size.
+pub const OUTLIER_SPAN: f32 = 4.0;
+
+/// The most triangles [`Geometry::core_bounds`] leaves out.
+pub const MAX_OUTLIERS: usize = 64;
+
+/// An f32 ordered by `total_cmp`, for a heap.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct OrdF32(f32);
+
+impl Eq for OrdF32 {}
+
+impl PartialOrd for OrdF32 {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for OrdF32 {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&other.0)
+    }
+}
+
 /// The built BVH over all kept triangles. `Send + Sync`: trace from any number of threads.
 ///
 /// Each triangle's vertices are stored once, in the BVH's leaves (the wide layouts' packets or
@@ -516,6 +542,74 @@ impl Geometry {
         self.bounds
     }
 
+    /// The box of what the scene is about: [`Geometry::bounds`] without the few triangles that
+    /// alone stretch it, such as a ground plane kilometres wide under a room. What a default
+    /// view frames and what a directional light's share of light sampling is measured over,
+    /// where the whole box would make the room a dot or the sun's share almost 1.
+    ///
+    /// Pieces are the triangles, and the placements of an instanced geometry taken together
+    /// (their joint box), ranked by the diagonal of their box. The k widest (k ≤
+    /// [`MAX_OUTLIERS`], the smallest k that works) are left out when the narrowest of them is
+    /// more than [`OUTLIER_SPAN`] times as wide as the box of all the others, which is then the
+    /// answer. The same box as `bounds()` when no such k exists (a room of a few large quads, a
+    /// terrain of many small triangles). Two passes over the triangles; memory bounded by
+    /// `MAX_OUTLIERS`.
+    #[must_use]
+    pub fn core_bounds(&self) -> (Vec3, Vec3) {
+        type Piece = (f32, u32, (Vec3, Vec3));
+        let diagonal = |(lo, hi): (Vec3, Vec3)| (hi - lo).length();
+        let world = self.world_count() as u32;
+        // Piece `world` is the placements' joint box.
+        let placed = self.instances.as_ref().map(|i| i.bounds);
+        let piece = |id: u32| -> (Vec3, Vec3) {
+            if id == world {
+                return placed.unwrap_or((Vec3::INFINITY, Vec3::NEG_INFINITY));
+            }
+            let p = self.triangle(id).p;
+            (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]))
+        };
+        let count = world + u32::from(placed.is_some());
+        // Pass 1: the MAX_OUTLIERS widest pieces (a min-heap of them by diagonal; ties by id).
+        let mut widest: std::collections::BinaryHeap<std::cmp::Reverse<(OrdF32, u32)>> =
+            std::collections::BinaryHeap::with_capacity(MAX_OUTLIERS + 1);
+        for id in 0..count {
+            widest.push(std::cmp::Reverse((OrdF32(diagonal(piece(id))), id)));
+            if widest.len() > MAX_OUTLIERS {
+                widest.pop();
+            }
+        }
+        let mut widest: Vec<Piece> = widest
+            .into_iter()
+            .map(|std::cmp::Reverse((d, id))| (d.0, id, piece(id)))
+            .collect();
+        // Widest first.
+        widest.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        // Pass 2: the box of every other piece.
+        let union = |a: (Vec3, Vec3), b: (Vec3, Vec3)| (a.0.min(b.0), a.1.max(b.1));
+        let mut left: Vec<u32> = widest.iter().map(|w| w.1).collect();
+        left.sort_unstable();
+        let mut rest = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for id in 0..count {
+            if left.binary_search(&id).is_err() {
+                rest = union(rest, piece(id));
+            }
+        }
+        // below[i]: the box of every piece narrower than widest[i].
+        let mut below = vec![rest; widest.len()];
+        for i in (0..widest.len().saturating_sub(1)).rev() {
+            below[i] = union(below[i + 1], widest[i + 1].2);
+        }
+        // The first cut whose narrowest left-out piece is OUTLIER_SPAN times as wide as all that
+        // stays (a ground quad's two triangles go together); an empty or flat remainder is no cut.
+        for (w, &under) in widest.iter().zip(&below) {
+            let span = diagonal(under);
+            if span.is_finite() && span > 0.0 && w.0 > OUTLIER_SPAN * span {
+                return under;
+            }
+        }
+        self.bounds
+    }
+
     /// The heap bytes this geometry holds, per structure (name, bytes): what a triangle costs
     /// once built (the build's transient peak is larger; see `build.rs`). Large node and packet
     /// arrays count here too where they live in a mapping on huge pages instead (`pages.rs`).
@@ -642,6 +736,102 @@ mod tests {
     use super::*;
     use crate::Ray;
     use crate::test_meshes::{grid, mixed_meshes, nested, prims_of, quad, xorshift};
+
+    /// Triangles from corner triples, one mesh.
+    fn triangles(corners: &[[Vec3; 3]]) -> TriangleMesh {
+        TriangleMesh {
+            positions: corners.iter().flatten().copied().collect(),
+            indices: (0..corners.len() as u32)
+                .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+                .collect(),
+            normals: None,
+            material_ids: vec![0; corners.len()],
+        }
+    }
+
+    /// The six faces of the box [lo, hi], two triangles each.
+    fn room(lo: Vec3, hi: Vec3) -> TriangleMesh {
+        let mut corners = Vec::new();
+        for axis in 0..3 {
+            for side in [lo[axis], hi[axis]] {
+                let at = |a: bool, b: bool| {
+                    let mut c = Vec3::ZERO;
+                    c[axis] = side;
+                    let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+                    c[u] = if a { hi[u] } else { lo[u] };
+                    c[v] = if b { hi[v] } else { lo[v] };
+                    c
+                };
+                corners.push([at(false, false), at(true, false), at(true, true)]);
+                corners.push([at(false, false), at(true, true), at(false, true)]);
+            }
+        }
+        triangles(&corners)
+    }
+
+    fn core_of(meshes: &[TriangleMesh]) -> ((Vec3, Vec3), (Vec3, Vec3)) {
+        let g = Geometry::build(meshes).unwrap_or_else(|e| panic!("{e}"));
+        (g.bounds(), g.core_bounds())
+    }
+
+    /// A ground 10 km wide, 100 m below an 8 × 3 × 6 m room, is left out of the core bounds:
+    /// they are the room's. Without it, and on a terrain of small triangles 10 km wide with
+    /// the room on it, the core bounds are the whole box.
+    #[test]
+    fn a_far_ground_is_left_out_of_the_core_bounds() {
+        let (lo, hi) = (Vec3::ZERO, Vec3::new(8.0, 3.0, 6.0));
+        let ground = triangles(&[
+            [
+                Vec3::new(-5e3, -100.0, -5e3),
+                Vec3::new(5e3, -100.0, 5e3),
+                Vec3::new(5e3, -100.0, -5e3),
+            ],
+            [
+                Vec3::new(-5e3, -100.0, -5e3),
+                Vec3::new(-5e3, -100.0, 5e3),
+                Vec3::new(5e3, -100.0, 5e3),
+            ],
+        ]);
+        let (bounds, core) = core_of(&[room(lo, hi), ground]);
+        assert_eq!(core, (lo, hi), "with the ground (whole box {bounds:?})");
+        let (bounds, core) = core_of(&[room(lo, hi)]);
+        assert_eq!(core, bounds, "the room alone");
+        let terrain = grid(100, |i, j| {
+            Vec3::new(i as f32 * 100.0 - 5e3, -1.0, j as f32 * 100.0 - 5e3)
+        });
+        let (bounds, core) = core_of(&[room(lo, hi), terrain]);
+        assert_eq!(core, bounds, "a terrain of 100 m triangles");
+    }
+
+    proptest::proptest! {
+        /// The core bounds lie within the bounds, and a triangle wider than OUTLIER_SPAN times
+        /// the rest of the scene, wherever it lies, is left out: the core bounds are the rest's
+        /// whole box.
+        #[test]
+        fn a_giant_triangle_is_left_out_of_the_core_bounds(
+            seed in 1u32..u32::MAX,
+            n in 1usize..40,
+            at in proptest::array::uniform3(-1e4f32..1e4),
+        ) {
+            let mut next = xorshift(seed);
+            let corners: Vec<[Vec3; 3]> = (0..n)
+                .map(|_| {
+                    let c = Vec3::new(next(), next(), next()) * 10.0;
+                    let e = Vec3::new(next(), next(), next()) * (0.1 + next().abs() * 3.0);
+                    [c, c + e, c + e.cross(Vec3::new(0.3, 1.0, 0.2))]
+                })
+                .collect();
+            let scene = triangles(&corners);
+            let (bounds, core) = core_of(std::slice::from_ref(&scene));
+            proptest::prop_assert!(core.0.cmpge(bounds.0).all() && core.1.cmple(bounds.1).all());
+            let span = (bounds.1 - bounds.0).length();
+            let c = Vec3::from_array(at);
+            let w = 2.0 * OUTLIER_SPAN * span;
+            let giant = triangles(&[[c, c + Vec3::new(w, 0.0, 0.0), c + Vec3::new(0.0, 0.0, w)]]);
+            let (_, with) = core_of(&[scene, giant]);
+            proptest::prop_assert_eq!(with, bounds);
+        }
+    }
 
     #[test]
     fn nested_same_centroid_triangles_build_top_down_and_trace_like_brute_force() {

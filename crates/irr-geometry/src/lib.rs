@@ -140,7 +140,10 @@ mod test_meshes;
 mod wide;
 
 pub use error::GeometryError;
-pub use geometry::{BUILT_BYTES_PER_INSTANCE, BUILT_BYTES_PER_TRIANGLE, Geometry, MAX_TRIANGLES};
+pub use geometry::{
+    BUILT_BYTES_PER_INSTANCE, BUILT_BYTES_PER_TRIANGLE, Geometry, MAX_OUTLIERS, MAX_TRIANGLES,
+    OUTLIER_SPAN,
+};
 pub use instances::{Instance, Placement};
 pub use layout::BvhLayout;
 pub use mesh::{BuildReport, Triangle, TriangleMesh};

@@ -73,7 +73,8 @@ impl LightSampler {
 
     /// Collects the emitting triangles of `geometry` and the punctual lights `lights`.
     /// Directional lights' power needs the radius of the scene's bounding sphere, taken from the
-    /// geometry's bounds (1 if it has none, e.g. no triangles).
+    /// geometry's core bounds ([`Geometry::core_bounds`]: without a far ground plane, whose
+    /// width would give the sun almost every sample; 1 if it has none, e.g. no triangles).
     pub fn with_punctual(
         geometry: &Geometry,
         materials: &[Material],
@@ -118,8 +119,17 @@ impl LightSampler {
             s.normals.push(tri.normal());
             powers.push(power);
         }
-        let (lo, hi) = geometry.bounds();
-        let radius = 0.5 * f64::from((hi - lo).length());
+        // A directional light lights what the scene is about, not a far ground plane: its
+        // power is measured over the core bounds (two passes over the triangles, only with one).
+        let directional = lights
+            .iter()
+            .any(|l| matches!(l, PunctualLight::Directional { .. }));
+        let radius = if directional {
+            let (lo, hi) = geometry.core_bounds();
+            0.5 * f64::from((hi - lo).length())
+        } else {
+            1.0
+        };
         let radius = if radius.is_finite() && radius > 0.0 {
             radius
         } else {

@@ -74,6 +74,7 @@ pub use cachefile::{
 pub use denoise::{DENOISER, DENOISER_AOVS, NO_DENOISER, denoise};
 pub use error::RenderError;
 pub use image::Image;
+pub use irr_geometry::OUTLIER_SPAN;
 pub use irr_integrator::{
     AmbientOcclusion, AoSettings, BounceMode, CacheBuilder, CachedAmbientOcclusion, GradientMode,
     GuardRecord, IcSettings, Integrator, IrradianceCacheIntegrator, LeakGuard, Material,
@@ -118,7 +119,8 @@ pub struct LoadedScene {
     /// What the file uses that irr ignored, one entry per feature, and other notes (no
     /// emitter, degenerate triangles dropped).
     pub warnings: Vec<Warning>,
-    /// The bounds of the scene's triangles.
+    /// The box a default view frames: the bounds of the scene's triangles without those that
+    /// alone stretch them, such as a far ground plane ([`irr_geometry::Geometry::core_bounds`]).
     pub bounds: (Vec3, Vec3),
     /// The digest of every byte the scene was read from ([`SceneData::digest`]).
     pub digest: u64,
@@ -299,7 +301,7 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<LoadedScene
             ),
         });
     }
-    let bounds = geometry.bounds();
+    let bounds = geometry.core_bounds();
     let scene = Scene::with_textures(geometry, materials, textures, tex_coords)
         .and_then(|s| s.with_vertex_colours(colours))
         .and_then(|s| s.with_tangents(tangents))

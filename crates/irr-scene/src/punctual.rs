@@ -30,7 +30,8 @@
 //!   the falloff over the sphere: ∫ t² d(cos α) over the falloff band is (cos θ_inner −
 //!   cos θ_outer)/3 (pbrt-v4's `SpotLight::Phi` has /2, the integral of its smoothstep);
 //! - directional: Φ = π·r²·E, r the radius of the scene's bounding sphere (pbrt-v4's
-//!   `DistantLight::Phi`): the flux through the disk that covers the scene.
+//!   `DistantLight::Phi`): the flux through the disk that covers the scene (irr-integrator's
+//!   light sampler takes the sphere around the core bounds, without a far ground plane).
 
 use glam::Vec3;
 use std::f64::consts::PI;
