@@ -3,8 +3,8 @@
 //! settings tighten, towards the path tracer's image).
 
 use crate::support::{
-    Indirect, built, cuboid, ic_image, indirect_reference, mean_bias, path_image, quad,
-    region_mean, rel_mse,
+    Indirect, assert_error_and_bias_fall, built, cuboid, ic_image, indirect_reference, mean_bias,
+    path_image, quad, region_mean, rel_mse,
 };
 use glam::Vec3;
 use irr_geometry::Geometry;
@@ -737,33 +737,10 @@ fn cached_bounces_and_the_light_cache_converge_too() {
         };
         let loose: Vec<Image> = seeds.iter().map(|&s| at(0.5, 6, 24, s)).collect();
         let tight: Vec<Image> = seeds.iter().map(|&s| at(2.0, 12, 48, s)).collect();
-        let noise = rel_mse(&tight[1], &tight[2]) / 2.0 + reference_noise;
-        let (e0, e1) = (
-            rel_mse(&loose[0], &reference),
-            rel_mse(&tight[0], &reference),
-        );
-        let biases = |images: &[Image]| -> (f64, f64) {
-            let b: Vec<f64> = images.iter().map(|i| mean_bias(i, &reference)).collect();
-            let n = b.len() as f64;
-            let mean = b.iter().sum::<f64>() / n;
-            let var = b.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
-            (mean, (var / n).sqrt())
-        };
-        let ((b0, se0), (b1, se1)) = (biases(&loose), biases(&tight));
-        println!(
-            "{mode:?}, {bounces} level(s): κ 0.5: relMSE {e0:.3e}, bias {:+.3} ± {:.3} %; κ 2: relMSE {e1:.3e}, bias {:+.3} ± {:.3} %; noise {noise:.3e}",
-            100.0 * b0,
-            100.0 * se0,
-            100.0 * b1,
-            100.0 * se1
-        );
-        assert!(
-            e1 + 2.0 * noise < e0,
-            "{mode:?}, {bounces}: the error did not fall beyond the noise"
-        );
-        assert!(
-            b1.abs() < b0.abs() || b1.abs() < 3.0 * se1,
-            "{mode:?}, {bounces}: the bias did not shrink: {b0} -> {b1} (standard error {se1})"
+        assert_error_and_bias_fall(
+            &format!("{mode:?}, {bounces} level(s)"),
+            (&loose, &tight),
+            (&reference, reference_noise),
         );
     }
 }

@@ -202,6 +202,45 @@ pub fn indirect_reference(
     (image, rel_mse(&a, &b) / 4.0)
 }
 
+/// A loose and a tight setting's images over the same seeds (at least three), against a
+/// reference with its own noise `reference_noise`: the relMSE (of the first seed's images)
+/// falls by more than twice the noise, the tight image's own (relMSE between its second and
+/// third seeds / 2) plus the reference's, since each of the two relMSEs compared carries it once;
+/// and the mean bias over the seeds shrinks, or is within 3 standard errors of zero (that
+/// mean's spread over the seeds / √k) where it cannot be told from zero. `label` names the
+/// case in the printed figures and the failures.
+pub fn assert_error_and_bias_fall(
+    label: &str,
+    (loose, tight): (&[Image], &[Image]),
+    (reference, reference_noise): (&Image, f64),
+) {
+    let noise = rel_mse(&tight[1], &tight[2]) / 2.0 + reference_noise;
+    let (e0, e1) = (rel_mse(&loose[0], reference), rel_mse(&tight[0], reference));
+    let bias = |images: &[Image]| -> (f64, f64) {
+        let b: Vec<f64> = images.iter().map(|i| mean_bias(i, reference)).collect();
+        let k = b.len() as f64;
+        let mean = b.iter().sum::<f64>() / k;
+        let var = b.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (k - 1.0);
+        (mean, (var / k).sqrt())
+    };
+    let ((b0, se0), (b1, se1)) = (bias(loose), bias(tight));
+    println!(
+        "{label}: loose relMSE {e0:.3e}, bias {:+.3} ± {:.3} %; tight relMSE {e1:.3e}, bias {:+.3} ± {:.3} %; noise {noise:.3e}",
+        100.0 * b0,
+        100.0 * se0,
+        100.0 * b1,
+        100.0 * se1
+    );
+    assert!(
+        e1 + 2.0 * noise < e0,
+        "{label}: the error did not fall beyond the noise ({e0:.3e} -> {e1:.3e}, noise {noise:.3e})"
+    );
+    assert!(
+        b1.abs() < b0.abs() || b1.abs() < 3.0 * se1,
+        "{label}: the bias did not shrink: {b0:+.4} -> {b1:+.4} (standard error {se1:.4})"
+    );
+}
+
 /// The path of `name` in the workspace's assets/.
 pub fn asset(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

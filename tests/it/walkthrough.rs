@@ -2,7 +2,7 @@
 //! `build_shared_cache`), read by every frame without adding records; each frame converges to
 //! the path tracer's image of its view.
 
-use crate::support::{Indirect, asset, indirect_reference, mean_bias, rel_mse};
+use crate::support::{Indirect, assert_error_and_bias_fall, asset, indirect_reference};
 use irr_integrator::{Integrator, Scene};
 use irr_render::{
     BounceMode, Camera, IcSettings, Image, IrradianceCacheIntegrator, PathSettings, RenderSettings,
@@ -184,33 +184,12 @@ fn shared_cache_frames_converge_to_the_path_tracer() {
     };
     let (loose, tight) = (frames(0.5, 6, 24), frames(2.0, 12, 48));
     for (f, (reference, reference_noise)) in references.iter().enumerate() {
-        let noise = rel_mse(&tight[1][f], &tight[2][f]) / 2.0 + reference_noise;
-        let (e0, e1) = (
-            rel_mse(&loose[0][f], reference),
-            rel_mse(&tight[0][f], reference),
-        );
-        let bias = |runs: &[Vec<Image>]| -> (f64, f64) {
-            let b: Vec<f64> = runs.iter().map(|r| mean_bias(&r[f], reference)).collect();
-            let k = b.len() as f64;
-            let mean = b.iter().sum::<f64>() / k;
-            let var = b.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (k - 1.0);
-            (mean, (var / k).sqrt())
-        };
-        let ((b0, se0), (b1, se1)) = (bias(&loose), bias(&tight));
-        println!(
-            "frame {f}: κ 0.5 relMSE {e0:.3e}, bias {:+.3} ± {:.3} %; κ 2 relMSE {e1:.3e}, bias {:+.3} ± {:.3} %; noise {noise:.3e}",
-            100.0 * b0,
-            100.0 * se0,
-            100.0 * b1,
-            100.0 * se1
-        );
-        assert!(
-            e1 + 2.0 * noise < e0,
-            "frame {f}: the error did not fall beyond the noise ({e0:.3e} -> {e1:.3e}, noise {noise:.3e})"
-        );
-        assert!(
-            b1.abs() < b0.abs() || b1.abs() < 3.0 * se1,
-            "frame {f}: the bias did not shrink: {b0:+.4} -> {b1:+.4} (standard error {se1:.4})"
+        let frame =
+            |runs: &[Vec<Image>]| -> Vec<Image> { runs.iter().map(|r| r[f].clone()).collect() };
+        assert_error_and_bias_fall(
+            &format!("frame {f}"),
+            (&frame(&loose), &frame(&tight)),
+            (reference, *reference_noise),
         );
     }
 }
