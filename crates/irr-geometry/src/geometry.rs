@@ -41,24 +41,6 @@ pub const OUTLIER_SPAN: f32 = 4.0;
 /// The most triangles [`Geometry::core_bounds`] leaves out.
 pub const MAX_OUTLIERS: usize = 64;
 
-/// An f32 ordered by `total_cmp`, for a heap.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct OrdF32(f32);
-
-impl Eq for OrdF32 {}
-
-impl PartialOrd for OrdF32 {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl Ord for OrdF32 {
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        self.0.total_cmp(&other.0)
-    }
-}
-
 /// The built BVH over all kept triangles. `Send + Sync`: trace from any number of threads.
 ///
 /// Each triangle's vertices are stored once, in the BVH's leaves (the wide layouts' packets or
@@ -569,18 +551,19 @@ impl Geometry {
             (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]))
         };
         let count = world + u32::from(placed.is_some());
-        // Pass 1: the MAX_OUTLIERS widest pieces (a min-heap of them by diagonal; ties by id).
-        let mut widest: std::collections::BinaryHeap<std::cmp::Reverse<(OrdF32, u32)>> =
+        // Pass 1: the MAX_OUTLIERS widest pieces (a min-heap of them by diagonal, whose bits
+        // order as its value: it is not negative; ties by id).
+        let mut widest: std::collections::BinaryHeap<std::cmp::Reverse<(u32, u32)>> =
             std::collections::BinaryHeap::with_capacity(MAX_OUTLIERS + 1);
         for id in 0..count {
-            widest.push(std::cmp::Reverse((OrdF32(diagonal(piece(id))), id)));
+            widest.push(std::cmp::Reverse((diagonal(piece(id)).to_bits(), id)));
             if widest.len() > MAX_OUTLIERS {
                 widest.pop();
             }
         }
         let mut widest: Vec<Piece> = widest
             .into_iter()
-            .map(|std::cmp::Reverse((d, id))| (d.0, id, piece(id)))
+            .map(|std::cmp::Reverse((d, id))| (f32::from_bits(d), id, piece(id)))
             .collect();
         // Widest first.
         widest.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
