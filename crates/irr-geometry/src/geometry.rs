@@ -79,6 +79,9 @@ pub struct Geometry {
     /// The placements of a geometry built with [`Geometry::build_instanced`] (`instances.rs`);
     /// the fields above are then its world meshes' tree, which may be empty.
     pub(crate) instances: Option<Box<Instances>>,
+    /// [`Geometry::core_bounds`], computed on its first call: the loader and the light sampler
+    /// both read it.
+    pub(crate) core: std::sync::OnceLock<(Vec3, Vec3)>,
 }
 
 /// The shading normals of one mesh that has them: the mesh's per-vertex normals and the vertex
@@ -265,6 +268,7 @@ impl Geometry {
             #[cfg(target_arch = "x86_64")]
             v3: pulp::x86::V3::try_new(),
             instances: None,
+            core: std::sync::OnceLock::new(),
         })
     }
 
@@ -378,6 +382,7 @@ impl Geometry {
             #[cfg(target_arch = "x86_64")]
             v3: pulp::x86::V3::try_new(),
             instances: None,
+            core: std::sync::OnceLock::new(),
         }
     }
 
@@ -534,10 +539,15 @@ impl Geometry {
     /// [`MAX_OUTLIERS`], the smallest k that works) are left out when the narrowest of them is
     /// more than [`OUTLIER_SPAN`] times as wide as the box of all the others, which is then the
     /// answer. The same box as `bounds()` when no such k exists (a room of a few large quads, a
-    /// terrain of many small triangles). Two passes over the triangles; memory bounded by
-    /// `MAX_OUTLIERS`.
+    /// terrain of many small triangles). Two passes over the triangles on the first call
+    /// (memory bounded by `MAX_OUTLIERS`); later calls read the answer.
     #[must_use]
     pub fn core_bounds(&self) -> (Vec3, Vec3) {
+        *self.core.get_or_init(|| self.outlier_free_bounds())
+    }
+
+    /// [`Geometry::core_bounds`]' two passes.
+    fn outlier_free_bounds(&self) -> (Vec3, Vec3) {
         type Piece = (f32, u32, (Vec3, Vec3));
         let diagonal = |(lo, hi): (Vec3, Vec3)| (hi - lo).length();
         let world = self.world_count() as u32;

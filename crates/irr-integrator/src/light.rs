@@ -120,19 +120,16 @@ impl LightSampler {
             powers.push(power);
         }
         // A directional light lights what the scene is about, not a far ground plane: its
-        // power is measured over the core bounds (two passes over the triangles, only with one).
-        let directional = lights
+        // power is measured over the core bounds (computed once per geometry, only with one).
+        let radius = if lights
             .iter()
-            .any(|l| matches!(l, PunctualLight::Directional { .. }));
-        let radius = if directional {
+            .any(|l| matches!(l, PunctualLight::Directional { .. }))
+        {
             let (lo, hi) = geometry.core_bounds();
-            0.5 * f64::from((hi - lo).length())
+            let r = 0.5 * f64::from((hi - lo).length());
+            if r.is_finite() && r > 0.0 { r } else { 1.0 }
         } else {
-            1.0
-        };
-        let radius = if radius.is_finite() && radius > 0.0 {
-            radius
-        } else {
+            // No light reads it.
             1.0
         };
         for light in lights {

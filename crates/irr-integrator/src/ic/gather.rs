@@ -283,10 +283,9 @@ impl<V: IcValue> Core<V> {
     /// height at the record's distance, or the scene's diagonal without a view): rᵢ =
     /// √L·(4/|λᵢ|)^¼ — Radiance's radii in units where what the image shows there is 1, so a
     /// scene drawn at any scale gets the same records, and a far ground plane or a scene larger
-    /// than the view changes none. The major radius
-    /// comes from the smaller |λ| (+∞ for a flat direction: the pipeline's limits bound it);
-    /// the minor is at least half the major (Radiance's 2:1 cap), along the direction of the
-    /// larger |λ|.
+    /// than the view changes none. The major radius comes from the smaller |λ| (+∞ for a flat
+    /// direction: the pipeline's limits bound it); the minor is at least half the major
+    /// (Radiance's 2:1 cap), along the direction of the larger |λ|.
     fn hessian_record(
         &self,
         x: &ShadingPoint,

@@ -54,8 +54,8 @@
 //! irr-gradients' triangle fan over the hit points gives the relative irradiance Hessian, and
 //! its tangent block's eigenvalues λ give the radii √L·(4/|λ|)^¼ (L the image's height at the
 //! record's distance, or the scene's diagonal without a view: the radii stay lengths, so the
-//! image does not depend on the unit), the minor one along the
-//! direction of fastest curvature and at least half the major. The same fan gives the
+//! image does not depend on the unit), the minor one along the direction of fastest curvature
+//! and at least half the major. The same fan gives the
 //! occlusion-aware translation gradient. The radius pipeline (gradient limit, pixel and world
 //! limits, neighbour clamping) acts on the major radius; the metric uses a record within the
 //! ellipse scaled by the accuracy a (`irr_cache::Hessian`). Records are placed where the

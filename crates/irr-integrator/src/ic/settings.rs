@@ -150,8 +150,8 @@ pub struct IcSettings {
     /// The error parameter: κ for Tabellion & Lamorlette (larger is stricter; default 1, range
     /// (0, ∞)), a for Ward (smaller is stricter; typical 0.1–0.3), or a for the Hessian metric
     /// (smaller is stricter; range (0, ∞), records used within a times their radii
-    /// √L·(4/|λ|)^¼, L the image's height at the record's distance; 0.5–0.85 matches κ = 1's record count on the
-    /// scenes in assets/).
+    /// √L·(4/|λ|)^¼, L the image's height at the record's distance; 0.5–0.85 matches κ = 1's
+    /// record count on the scenes in assets/).
     pub error: f32,
     /// M, strata along θ of a first-level gather. Default: 16. Range: ≥ 1 (M·N ≤ 2²⁰).
     ///
