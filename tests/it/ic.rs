@@ -789,6 +789,10 @@ fn the_depth_limits_the_cache_as_it_limits_the_path_tracer() {
                         strata_n: 16,
                         gather_error,
                         bounce_mode,
+                        // One chunk of light-cache paths, not the default 5·2¹⁷ (which the
+                        // furnace spends in full): the answer holds for any number, and the
+                        // band below is the seeds' spread, light-cache noise included.
+                        light_cache_paths: 1 << 14,
                         path: PathSettings {
                             max_depth: depth,
                             ..PathSettings::default()
