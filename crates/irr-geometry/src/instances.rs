@@ -614,7 +614,7 @@ mod tests {
 
     use super::*;
     use crate::test_meshes::{box_mesh, mixed_meshes, stacked_grids, xorshift};
-    use crate::{BvhLayout, GeometryError, TriangleMesh};
+    use crate::{BvhLayout, GeometryError, HitFilter, TriangleMesh};
 
     /// `n` placements of prototypes `0..prototypes` with random rotations, scales (some
     /// non-uniform, some mirrored) and translations within `spread`.
@@ -691,25 +691,26 @@ mod tests {
             for layout in [BvhLayout::Bvh2, BvhLayout::Wide4, BvhLayout::Wide8] {
                 let g = scene(layout, seed);
                 let rays = rays(&g, 300, seed ^ 0x9e37);
-                let odd = |_: &Ray, h: &Hit| h.triangle % 2 == 1;
+                // A `dyn` filter: a closure type would instantiate every traversal again.
+                let odd: &dyn HitFilter = &|_: &Ray, h: &Hit| h.triangle % 2 == 1;
                 let mut many = vec![None; rays.len()];
                 let mut stream = vec![None; rays.len()];
                 let mut blocked = vec![false; rays.len()];
                 g.intersect_many(&rays, &mut many);
-                g.intersect_stream_filtered(&rays, &mut stream, &odd);
+                g.intersect_stream_filtered(&rays, &mut stream, odd);
                 g.occluded_stream(&rays, &mut blocked);
                 for (k, ray) in rays.iter().enumerate() {
                     let hit = g.intersect(ray);
                     prop_assert_eq!(hit, g.intersect_brute_force(ray));
                     prop_assert_eq!(many[k], hit);
-                    let filtered = g.intersect_brute_force_filtered(ray, &odd);
-                    prop_assert_eq!(g.intersect_filtered(ray, &odd), filtered);
+                    let filtered = g.intersect_brute_force_filtered(ray, odd);
+                    prop_assert_eq!(g.intersect_filtered(ray, odd), filtered);
                     prop_assert_eq!(stream[k], filtered);
                     prop_assert_eq!(g.occluded(ray), g.occluded_brute_force(ray));
                     prop_assert_eq!(blocked[k], g.occluded(ray));
                     prop_assert_eq!(
-                        g.occluded_filtered(ray, &odd),
-                        g.occluded_brute_force_filtered(ray, &odd)
+                        g.occluded_filtered(ray, odd),
+                        g.occluded_brute_force_filtered(ray, odd)
                     );
                     prop_assert_eq!(g.occluded(ray), hit.is_some());
                 }

@@ -1114,7 +1114,9 @@ mod tests {
     fn a_filter_that_accepts_everything_changes_no_answer() {
         let mesh = stacked_grids(3);
         let rays = rays_through_layers(0xACCE_0A11, 400);
-        let all = |ray: &Ray, hit: &Hit| {
+        // Every test filter is a `dyn HitFilter`: each distinct filter type instantiates every
+        // traversal again, at opt-level 3 (the unit tests' build time).
+        let all: &dyn HitFilter = &|ray: &Ray, hit: &Hit| {
             in_range(ray, hit);
             true
         };
@@ -1123,27 +1125,27 @@ mod tests {
             g.intersect_many(&rays, &mut many);
             g.intersect_stream(&rays, &mut stream);
             let (mut many_f, mut stream_f) = (vec![None; rays.len()], vec![None; rays.len()]);
-            g.intersect_many_filtered(&rays, &mut many_f, &all);
-            g.intersect_stream_filtered(&rays, &mut stream_f, &all);
+            g.intersect_many_filtered(&rays, &mut many_f, all);
+            g.intersect_stream_filtered(&rays, &mut stream_f, all);
             let (mut occluded, mut occluded_f) = (vec![false; rays.len()], vec![false; rays.len()]);
             g.occluded_stream(&rays, &mut occluded);
-            g.occluded_stream_filtered(&rays, &mut occluded_f, &all);
+            g.occluded_stream_filtered(&rays, &mut occluded_f, all);
             assert_eq!(many, many_f, "{name}");
             assert_eq!(stream, stream_f, "{name}");
             assert_eq!(occluded, occluded_f, "{name}");
             let mut hits = 0;
             for ray in &rays {
                 let hit = g.intersect(ray);
-                assert_eq!(g.intersect_filtered(ray, &all), hit, "{name} {ray:?}");
+                assert_eq!(g.intersect_filtered(ray, all), hit, "{name} {ray:?}");
                 assert_eq!(
-                    g.occluded_filtered(ray, &all),
+                    g.occluded_filtered(ray, all),
                     g.occluded(ray),
                     "{name} {ray:?}"
                 );
                 let brute = g.intersect_brute_force(ray);
-                assert_eq!(g.intersect_brute_force_filtered(ray, &all), brute);
+                assert_eq!(g.intersect_brute_force_filtered(ray, all), brute);
                 assert_eq!(
-                    g.occluded_brute_force_filtered(ray, &all),
+                    g.occluded_brute_force_filtered(ray, all),
                     g.occluded_brute_force(ray)
                 );
                 hits += usize::from(hit.is_some());
@@ -1205,19 +1207,19 @@ mod tests {
                 in_range(ray, hit);
                 hit.b1 <= 0.5
             };
-            let none = |ray: &Ray, hit: &Hit| {
+            let none: &dyn HitFilter = &|ray: &Ray, hit: &Hit| {
                 in_range(ray, hit);
                 false
             };
-            let filters: [&dyn HitFilter; 4] = [&by_id, &stochastic, &cut_out, &none];
+            let filters: [&dyn HitFilter; 4] = [&by_id, &stochastic, &cut_out, none];
             for (name, g) in every_traversal(&mesh) {
                 filtered_like_the_oracle(&name, &g, &rays, filters[which])?;
             }
             if which == 3 {
                 for (name, g) in every_traversal(&mesh) {
                     for ray in &rays {
-                        proptest::prop_assert_eq!(g.intersect_filtered(ray, &none), None, "{}", name);
-                        proptest::prop_assert!(!g.occluded_filtered(ray, &none), "{}", name);
+                        proptest::prop_assert_eq!(g.intersect_filtered(ray, none), None, "{}", name);
+                        proptest::prop_assert!(!g.occluded_filtered(ray, none), "{}", name);
                     }
                 }
             }
@@ -1240,45 +1242,41 @@ mod tests {
                 .intersect(&down)
                 .unwrap_or_else(|| panic!("{name}: missed"));
             assert_eq!(g.material_id(near.triangle), 1, "{name}");
-            let not_near = |ray: &Ray, hit: &Hit| {
+            let not_near: &dyn HitFilter = &|ray: &Ray, hit: &Hit| {
                 in_range(ray, hit);
                 assert_eq!(ray.origin, down.origin, "the ray as given");
                 g.material_id(hit.triangle) != 1
             };
-            let neither = |ray: &Ray, hit: &Hit| {
+            let neither: &dyn HitFilter = &|ray: &Ray, hit: &Hit| {
                 in_range(ray, hit);
                 false
             };
             let far = g
-                .intersect_filtered(&down, &not_near)
+                .intersect_filtered(&down, not_near)
                 .unwrap_or_else(|| panic!("{name}: the far quad is behind the near one"));
             assert_eq!(g.material_id(far.triangle), 0, "{name}");
             // t = 2 exactly in exact arithmetic (see `closest_of_two_quads_and_its_surface`).
             assert!((far.t - 2.0).abs() < 1e-6, "{name}: {}", far.t);
-            assert_eq!(g.intersect_filtered(&down, &neither), None, "{name}");
+            assert_eq!(g.intersect_filtered(&down, neither), None, "{name}");
             // Segments ending beyond the far quad, between the two, and before the near one.
             for (t_max, blocked) in [(3.0, true), (1.5, false), (0.5, false)] {
                 let ray = Ray { t_max, ..down };
                 assert_eq!(
-                    g.occluded_filtered(&ray, &not_near),
+                    g.occluded_filtered(&ray, not_near),
                     blocked,
                     "{name} {t_max}"
                 );
                 assert_eq!(g.occluded(&ray), t_max > 1.0, "{name} {t_max}");
-                assert!(!g.occluded_filtered(&ray, &neither), "{name} {t_max}");
+                assert!(!g.occluded_filtered(&ray, neither), "{name} {t_max}");
                 let want = blocked.then_some(far);
-                assert_eq!(
-                    g.intersect_filtered(&ray, &not_near),
-                    want,
-                    "{name} {t_max}"
-                );
+                assert_eq!(g.intersect_filtered(&ray, not_near), want, "{name} {t_max}");
             }
             let rays = [down, Ray { t_max: 1.5, ..down }, down];
             let mut hits = [None; 3];
-            g.intersect_stream_filtered(&rays, &mut hits, &not_near);
+            g.intersect_stream_filtered(&rays, &mut hits, not_near);
             assert_eq!(hits, [Some(far), None, Some(far)], "{name}");
             let mut occluded = [false; 3];
-            g.occluded_stream_filtered(&rays, &mut occluded, &not_near);
+            g.occluded_stream_filtered(&rays, &mut occluded, not_near);
             assert_eq!(occluded, [true, false, true], "{name}");
         }
     }
@@ -1306,36 +1304,37 @@ mod tests {
             .collect();
         for (name, g) in every_traversal(&stack) {
             for layer in 0..32u32 {
-                let only = |ray: &Ray, hit: &Hit| {
+                let only: &dyn HitFilter = &|ray: &Ray, hit: &Hit| {
                     in_range(ray, hit);
                     g.material_id(hit.triangle) == layer
                 };
                 // Layer `layer` and, behind it, the bottom one: the closest is `layer`.
-                let and_bottom =
-                    |ray: &Ray, hit: &Hit| only(ray, hit) || g.material_id(hit.triangle) == 0;
+                let and_bottom: &dyn HitFilter = &|ray: &Ray, hit: &Hit| {
+                    only.accept(ray, hit) || g.material_id(hit.triangle) == 0
+                };
                 for ray in &rays {
                     let hit = g
-                        .intersect_filtered(ray, &only)
+                        .intersect_filtered(ray, only)
                         .unwrap_or_else(|| panic!("{name}: layer {layer} not found"));
                     assert_eq!(g.material_id(hit.triangle), layer, "{name}");
                     assert_eq!(
                         Some(hit),
-                        g.intersect_brute_force_filtered(ray, &only),
+                        g.intersect_brute_force_filtered(ray, only),
                         "{name}"
                     );
-                    assert_eq!(g.intersect_filtered(ray, &and_bottom), Some(hit), "{name}");
-                    assert!(g.occluded_filtered(ray, &only), "{name} {layer}");
+                    assert_eq!(g.intersect_filtered(ray, and_bottom), Some(hit), "{name}");
+                    assert!(g.occluded_filtered(ray, only), "{name} {layer}");
                     // A segment ending between the layer and the one above it (whose hits,
                     // like all above, are rejected).
                     let short = Ray {
                         t_max: hit.t - 0.005,
                         ..*ray
                     };
-                    assert!(!g.occluded_filtered(&short, &only), "{name} {layer}");
-                    assert_eq!(g.intersect_filtered(&short, &only), None, "{name} {layer}");
+                    assert!(!g.occluded_filtered(&short, only), "{name} {layer}");
+                    assert_eq!(g.intersect_filtered(&short, only), None, "{name} {layer}");
                 }
                 let mut occluded = vec![false; rays.len()];
-                g.occluded_stream_filtered(&rays, &mut occluded, &only);
+                g.occluded_stream_filtered(&rays, &mut occluded, only);
                 assert!(occluded.iter().all(|&o| o), "{name} {layer}");
             }
         }
@@ -1354,7 +1353,7 @@ mod tests {
             for (d, ahead) in [(Vec3::NEG_Z, 0), (Vec3::Z, 1)] {
                 let ray = Ray::new(Vec3::new(0.3, 0.6, 0.5), d);
                 let asked = std::sync::Mutex::new(Vec::new());
-                let record = |r: &Ray, hit: &Hit| {
+                let record: &dyn HitFilter = &|r: &Ray, hit: &Hit| {
                     in_range(r, hit);
                     asked
                         .lock()
@@ -1362,10 +1361,10 @@ mod tests {
                         .push(hit.triangle);
                     true
                 };
-                let hit = g.intersect_filtered(&ray, &record);
-                assert!(g.occluded_filtered(&ray, &record), "{name}");
+                let hit = g.intersect_filtered(&ray, record);
+                assert!(g.occluded_filtered(&ray, record), "{name}");
                 assert!(
-                    !g.occluded_filtered(&Ray { t_max: 0.25, ..ray }, &record),
+                    !g.occluded_filtered(&Ray { t_max: 0.25, ..ray }, record),
                     "{name}"
                 );
                 assert_eq!(
